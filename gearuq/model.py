@@ -1,0 +1,482 @@
+"""The plugin contract: parameter/output metadata, the ``Model`` base class and ``FunctionModel``.
+
+A model maps parameter samples to responses. Every model, built-in plugin or user function,
+answers ``response(params, t, *, outputs=None, **options)`` with an :class:`xarray.Dataset`
+that has the dimension ``sample`` (and ``time`` for time-dependent outputs), the inputs as
+variables over ``sample``, units in ``attrs["units"]`` and a per-sample ``status`` flag.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from gearuq._version import __version__
+
+#: Status codes shared by every model. Plugins may add codes >= 16 with their own meanings.
+STATUS_OK = 0
+STATUS_STEP_LIMIT = 1
+STATUS_STEP_UNDERFLOW = 2
+STATUS_NONFINITE = 3
+STATUS_MODEL_ERROR = 4
+STATUS_MEANINGS: dict[int, str] = {
+    STATUS_OK: "ok",
+    STATUS_STEP_LIMIT: "step_limit_reached",
+    STATUS_STEP_UNDERFLOW: "step_size_underflow",
+    STATUS_NONFINITE: "non_finite_state",
+    STATUS_MODEL_ERROR: "model_error",
+}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """Metadata of one model input.
+
+    Parameters
+    ----------
+    name : str
+        Identifier used as key in ``params`` and as variable name in results.
+    units : str
+        UDUNITS-style unit string ("m", "kg m-3", "1" for dimensionless).
+    nominal : float
+        Value used when the caller does not give the parameter.
+    lower, upper : float
+        Closed valid range; ``-inf``/``inf`` for open ends.
+    description : str
+        One-line meaning, with its source where it comes from a paper or standard.
+    integer : bool
+        Only whole numbers are valid (numbers of teeth, harmonic orders).
+    """
+
+    name: str
+    units: str
+    nominal: float
+    lower: float = -math.inf
+    upper: float = math.inf
+    description: str = ""
+    integer: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise ValueError(f"parameter name {self.name!r} is not a valid identifier")
+        if not self.lower <= self.nominal <= self.upper:
+            raise ValueError(
+                f"parameter {self.name!r}: nominal {self.nominal!r} outside its valid range "
+                f"[{self.lower}, {self.upper}]"
+            )
+
+    def range_text(self) -> str:
+        """Return the valid range as ``[lower, upper] units``."""
+        return f"[{self.lower:g}, {self.upper:g}] {self.units}"
+
+
+@dataclass(frozen=True)
+class Output:
+    """Metadata of one model response.
+
+    Parameters
+    ----------
+    name : str
+        Variable name in the result Dataset.
+    units : str
+        Unit string.
+    dims : tuple of str
+        Dimensions of the variable, always starting with ``"sample"``.
+    description : str
+        One-line meaning.
+    """
+
+    name: str
+    units: str
+    dims: tuple[str, ...] = ("sample", "time")
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.dims or self.dims[0] != "sample":
+            raise ValueError(f"output {self.name!r}: dims must start with 'sample', got {self.dims}")
+
+    @property
+    def time_dependent(self) -> bool:
+        """Whether the output has a ``time`` dimension."""
+        return "time" in self.dims
+
+
+@dataclass
+class Evaluation:
+    """What a model's ``_evaluate`` hands back to :meth:`Model.response`.
+
+    Attributes
+    ----------
+    data : dict
+        Output name -> array shaped as the output's dims.
+    status : ndarray of int
+        Per-sample status code (0 = ok).
+    status_meanings : dict
+        Extra code -> meaning entries beyond :data:`STATUS_MEANINGS`.
+    coords : dict
+        Extra coordinates (name -> (dims, values, attrs)) such as ``dof`` labels.
+    attrs : dict
+        Extra Dataset attributes (solver settings, statistics).
+    extra : dict
+        Extra per-sample diagnostic variables (name -> (dims, values, attrs)).
+    """
+
+    data: dict[str, np.ndarray]
+    status: np.ndarray
+    status_meanings: dict[int, str] = field(default_factory=dict)
+    coords: dict[str, tuple] = field(default_factory=dict)
+    attrs: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, tuple] = field(default_factory=dict)
+
+
+class Model:
+    """Base class of every gearuq model.
+
+    Subclasses set the class attributes ``name``, ``description``, ``version``,
+    ``parameters``, ``outputs`` (and ``time_units``) and implement :meth:`_evaluate`. The
+    base class validates the inputs, fills nominal values and assembles the Dataset, so every
+    model answers the same contract.
+    """
+
+    name: str = "model"
+    description: str = ""
+    version: str = "0"
+    parameters: tuple[Parameter, ...] = ()
+    outputs: tuple[Output, ...] = ()
+    time_units: str = "s"
+    time_long_name: str = "time"
+
+    # ----------------------------------------------------------------- metadata helpers
+    @property
+    def parameter_names(self) -> list[str]:
+        """Names of the model parameters in declaration order."""
+        return [p.name for p in self.parameters]
+
+    @property
+    def output_names(self) -> list[str]:
+        """Names of the model outputs in declaration order."""
+        return [o.name for o in self.outputs]
+
+    def parameter(self, name: str) -> Parameter:
+        """Return the metadata of parameter ``name``."""
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise ValueError(
+            f"model {self.name!r} has no parameter {name!r}; valid: {', '.join(self.parameter_names)}"
+        )
+
+    def output(self, name: str) -> Output:
+        """Return the metadata of output ``name``."""
+        for o in self.outputs:
+            if o.name == name:
+                return o
+        raise ValueError(
+            f"model {self.name!r} has no output {name!r}; valid: {', '.join(self.output_names)}"
+        )
+
+    def nominal(self) -> dict[str, float]:
+        """Nominal parameter values as a dict."""
+        return {p.name: p.nominal for p in self.parameters}
+
+    def settings(self) -> dict[str, Any]:
+        """Model construction options, recorded as provenance (override in subclasses)."""
+        return {}
+
+    # ----------------------------------------------------------------- validation
+    def validate_params(self, params: Mapping[str, Any] | None) -> dict[str, np.ndarray]:
+        """Check names, shapes, finiteness and ranges; fill nominal values.
+
+        Returns a dict with every parameter as a float array of one common length.
+        """
+        params = dict(params or {})
+        unknown = sorted(set(params) - set(self.parameter_names))
+        if unknown:
+            raise ValueError(
+                f"model {self.name!r}: unknown parameter(s) {', '.join(map(repr, unknown))}; "
+                f"valid: {', '.join(self.parameter_names)}"
+            )
+        arrays = {k: np.asarray(v, dtype=float) for k, v in params.items()}
+        lengths = {k: a.shape[0] for k, a in arrays.items() if a.ndim == 1}
+        for k, a in arrays.items():
+            if a.ndim > 1:
+                raise ValueError(f"parameter {k!r}: expected a 1-D array, got shape {a.shape}")
+        sizes = set(lengths.values())
+        if len(sizes) > 1:
+            raise ValueError(f"parameters have different lengths: {lengths}")
+        n = sizes.pop() if sizes else 1
+        if n == 0:
+            raise ValueError("parameters are empty: at least one sample is needed")
+        out: dict[str, np.ndarray] = {}
+        for p in self.parameters:
+            a = arrays.get(p.name)
+            a = np.full(n, p.nominal) if a is None else np.broadcast_to(a, (n,)).astype(float)
+            bad = ~np.isfinite(a)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise ValueError(f"parameter {p.name!r}: non-finite value {a[i]} at sample {i}")
+            if p.integer and np.any(a != np.round(a)):
+                i = int(np.flatnonzero(a != np.round(a))[0])
+                raise ValueError(
+                    f"parameter {p.name!r}: value {a[i]:g} at sample {i} is not a whole number "
+                    f"(valid: integers in {p.range_text()})"
+                )
+            outside = (a < p.lower) | (a > p.upper)
+            if outside.any():
+                i = int(np.flatnonzero(outside)[0])
+                raise ValueError(
+                    f"parameter {p.name!r}: value {a[i]:g} at sample {i} outside valid range "
+                    f"{p.range_text()} ({int(outside.sum())} sample(s) outside)"
+                )
+            out[p.name] = np.ascontiguousarray(a)
+        return out
+
+    def validate_time(self, t: Any) -> np.ndarray:
+        """Return ``t`` as a non-empty, finite, non-decreasing 1-D float array."""
+        if t is None:
+            if any(o.time_dependent for o in self.outputs):
+                raise ValueError("t: this model has time-dependent outputs; give output instants")
+            return np.zeros(0)
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if t.ndim != 1:
+            raise ValueError(f"t: expected a 1-D array of instants, got shape {t.shape}")
+        if t.size == 0:
+            raise ValueError("t: empty time array; give at least one output instant")
+        if not np.all(np.isfinite(t)):
+            raise ValueError("t: contains non-finite values")
+        if np.any(np.diff(t) < 0):
+            raise ValueError("t: instants must be sorted in increasing order")
+        return t
+
+    def validate_outputs(self, outputs: str | Iterable[str] | None) -> list[str]:
+        """Return the requested output names (all when ``None``), rejecting unknown ones."""
+        if outputs is None:
+            return self.output_names
+        if isinstance(outputs, str):
+            outputs = [outputs]
+        outputs = list(dict.fromkeys(outputs))
+        unknown = [o for o in outputs if o not in self.output_names]
+        if unknown:
+            raise ValueError(
+                f"model {self.name!r} has no output(s) {', '.join(map(repr, unknown))}; "
+                f"valid: {', '.join(self.output_names)}"
+            )
+        if not outputs:
+            raise ValueError("outputs: empty selection; ask for at least one output")
+        return outputs
+
+    # ----------------------------------------------------------------- the contract
+    def response(
+        self,
+        params: Mapping[str, Any] | None,
+        t: Any = None,
+        *,
+        outputs: str | Iterable[str] | None = None,
+        **options: Any,
+    ) -> xr.Dataset:
+        """Evaluate the model on parameter samples.
+
+        Parameters
+        ----------
+        params : mapping
+            Parameter name -> array of shape ``(n_samples,)`` (scalars broadcast). Missing
+            names take nominal values; unknown names or out-of-range values raise ValueError.
+        t : array_like
+            Output instants (in :attr:`time_units`); required for time-dependent outputs.
+        outputs : str or list of str, optional
+            Outputs to compute and keep (default: all).
+        **options
+            Model-specific solver/fidelity options.
+
+        Returns
+        -------
+        xarray.Dataset
+            Inputs and outputs over ``sample`` (and ``time``), a ``status`` flag per sample.
+        """
+        p = self.validate_params(params)
+        names = self.validate_outputs(outputs)
+        need_time = any(self.output(o).time_dependent for o in names)
+        tt = self.validate_time(t) if (need_time or t is not None) else np.zeros(0)
+        ev = self._evaluate(p, tt, names, **options)
+        return self._assemble(p, tt, names, ev, options)
+
+    def _evaluate(
+        self, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str], **options: Any
+    ) -> Evaluation:
+        """Compute the requested outputs; implemented by every model."""
+        raise NotImplementedError
+
+    def _time_attrs(self, options: Mapping[str, Any]) -> dict[str, str]:
+        return {"units": self.time_units, "long_name": self.time_long_name}
+
+    def _assemble(
+        self,
+        p: dict[str, np.ndarray],
+        t: np.ndarray,
+        names: list[str],
+        ev: Evaluation,
+        options: Mapping[str, Any],
+    ) -> xr.Dataset:
+        n = next(iter(p.values())).shape[0] if p else ev.status.shape[0]
+        coords: dict[str, Any] = {"sample": ("sample", np.arange(n))}
+        if any(self.output(o).time_dependent for o in names):
+            coords["time"] = ("time", t, self._time_attrs(options))
+        for k, (dims, values, attrs) in ev.coords.items():
+            coords[k] = (dims, values, attrs)
+        ds = xr.Dataset(coords=coords)
+        for par in self.parameters:
+            ds[par.name] = ("sample", p[par.name], {
+                "units": par.units, "long_name": par.description, "role": "input",
+            })
+        for o in names:
+            meta = self.output(o)
+            ds[o] = (meta.dims, np.asarray(ev.data[o]), {
+                "units": meta.units, "long_name": meta.description, "role": "output",
+            })
+        for k, (dims, values, attrs) in ev.extra.items():
+            ds[k] = (dims, values, {**attrs, "role": "diagnostic"})
+        ds["status"] = ("sample", np.asarray(ev.status, dtype=np.int8), status_attrs(ev.status_meanings))
+        ds.attrs.update({
+            "gearuq_version": __version__,
+            "model": self.name,
+            "model_version": str(self.version),
+            "outputs": " ".join(names),
+        })
+        ds.attrs.update({k: _attr_value(v) for k, v in ev.attrs.items()})
+        return ds
+
+
+def status_attrs(extra: Mapping[int, str] | None = None) -> dict[str, Any]:
+    """CF-style flag attributes of a ``status`` variable."""
+    meanings = {**STATUS_MEANINGS, **(extra or {})}
+    codes = sorted(meanings)
+    return {
+        "long_name": "per-sample solver status (0 = ok)",
+        "units": "1",
+        "flag_values": np.array(codes, dtype=np.int8),
+        "flag_meanings": " ".join(meanings[c].replace(" ", "_") for c in codes),
+        "role": "status",
+    }
+
+
+def _attr_value(v: Any) -> Any:
+    """Convert an attribute to a netCDF-safe type (no bool/None/dict)."""
+    if isinstance(v, bool):
+        return int(v)
+    if v is None:
+        return "none"
+    if isinstance(v, (dict, list, tuple)) and not all(isinstance(x, (int, float)) for x in v):
+        import json
+
+        return json.dumps(v, default=str)
+    return v
+
+
+# --------------------------------------------------------------------------- FunctionModel
+def _as_parameter(p: Parameter | str | tuple) -> Parameter:
+    if isinstance(p, Parameter):
+        return p
+    if isinstance(p, str):
+        return Parameter(p, "1", 0.0)
+    if isinstance(p, tuple):
+        return Parameter(*p)
+    raise TypeError(f"parameters: expected Parameter, name or tuple, got {type(p).__name__}")
+
+
+def _as_output(o: Output | str, time_dependent: bool) -> Output:
+    if isinstance(o, Output):
+        return o
+    if isinstance(o, str):
+        return Output(o, "1", ("sample", "time") if time_dependent else ("sample",))
+    raise TypeError(f"outputs: expected Output or name, got {type(o).__name__}")
+
+
+class FunctionModel(Model):
+    """Wrap a plain vectorised Python function as a gearuq model.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(**params)`` or, if it accepts an argument named ``t``, ``fn(t=t, **params)``;
+        each parameter arrives as an array of shape ``(n,)``. It returns one array (for a
+        single output), a tuple of arrays in output order, or a dict name -> array. Arrays are
+        shaped ``(n,)`` or ``(n, n_time)``. Non-finite results are flagged per sample with
+        status ``non_finite_state``, never dropped.
+    parameters : sequence of Parameter, str or tuple
+        Inputs; a bare name means a dimensionless, unbounded input with nominal 0.
+    outputs : sequence of Output or str
+        Responses; bare names get units "1".
+    name, description, version : str
+        Metadata shown by ``gearuq models``.
+    time_dependent : bool
+        Default dims for outputs given by name only.
+
+    Examples
+    --------
+    >>> import numpy as np, gearuq
+    >>> ishigami = gearuq.FunctionModel(
+    ...     lambda x1, x2, x3: np.sin(x1) + 7 * np.sin(x2) ** 2 + 0.1 * x3**4 * np.sin(x1),
+    ...     ["x1", "x2", "x3"], ["y"], name="ishigami")
+    >>> float(ishigami.response({"x1": [0.0], "x2": [0.0], "x3": [0.0]})["y"][0])
+    0.0
+    """
+
+    def __init__(
+        self,
+        fn: Callable[..., Any],
+        parameters: Sequence[Parameter | str | tuple],
+        outputs: Sequence[Output | str],
+        *,
+        name: str = "function",
+        description: str = "user function",
+        version: str = "0",
+        time_dependent: bool = False,
+        time_units: str = "s",
+    ) -> None:
+        self.fn = fn
+        self.name = name
+        self.description = description
+        self.version = version
+        self.time_units = time_units
+        self.parameters = tuple(_as_parameter(p) for p in parameters)
+        self.outputs = tuple(_as_output(o, time_dependent) for o in outputs)
+        if not self.parameters or not self.outputs:
+            raise ValueError("FunctionModel needs at least one parameter and one output")
+        try:
+            sig = inspect.signature(fn)
+            self._wants_t = "t" in sig.parameters
+        except (TypeError, ValueError):
+            self._wants_t = False
+
+    def _evaluate(self, params, t, outputs, **options):
+        kwargs = dict(params)
+        if self._wants_t:
+            kwargs["t"] = t
+        raw = self.fn(**kwargs, **options)
+        names = self.output_names
+        if isinstance(raw, Mapping):
+            values = {k: np.asarray(raw[k], dtype=float) for k in names}
+        elif isinstance(raw, tuple):
+            if len(raw) != len(names):
+                raise ValueError(f"function returned {len(raw)} outputs, declared {len(names)}")
+            values = {k: np.asarray(v, dtype=float) for k, v in zip(names, raw, strict=True)}
+        else:
+            if len(names) != 1:
+                raise ValueError(f"function returned one array, declared outputs {names}")
+            values = {names[0]: np.asarray(raw, dtype=float)}
+        n = next(iter(params.values())).shape[0]
+        status = np.zeros(n, dtype=np.int8)
+        data = {}
+        for k in outputs:
+            meta = self.output(k)
+            shape = (n, t.size) if meta.time_dependent else (n,)
+            v = np.broadcast_to(values[k], shape).astype(float)
+            status[~np.isfinite(v.reshape(n, -1)).all(axis=1)] = STATUS_NONFINITE
+            data[k] = v
+        return Evaluation(data=data, status=status)

@@ -1,0 +1,513 @@
+"""Matplotlib figures for gearuq results.
+
+Figures are built on :class:`matplotlib.figure.Figure` with the Agg canvas, never through
+the pyplot state machine: nothing pops up, nothing needs ``plt.show()``, and the helpers are
+safe in worker processes and headless runs. Every function takes an optional ``ax`` (axes
+to draw into, e.g. from ``plt.subplots`` in a notebook) and returns ``(fig, ax)``; save with
+:func:`save_figure`. Axis labels take ``long_name`` and ``units`` from DataArray attributes
+where available.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from scipy.stats import norm
+
+from gearuq import signal as sig
+
+__all__ = [
+    "plot_fit",
+    "plot_reliability_curves",
+    "plot_time_panels",
+    "plot_work_precision",
+    "save_figure",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------
+def _new_figure(figsize: tuple[float, float]) -> Figure:
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _fig_ax(ax: Axes | None, figsize: tuple[float, float] = (6.0, 4.0)) -> tuple[Figure, Axes]:
+    if ax is not None:
+        return ax.figure, ax
+    fig = _new_figure(figsize)
+    return fig, fig.add_subplot(1, 1, 1)
+
+
+def _label(obj: Any, default: str, units: str | None = None) -> str:
+    """``"long_name [units]"`` from DataArray attrs, else ``default`` (with ``units``)."""
+    name = default
+    if isinstance(obj, xr.DataArray):
+        name = obj.attrs.get("long_name") or (str(obj.name) if obj.name is not None else default)
+        units = obj.attrs.get("units", units)
+    if units not in (None, ""):
+        return f"{name} [{units}]"
+    return name
+
+
+def _values(obj: Any) -> np.ndarray:
+    return np.asarray(obj.values if isinstance(obj, xr.DataArray) else obj, dtype=float)
+
+
+def _time_of(obj: Any, t: Any, dim: str = "time") -> tuple[np.ndarray, str | None]:
+    """Time grid (and its units) for a 1-D series."""
+    units = None
+    if t is None:
+        if isinstance(obj, xr.DataArray) and dim in obj.coords:
+            units = obj[dim].attrs.get("units")
+            return np.asarray(obj[dim].values, dtype=float), units
+        raise ValueError("give t, or series as DataArrays with a time coordinate")
+    if isinstance(t, xr.DataArray):
+        units = t.attrs.get("units")
+    return _values(t), units
+
+
+def _frequency_label(time_units: str | None) -> str:
+    if time_units in ("s", "second", "seconds"):
+        return "frequency [Hz]"
+    if time_units in (None, "", "1", "-"):
+        return "frequency [cycles per unit time]"
+    return f"frequency [1/{time_units}]"
+
+
+def _uniform(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Resample onto a uniform grid (same count) when ``t`` is not uniform, for the FFT."""
+    steps = np.diff(t)
+    if steps.size and np.max(np.abs(steps - steps.mean())) <= 1e-6 * abs(steps.mean()):
+        return t, x
+    tu = np.linspace(t[0], t[-1], t.size)
+    return tu, np.interp(tu, t, x)
+
+
+# --------------------------------------------------------------------------------------------
+# time-domain responses
+# --------------------------------------------------------------------------------------------
+def plot_time_panels(
+    t: Any,
+    series: Mapping[str, tuple[Any, Any]],
+    period: float,
+    t_start: float,
+    *,
+    ax: Any = None,
+    window: Any = "hann",
+    fmax: float | None = None,
+    normalize_frequency: bool = False,
+    show_transient: bool = False,
+    time_units: str | None = None,
+    x_name: str = "displacement",
+    v_name: str = "velocity",
+    units: tuple[str | None, str | None] = (None, None),
+    figsize: tuple[float, float] | None = None,
+    time_window: float | None = None,
+) -> tuple[Figure, np.ndarray]:
+    """Time history, velocity, phase portrait, spectrum and Poincaré section per series.
+
+    One row per series (e.g. driving and driven gear), five panels per row, lettered
+    (a), (b), ... row by row, as in the classic gear-dynamics response figure.
+
+    Parameters
+    ----------
+    t : array or None
+        Time grid shared by all series; ``None`` if the series are DataArrays with a time
+        coordinate.
+    series : dict
+        ``label -> (x, v)``: displacement and velocity histories (1-D arrays or DataArrays).
+    period : float
+        Excitation period (for the Poincaré section and the normalised frequency axis).
+    t_start : float
+        End of the transient; phase portrait, spectrum and Poincaré section use ``t >=
+        t_start``.
+    ax : array of Axes, optional
+        Axes of shape ``(len(series), 5)`` to draw into.
+    window : str
+        Spectrum window (see :func:`gearuq.signal.amplitude_spectrum`).
+    fmax : float, optional
+        Upper frequency limit of the spectrum panels (in plotted units).
+    normalize_frequency : bool
+        Plot frequency as a multiple of the excitation frequency ``1 / period``.
+    show_transient : bool
+        Show the whole record in the time panels with the transient shaded; by default only
+        the steady state is shown.
+    time_units : str, optional
+        Time units for labels (default from the time coordinate's attrs).
+    x_name, v_name : str
+        Quantity names used when the series carry no attrs.
+    units : (str, str)
+        Units of x and v used when the series carry no attrs.
+    figsize : (float, float), optional
+        Figure size; default ``(16, 3 * n_series)``.
+    time_window : float, optional
+        Show only the last ``time_window`` time units in the time-history and velocity panels
+        (a long steady record otherwise plots as a solid band); the other panels use the
+        whole steady state.
+
+    Returns
+    -------
+    fig : Figure
+    axes : ndarray of Axes, shape ``(n_series, 5)``
+    """
+    if not series:
+        raise ValueError("series is empty")
+    n_rows = len(series)
+    if ax is None:
+        fig = _new_figure(figsize or (16.0, 3.0 * n_rows))
+        axes = np.asarray(fig.subplots(n_rows, 5, squeeze=False))
+    else:
+        axes = np.asarray(ax, dtype=object).reshape(n_rows, 5)
+        fig = axes[0, 0].figure
+    if t is None:  # share the time coordinate of the first DataArray series
+        for x, _ in series.values():
+            if isinstance(x, xr.DataArray) and "time" in x.coords:
+                t = x["time"]
+                break
+    letters = "abcdefghijklmnopqrstuvwxyz"
+    f_exc = 1.0 / period
+    for r, (label, (x, v)) in enumerate(series.items()):
+        own = isinstance(x, xr.DataArray) and "time" in x.coords
+        tt, tu = _time_of(x, None if own else t)
+        tu = time_units or tu
+        xv, vv = _values(x), _values(v)
+        if xv.shape != tt.shape or vv.shape != tt.shape:
+            raise ValueError(f"series {label!r}: x, v and t must be 1-D of equal length")
+        xl = _label(x, x_name, units[0])
+        vl = _label(v, v_name, units[1])
+        tcoord = x["time"] if own else t
+        tname = "time"
+        if isinstance(tcoord, xr.DataArray):
+            tname = tcoord.attrs.get("long_name", "time")
+        tl = _label(None, tname, tu)
+        steady = tt >= t_start
+        a_x, a_v, a_ph, a_sp, a_po = axes[r]
+        shown = slice(None) if show_transient else steady
+        if time_window is not None:
+            shown = tt >= max(tt[-1] - time_window, tt[0] if show_transient else t_start)
+        for a, y, yl in ((a_x, xv, xl), (a_v, vv, vl)):
+            a.plot(tt[shown], y[shown], lw=0.7)
+            if show_transient and time_window is None:
+                a.axvspan(tt[0], t_start, color="0.9", zorder=0, label="transient")
+            a.set_xlabel(tl)
+            a.set_ylabel(yl)
+        a_ph.plot(xv[steady], vv[steady], lw=0.5)
+        a_ph.set_xlabel(xl)
+        a_ph.set_ylabel(vl)
+        ts, xs = _uniform(tt[steady], xv[steady])
+        freq, amp = sig.amplitude_spectrum(xs, ts, window=window)
+        fplot = freq / f_exc if normalize_frequency else freq
+        a_sp.plot(fplot, amp, lw=0.8)
+        if normalize_frequency:
+            a_sp.set_xlabel("frequency / excitation frequency")
+        else:
+            a_sp.set_xlabel(_frequency_label(tu))
+        x_units = x.attrs.get("units", units[0]) if isinstance(x, xr.DataArray) else units[0]
+        a_sp.set_ylabel(_label(None, "amplitude", x_units))
+        if fmax is not None:
+            a_sp.set_xlim(0, fmax)
+        sec = sig.poincare_section(tt, xv, vv, period=period, t_start=t_start)
+        a_po.plot(sec.x, sec.v, "o", ms=2.5)
+        a_po.ticklabel_format(useOffset=False)
+        for pts, scale, setter in ((sec.x, sec.scale[0], a_po.set_xlim),
+                                   (sec.v, sec.scale[1], a_po.set_ylim)):
+            if len(pts) and np.ptp(pts) < 1e-3 * scale:  # (nearly) one point: show it
+                centre = float(np.mean(pts))  # against 10 % of the signal range
+                setter(centre - 0.05 * scale, centre + 0.05 * scale)
+        a_po.set_xlabel(xl)
+        a_po.set_ylabel(vl)
+        titles = ("time history", "velocity", "phase portrait", "amplitude spectrum",
+                  "Poincaré section")
+        for c, (a, title) in enumerate(zip(axes[r], titles, strict=True)):
+            a.set_title(f"({letters[(r * 5 + c) % 26]}) {label}: {title}", fontsize=9)
+    return fig, axes
+
+
+# --------------------------------------------------------------------------------------------
+# reliability
+# --------------------------------------------------------------------------------------------
+def plot_reliability_curves(
+    rel_ds: xr.Dataset,
+    *,
+    quantity: str = "r",
+    log: bool | None = None,
+    modes: Iterable[Any] | None = None,
+    band: bool = True,
+    ax: Axes | None = None,
+) -> tuple[Figure, Axes]:
+    """Reliability ``R(t)``, failure probability ``pf(t)`` or index ``beta(t)`` per mode.
+
+    Parameters
+    ----------
+    rel_ds : Dataset
+        Dims ``mode`` and ``time``; variables ``r``, ``pf``, ``pf_lower``, ``pf_upper``,
+        ``beta`` (as produced by :mod:`gearuq.reliability`). A dataset without ``mode`` is
+        drawn as one curve.
+    quantity : {"r", "pf", "beta"}
+        What to draw. Bands: ``pf`` uses ``[pf_lower, pf_upper]``; ``r`` uses
+        ``[1 - pf_upper, 1 - pf_lower]``; ``beta`` uses ``[-Phi^-1(pf_upper),
+        -Phi^-1(pf_lower)]``.
+    log : bool, optional
+        Log y axis; default True for ``pf``. Zero probabilities are left out of a log plot
+        (band edges at zero are drawn at the plot's lower limit).
+    modes : iterable, optional
+        Subset of ``mode`` labels to draw.
+    band : bool
+        Shade the confidence band when the bounds are present.
+    ax : Axes, optional
+        Axes to draw into.
+
+    Returns
+    -------
+    fig, ax
+    """
+    if quantity not in ("r", "pf", "beta"):
+        raise ValueError(f"quantity must be 'r', 'pf' or 'beta', got {quantity!r}")
+    if quantity not in rel_ds:
+        raise ValueError(f"rel_ds has no variable {quantity!r} (has {list(rel_ds.data_vars)})")
+    log = (quantity == "pf") if log is None else log
+    fig, ax = _fig_ax(ax)
+    ds = rel_ds if "mode" in rel_ds.dims else rel_ds.expand_dims(mode=[quantity])
+    if modes is not None:
+        ds = ds.sel(mode=list(modes))
+    has_band = band and "pf_lower" in ds and "pf_upper" in ds
+    tcoord = ds["time"] if "time" in ds.coords else None
+    positives: list[float] = []
+    drawn = []
+    for m in ds["mode"].values:
+        one = ds.sel(mode=m)
+        tt = _values(one["time"]) if tcoord is not None else np.arange(one[quantity].size)
+        y = _values(one[quantity])
+        lo = hi = None
+        if has_band:
+            pl, pu = _values(one["pf_lower"]), _values(one["pf_upper"])
+            if quantity == "pf":
+                lo, hi = pl, pu
+            elif quantity == "r":
+                lo, hi = 1.0 - pu, 1.0 - pl
+            else:
+                with np.errstate(divide="ignore"):
+                    lo, hi = -norm.ppf(pu), -norm.ppf(pl)
+        if log:
+            for arr in (y, lo, hi):
+                if arr is not None:
+                    positives.extend(arr[np.isfinite(arr) & (arr > 0)].tolist())
+            y = np.where(y > 0, y, np.nan)
+        label = str(m)
+        if not np.any(np.isfinite(y)):
+            label += " (pf = 0 throughout)" if quantity != "r" else " (no finite value)"
+        (line,) = ax.plot(tt, y, lw=1.2, label=label)
+        drawn.append((line, tt, lo, hi))
+    floor = min(positives) / 10.0 if (log and positives) else None
+    for line, tt, lo, hi in drawn:
+        if lo is None:
+            continue
+        if log and floor is not None:
+            lo = np.where(lo > 0, lo, floor)
+            hi = np.where(hi > 0, hi, floor)
+        lo = np.where(np.isfinite(lo), lo, np.nan)
+        hi = np.where(np.isfinite(hi), hi, np.nan)
+        ax.fill_between(tt, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
+    if log:
+        ax.set_yscale("log")
+    names = {
+        "r": "reliability R",
+        "pf": "failure probability pf",
+        "beta": "reliability index beta = Phi^-1(R)",
+    }
+    ax.set_ylabel(names[quantity])
+    ax.set_xlabel(_label(tcoord, "time") if tcoord is not None else "index")
+    level = rel_ds.attrs.get("confidence_level", rel_ds.attrs.get("confidence"))
+    title = names[quantity]
+    if has_band:
+        title += " (band: " + (f"{float(level):.0%} interval)" if level is not None
+                               else "confidence interval)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(title="mode", fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    return fig, ax
+
+
+# --------------------------------------------------------------------------------------------
+# distribution fits
+# --------------------------------------------------------------------------------------------
+class _DictFits:
+    """Adapter giving a ``name -> frozen distribution`` mapping the fit-result interface."""
+
+    def __init__(self, mapping: Mapping[str, Any]) -> None:
+        self._m = dict(mapping)
+        self.ranking = list(self._m)
+
+    def frozen(self, name: str) -> Any:
+        return self._m[name]
+
+
+def plot_fit(
+    samples: Any,
+    fits: Any,
+    *,
+    top: int = 3,
+    bins: Any = "auto",
+    ax: Axes | None = None,
+    xlabel: str | None = None,
+) -> tuple[Figure, Axes]:
+    """Density histogram of samples with the fitted pdfs of the best candidates.
+
+    Parameters
+    ----------
+    samples : array or DataArray
+        Response samples (NaN ignored); label and units from DataArray attrs.
+    fits : fit result or dict
+        Object with ``.ranking`` (names, best first) and ``.frozen(name)`` returning a scipy
+        frozen distribution (as :func:`gearuq.fit_distributions` gives), or a dict
+        ``name -> frozen distribution`` (ranked in dict order).
+    top : int
+        Number of candidates drawn.
+    bins : int, str or array
+        Histogram bins (numpy rules).
+    ax : Axes, optional
+        Axes to draw into.
+    xlabel : str, optional
+        Axis label override.
+
+    Returns
+    -------
+    fig, ax
+    """
+    if isinstance(fits, Mapping):
+        fits = _DictFits(fits)
+    data = _values(samples).ravel()
+    data = data[np.isfinite(data)]
+    if data.size == 0:
+        raise ValueError("no finite samples to plot")
+    fig, ax = _fig_ax(ax)
+    ax.hist(data, bins=bins, density=True, color="0.8", edgecolor="0.5", lw=0.5,
+            label=f"samples (n={data.size})")
+    span = np.ptp(data) or max(abs(float(data[0])), 1.0)
+    grid = np.linspace(data.min() - 0.1 * span, data.max() + 0.1 * span, 400)
+    for rank, entry in enumerate(list(fits.ranking)[:top], start=1):
+        name = entry if isinstance(entry, str) else getattr(entry, "name", str(entry))
+        dist = fits.frozen(name)
+        pdf = dist.pdf(grid) if hasattr(dist, "pdf") else dist.pmf(np.round(grid))
+        ax.plot(grid, pdf, lw=1.5 if rank == 1 else 1.0, ls="-" if rank == 1 else "--",
+                label=f"{rank}. {name}")
+    ax.set_xlabel(xlabel or _label(samples, "response"))
+    ax.set_ylabel("probability density")
+    ax.legend(fontsize=8)
+    return fig, ax
+
+
+# --------------------------------------------------------------------------------------------
+# benchmarks
+# --------------------------------------------------------------------------------------------
+def plot_work_precision(
+    table: Any,
+    *,
+    ax: Axes | None = None,
+    x: str = "time_per_sample",
+    y: str = "error",
+    annotate: bool = True,
+) -> tuple[Figure, Axes]:
+    """Work-precision diagram: error against time per sample, one line per method.
+
+    Parameters
+    ----------
+    table : list of dict or DataFrame
+        Rows with keys ``method``, ``rtol``, ``time_per_sample`` [s] and ``error``
+        (anything with ``to_dict("records")`` is accepted too).
+    ax : Axes, optional
+        Axes to draw into.
+    x, y : str
+        Column names for the axes.
+    annotate : bool
+        Write each row's ``rtol`` next to its point.
+
+    Returns
+    -------
+    fig, ax
+
+    Notes
+    -----
+    Rows with a non-positive or non-finite time or error cannot be shown on log axes and are
+    left out (their count is given in the title).
+    """
+    rows: Sequence[Mapping[str, Any]]
+    rows = table.to_dict("records") if hasattr(table, "to_dict") else list(table)
+    fig, ax = _fig_ax(ax)
+    methods: dict[str, list[tuple[float, float, Any]]] = {}
+    skipped = 0
+    for row in rows:
+        xv = float(row.get(x, np.nan))
+        yv = float(row.get(y, np.nan))
+        if not (np.isfinite(xv) and np.isfinite(yv) and xv > 0 and yv > 0):
+            skipped += 1
+            continue
+        methods.setdefault(str(row.get("method", "?")), []).append((xv, yv, row.get("rtol")))
+    for name, pts in methods.items():
+        pts.sort(key=lambda p: p[0])
+        xs = [p[0] for p in pts]
+        ys = [p[1] for p in pts]
+        (line,) = ax.plot(xs, ys, "o-", ms=4, lw=1.0, label=name)
+        if annotate:
+            for xv, yv, tol in pts:
+                if tol is not None:
+                    ax.annotate(f"{float(tol):.0e}", (xv, yv), textcoords="offset points",
+                                xytext=(3, 3), fontsize=6, color=line.get_color())
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("time per sample [s]" if x == "time_per_sample" else x)
+    ax.set_ylabel(y)
+    title = "work-precision"
+    if skipped:
+        title += f" ({skipped} row(s) with non-positive values not shown)"
+    ax.set_title(title, fontsize=10)
+    if methods:
+        ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    return fig, ax
+
+
+# --------------------------------------------------------------------------------------------
+# output
+# --------------------------------------------------------------------------------------------
+def save_figure(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
+    """Save a figure as PNG (parent directories created) and close it.
+
+    Parameters
+    ----------
+    fig : Figure, Axes or (Figure, ...) tuple
+        What the plot helpers return.
+    path : str or Path
+        Output file (``.png`` is appended when there is no suffix).
+    dpi : int
+        Resolution.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    if isinstance(fig, tuple):
+        fig = fig[0]
+    if isinstance(fig, Axes):
+        fig = fig.figure
+    out = Path(path)
+    if not out.suffix:
+        out = out.with_suffix(".png")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=dpi)
+    plt = sys.modules.get("matplotlib.pyplot")
+    if plt is not None:
+        plt.close(fig)
+    return out

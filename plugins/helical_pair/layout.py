@@ -1,0 +1,25 @@
+"""Layout of the per-sample coefficient vector shared by the kernel and its set-up (no numba)."""
+
+N_DOF = 10
+N_STATE = 2 * N_DOF
+MAX_HARMONICS = 8
+
+# layout of the per-sample coefficient vector
+I_OMEGA = 0  # mesh frequency / omega_n
+I_S = 1  # seed's stiffness variation coefficient s (used when n_harm == 0)
+I_EPS0 = 2  # constant error e_0 / L
+I_EPSA = 3  # error amplitude e_a / L
+I_PHI = 4  # error phase [rad]
+I_ZETA = 5  # mesh damping ratio
+I_V = 6  # 10 mesh direction coefficients v_i: delta = v . q - eps
+I_MU = I_V + N_DOF  # 10 mass ratios m_e / M_i
+I_ETA = I_MU + N_DOF  # 10 support stiffness k_i / (M_i omega_n^2)
+I_XI = I_ETA + N_DOF  # 10 support damping c_i / (M_i omega_n)
+I_BETA = I_XI + N_DOF  # 10 dead-zone half widths b_i / L (0: linear support)
+I_B5 = I_BETA + N_DOF  # mesh half backlash b5 / L
+I_G = I_B5 + 1  # 10 constant generalised loads (torques) / (M_i L omega_n^2)
+I_NHARM = I_G + N_DOF  # number of Fourier harmonics of the stiffness (0: seed cosine form)
+I_HARM = I_NHARM + 1  # a_1, b_1, a_2, b_2, ... relative to k_m
+N_COEF = I_HARM + 2 * MAX_HARMONICS
+#: number of switching functions: 2 for the mesh, 2 per support DOF
+N_SWITCH = 2 + 2 * N_DOF
