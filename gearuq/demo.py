@@ -7,9 +7,10 @@ model comes from the registry), so it is also the worked example of a reliabilit
 2. the ten nondimensional displacements ``p1..p10`` over the response window tau in
    [0, 200] (seed "t = 200 s" is nondimensional time);
 3. allowable bands: each DOF's vibration about its own static equilibrium may reach at most
-   ``MARGIN`` times the nominal design's steady vibration amplitude (max |p - p_static| over
-   tau in [100, 200]) -- a design-margin criterion, fixed from one deterministic nominal run
-   before any random sample is drawn;
+   ``MARGIN`` times the nominal design's largest vibration (max |p - p_static| over the
+   window) -- a design-margin criterion fixed from one deterministic nominal run before any
+   random sample is drawn; and, for the Table 3 analog, two-sided tolerance bands at
+   tau = 200 (mean +- 2.5 std of an independent pilot run, since the seed gives no limits);
 4. instantaneous and first-passage reliability per DOF and for the series system, the
    generalised index beta = Phi^-1(R) with Wilson intervals, the mean-value (Cornell) index
    beside it, and the best-fit distribution of each DOF's deviation magnitude at tau = 200
@@ -26,9 +27,11 @@ from typing import Any
 import numpy as np
 
 #: Design margin of the allowable bands over the nominal steady vibration amplitude.
-MARGIN = 1.05
-MARGIN_RULE = (f"|v| <= {MARGIN} x the nominal design's steady vibration amplitude "
-               "(max |p - p_static| for tau in [100, 200]), over the whole window")
+MARGIN = 1.0
+#: Margins of the first-passage sweep in the report.
+MARGIN_SWEEP = (1.0, 1.0025, 1.005, 1.01)
+MARGIN_RULE = (f"|v| <= {MARGIN} x the nominal design's largest vibration "
+               "(max |p - p_static| over tau in [0, 200]), at every instant of the window")
 #: Tolerance bands of the Table 3 analog: pilot mean + TOL_K pilot std of |v(200)|.
 TOL_K = 2.5
 N_PILOT = 1000
@@ -95,7 +98,7 @@ def run_demo(
     """
     import gearuq
     from gearuq import plot
-    from gearuq.reliability import Band, mean_value_beta
+    from gearuq.reliability import Band, mean_value_beta, wilson_interval
 
     wall0 = time.perf_counter()
     out = Path(out)
@@ -110,10 +113,9 @@ def run_demo(
     nominal_static = model.response({k: [v] for k, v in static_only.items()}, tau[:1],
                                     outputs=outputs)
     nominal = model.response({}, tau, outputs=outputs)
-    steady = tau >= 100.0
     margin_bands, band_rows = [], []
     for i, (p, dof) in enumerate(zip(outputs, DOF_NAMES, strict=True)):
-        amp = float(np.abs(nominal[p].values[0, steady] - nominal_static[p].values[0, 0]).max())
+        amp = float(np.abs(nominal[p].values[0] - nominal_static[p].values[0, 0]).max())
         margin_bands.append(Band(f"v{i + 1}", -MARGIN * amp, MARGIN * amp, name=dof))
         band_rows.append({"dof": dof, "output": f"v{i + 1}", "nominal_amplitude": amp,
                           "margin_half_width": MARGIN * amp})
@@ -193,15 +195,29 @@ def run_demo(
             "beta_mean_value": mv,
             "best_fit": fit.best, "aic": float(best["aic"]), "ks": float(best["ks_statistic"]),
             "pf_fit": float(best["pf_fit"]), "ranking": " > ".join(fit.ranking[:3]),
+            "ks_pvalue_naive": float(best["ks_pvalue_naive"]),
             "margin_pf_instant": float(m_end["pf"]),
             "margin_pf_first_passage": float(m_end["pf_first_passage"]),
         })
     system = at_end.sel(mode="system")
     msys = margin_end.sel(mode="system")
+    # first passage of the series system against the margin, from the same samples: the
+    # worst ratio max_t |v_i| / (nominal amplitude) over the DOFs, per sample
+    worst = np.max([np.abs(ds[r["output"]].values[valid]).max(axis=1) / r["nominal_amplitude"]
+                    for r in band_rows], axis=0)
+    sweep = []
+    for m in MARGIN_SWEEP:
+        k = int((worst > m).sum())
+        sweep.append((m, k / worst.size, float(wilson_interval(k, worst.size, 0.95)[1])))
 
     t_post = time.perf_counter()
     # 5. figures
-    fig, _ = plot.plot_reliability_curves(rel, quantity="r")
+    fig, ax = plot.plot_reliability_curves(rel, quantity="r")
+    fp = 1.0 - rel["pf_first_passage"].sel(mode="system")
+    ax.plot(rel["time"], fp, "k--", lw=1.5, label="system, first passage")
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8)
+    ax.set_title(f"R(t) for |v| <= {MARGIN:g} x nominal largest vibration (95 % Wilson band)")
+    fig.set_size_inches(10, 4.8)
     plot.save_figure(fig, out / "reliability_R_t.png")
     fig, _ = plot.plot_reliability_curves(rel, quantity="pf", log=True)
     plot.save_figure(fig, out / "failure_probability_t.png")
@@ -231,6 +247,7 @@ def run_demo(
         f"{float(system['pf_upper']):.4f}] {float(system['r']):7.4f} "
         f"{float(system['beta']):7.3f}  (series system of the 10 DOFs, same samples)",
         "('>' marks a beta that is a lower bound: no failure observed)",
+        _fit_note(rows),
         "",
         f"Design-margin bands ({MARGIN_RULE}):",
         f"{'DOF':<9} {'Pf(tau=200)':>12} {'Pf first passage [0,200]':>25}",
@@ -241,6 +258,8 @@ def run_demo(
     lines += [
         f"{'system':<9} {float(msys['pf']):12.4f} {float(msys['pf_first_passage']):25.4f}",
         "(first passage is checked at the output instants only: a lower bound)",
+        "system first-passage P_f over [0, 200] against the margin: " + ", ".join(
+            f"{m:g}x: {p:.4f} (upper {u:.4f})" for m, p, u in sweep),
         "",
         seed_beta_explanation(),
         "",
@@ -257,6 +276,19 @@ def run_demo(
     return 0
 
 
+def _fit_note(rows: list[dict[str, Any]]) -> str:
+    """Say plainly when even the best family is rejected by the KS test."""
+    bad = [r["dof"] for r in rows if r["ks_pvalue_naive"] < 0.01]
+    if not bad:
+        return "Best fits are not rejected by KS at the 1 % level (naive p-values)."
+    return (f"KS rejects even the best family at the 1 % level for {', '.join(bad)} (naive "
+            "p-value, optimistic for fitted parameters). The vibration at tau = 200 is "
+            "A cos(Omega tau + phase) with a phase spread by the random mesh frequency ratio, "
+            "so its magnitude piles up just below the amplitude (arcsine-like) with a long tail "
+            "towards 0 -- none of the candidate families has that shape; trust the empirical "
+            "P_f, not Pf_fit, here.")
+
+
 def _plot_fits(fits: dict[str, tuple[np.ndarray, Any]], path: Path) -> None:
     """2 x 5 grid: histogram of |p - p_static| at tau = 200 with the top fitted pdfs."""
     from matplotlib.figure import Figure
@@ -267,6 +299,7 @@ def _plot_fits(fits: dict[str, tuple[np.ndarray, Any]], path: Path) -> None:
     axes = fig.subplots(2, 5)
     for ax, (dof, (dev, fit)) in zip(axes.ravel(), fits.items(), strict=True):
         plot.plot_fit(dev, fit, top=3, ax=ax)
+        ax.set_xlim(np.quantile(dev, 0.002), dev.max() * 1.01)  # the tail to 0 is sparse
         ax.set_title(f"{dof}: best {fit.best}")
         ax.set_xlabel("|v| = |p - p_static| at tau = 200")
     fig.suptitle("Deviation magnitude at tau = 200: histogram and fitted pdfs (by AIC)")

@@ -593,13 +593,14 @@ def _write_state(y, save, out, j):
 
 @njit(error_model="numpy")
 def _find_crossing(switch, R, m, y, t, hs, p, t_base, g_base, t_new, g1, sgn, n_switch, ym, gm,
-                   ga, gb, gw, detect_only):
+                   ga, gb, gw, detect_only, dt_ok):
     """First sign change of the switching functions in (t_base, t_new] of the current step.
 
     The sign test uses the step end and the interpolated midpoint of (t_base, t_new]. Returns
     ``(comp, tb)``: comp = -1 when no component changed sign; otherwise the component whose
     root comes first and the end of its root bracket that lies past the surface. With
-    ``detect_only`` the roots are not located (comp = 0 just means "some crossing").
+    ``detect_only`` the roots are not located (comp = 0 just means "some crossing"). A root
+    closer than ``dt_ok`` to the end of its bracket is accepted without a search.
     """
     tm = 0.5 * (t_base + t_new)
     _g_at(switch, R, m, y, t, hs, p, tm, ym, gm)
@@ -633,7 +634,7 @@ def _find_crossing(switch, R, m, y, t, hs, p, t_base, g_base, t_new, g1, sgn, n_
         else:
             # Probe just before tb first: after a step has been cut at a root, that root lies
             # within tolerance of the step end, and the probe confirms it without a search.
-            tp = tb - 0.5 * (xtol + 4.0 * _EPS * abs(tb))
+            tp = tb - max(0.5 * (xtol + 4.0 * _EPS * abs(tb)), dt_ok)
             if tp <= ta:
                 hi = tb
             else:
@@ -802,7 +803,7 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                         # dop853: cheap Hermite test first, the 7th-order rows only on a hit.
                         first, tb = _find_crossing(switch, R, dense_rows, y, t, hs, p, t_base,
                                                    g_base, t_new, g1, sgn, n_switch, ym, gm,
-                                                   ga, gb, gw, True)
+                                                   ga, gb, gw, True, 0.0)
                         if first < 0:
                             break
                         dense_rows, nf = _dense_prepare(rhs, method, t, y, p, hs, K, yt, f, ynew,
@@ -810,7 +811,7 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                         n_rhs += nf
                     first, tb = _find_crossing(switch, R, dense_rows, y, t, hs, p, t_base,
                                                g_base, t_new, g1, sgn, n_switch, ym, gm, ga,
-                                               gb, gw, False)
+                                               gb, gw, False, rtol * hs)
                     if first < 0:
                         break
                     tol = 2.0 * (_ROOT_XTOL_REL * hs + 4.0 * _EPS * abs(tb))
@@ -825,8 +826,12 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                     t_base = tb
                     _g_at(switch, R, dense_rows, y, t, hs, p, t_base, ym, g_base)
                     first = -1
-                if first < 0 or t_new - tb <= 2.0 * (_ROOT_XTOL_REL * hs + 4.0 * _EPS * abs(tb)):
-                    break  # no crossing, or the step already ends just past the first root
+                if first < 0 or t_new - tb <= max(rtol * hs,
+                                                  2.0 * (_ROOT_XTOL_REL * hs + 4.0 * _EPS * abs(tb))):
+                    # No crossing, or the step already ends just past the first root: by at
+                    # most rtol * hs, which perturbs the step by O(rtol * hs) for a jump of rhs
+                    # and O((rtol * hs)^2) for a kink.
+                    break
 
             if not finite:
                 if adaptive:

@@ -222,3 +222,19 @@ def test_contact_loss_is_located(model):
     assert (np.abs(d) <= b5).any()  # separation happened
     assert int(ds["n_events"][0]) >= 2
     assert I_B5 > 0
+
+
+def test_compiled_kernel_equals_numpy_twin(model):
+    """Two independent implementations of the equations agree on random states."""
+    from gearuq_plugins.helical_pair.physics import rhs_numpy
+
+    prob = model.ode_problem({"b5": [2e-5, 0.0], "s": [0.1, 0.3]})
+    rng = np.random.default_rng(3)
+    for i in range(2):
+        for _ in range(20):
+            y = prob["y0"][i] + rng.normal(0, 3.0, 20)
+            tau = rng.uniform(0, 100)
+            out = np.zeros(20)
+            kernel.rhs(tau, y, prob["coef"][i], out)
+            np.testing.assert_allclose(out, rhs_numpy(tau, y, prob["coef"][i]),
+                                       rtol=1e-12, atol=1e-12)

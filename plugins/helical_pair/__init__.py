@@ -200,6 +200,28 @@ class HelicalPair(Model):
 
         return initial_state(coef, kind)
 
+    def ode_problem(self, params: dict | None = None, *, initial: str = "static") -> dict:
+        """The raw first-order problem, for benchmarks and external solvers.
+
+        Returns
+        -------
+        dict
+            ``rhs`` and ``switch`` (numba functions ``f(tau, y, p, out)``), ``n_switch``,
+            ``rhs_numpy`` (the same equations in plain NumPy, ``f(tau, y, p) -> dy``),
+            ``y0`` (n, 20) initial states, ``coef`` (n, N_COEF) per-sample coefficients and
+            ``state_names`` (p1..p10, dp1..dp10). Time is nondimensional tau.
+        """
+        from gearuq_plugins.helical_pair import kernel
+        from gearuq_plugins.helical_pair.physics import rhs_numpy
+
+        coef, _ = self.coefficients(self.validate_params(params))
+        return {
+            "rhs": kernel.rhs, "switch": kernel.switch, "n_switch": kernel.N_SWITCH,
+            "rhs_numpy": rhs_numpy,
+            "y0": self.initial_state(coef, initial), "coef": coef,
+            "state_names": [f"p{i + 1}" for i in range(10)] + [f"dp{i + 1}" for i in range(10)],
+        }
+
     def _time_attrs(self, options):
         if options.get("time", "tau") == "s":
             return {"units": "s", "long_name": "time t"}

@@ -173,6 +173,24 @@ def dead_zone(x: np.ndarray, b: np.ndarray | float) -> np.ndarray:
     return np.where(x > b, x - b, np.where(x < -b, x + b, 0.0))
 
 
+def rhs_numpy(tau: float, y: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Pure-NumPy twin of ``kernel.rhs`` (one sample): the baseline a user would write.
+
+    Used by ``gearuq bench integrator`` as the plain scipy baseline and by the tests as an
+    independent implementation of the equations.
+    """
+    q, dq = y[:N_DOF], y[N_DOF:]
+    v = p[I_V:I_V + N_DOF]
+    tau2 = np.array([[tau]])
+    eps, deps = error_excitation(tau2, p[None, :])
+    d = v @ q - eps[0, 0]
+    dd = v @ dq - deps[0, 0]
+    fm = stiffness_factor(tau2, p[None, :])[0, 0] * dead_zone(d, p[I_B5]) + 2 * p[I_ZETA] * dd
+    acc = (p[I_G:I_G + N_DOF] - p[I_ETA:I_ETA + N_DOF] * dead_zone(q, p[I_BETA:I_BETA + N_DOF])
+           - p[I_XI:I_XI + N_DOF] * dq - v * p[I_MU:I_MU + N_DOF] * fm)
+    return np.concatenate([dq, acc])
+
+
 def _inverse_dead_zone(f: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Displacement whose dead-zone function equals f (0 -> 0, the centre of the gap)."""
     return f + np.sign(f) * b

@@ -1,0 +1,251 @@
+"""``gearuq bench integrator``: work-precision of the batched integrator, side by side.
+
+For the ``helical_pair`` model (any model exposing ``ode_problem`` works) on samples of its
+built-in parameter space, tau in [0, 200]: for rtol from 1e-3 to 1e-10, time per sample on
+one core and the error against a tight reference (gearuq DOP853 with located switchings,
+rtol 1e-12, itself cross-checked against scipy DOP853 at rtol 1e-12), for
+
+- gearuq Dormand-Prince 5(4) with located switching instants (the default),
+- the same stepping across the kinks (no event location),
+- gearuq DOP853 with located switchings,
+- scipy ``solve_ivp`` RK45, a per-sample Python loop with the model's plain-NumPy
+  right-hand side (the usual baseline), and the same loop calling the compiled rhs,
+- numbalsoda LSODA and DOP853 where the package is installed (it needs a Fortran compiler).
+
+All timings are taken in this one run; nothing is compared with numbers from elsewhere.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+TAU_END = 200.0
+N_OUT = 201
+
+
+def _machine() -> str:
+    import os
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} logical cores, Python {platform.python_version()}"
+
+
+def _timed(fn, repeat: int = 1) -> tuple[float, Any]:
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def _error(y: np.ndarray, ref: np.ndarray) -> float:
+    """Max absolute error over samples, instants and displacement states (nondimensional)."""
+    return float(np.nanmax(np.abs(y - ref)))
+
+
+def _scipy_loop(prob: dict, idx: list[int], t_eval: np.ndarray, method: str, rtol: float,
+                atol: float, numpy_rhs: bool = False) -> np.ndarray:
+    from scipy.integrate import solve_ivp
+
+    rhs = prob["rhs"]
+    out = np.empty((len(idx), t_eval.size, 10))
+    for k, i in enumerate(idx):
+        p = prob["coef"][i]
+
+        def f(t, y, p=p):
+            if numpy_rhs:
+                return prob["rhs_numpy"](t, y, p)
+            d = np.empty_like(y)
+            rhs(t, y, p, d)
+            return d
+
+        sol = solve_ivp(f, (0.0, t_eval[-1]), prob["y0"][i], method=method, t_eval=t_eval,
+                        rtol=rtol, atol=atol)
+        out[k] = sol.y[:10].T if sol.success else np.nan
+    return out
+
+
+def _numbalsoda_solvers(prob: dict) -> dict[str, Any]:
+    """numbalsoda solvers wrapping the same compiled rhs, or {} when not installed."""
+    try:
+        import numbalsoda
+        from numba import carray, cfunc
+    except ImportError:
+        return {}
+    rhs = prob["rhs"]
+    n_state = prob["y0"].shape[1]
+    n_coef = prob["coef"].shape[1]
+
+    @cfunc(numbalsoda.lsoda_sig)
+    def f(t, u, du, p):  # pragma: no cover - compiled
+        rhs(t, carray(u, (n_state,)), carray(p, (n_coef,)), carray(du, (n_state,)))
+
+    address = f.address
+
+    def run(solver):
+        def go(idx, t_eval, rtol, atol):
+            out = np.empty((len(idx), t_eval.size, 10))
+            for k, i in enumerate(idx):
+                usol, ok = solver(address, prob["y0"][i].copy(), t_eval,
+                                  data=prob["coef"][i].copy(), rtol=rtol, atol=atol)
+                out[k] = usol[:, :10] if ok else np.nan
+            return out
+        return go
+
+    return {"numbalsoda LSODA": run(numbalsoda.lsoda), "numbalsoda DOP853": run(numbalsoda.dop853)}
+
+
+def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
+                     n_scipy: int = 2, rtols=RTOLS, seed: int = 7) -> dict[str, Any]:
+    """Measure the work-precision table; returns rows and metadata (no files written)."""
+    import gearuq
+    from gearuq.ode import solve_batch
+
+    model = gearuq.get_model(model_name)
+    space = model.default_space()
+    params = space.sample(n_samples, rule="random", rng=seed)
+    prob = model.ode_problem(params)
+    t_eval = np.linspace(0.0, TAU_END, N_OUT)
+    rhs, switch, n_switch = prob["rhs"], prob["switch"], prob["n_switch"]
+    save = np.arange(10)
+
+    def gearuq_run(method, rtol, events, parallel=False, idx=None):
+        sel = slice(None) if idx is None else idx
+        res = solve_batch(rhs, prob["y0"][sel], prob["coef"][sel], t_eval, method=method,
+                          rtol=rtol, atol=rtol * 1e-2, switch=switch if events else None,
+                          n_switch=n_switch if events else 0, save=save, parallel=parallel,
+                          max_steps=5_000_000)
+        return res
+
+    # warm up (load compiled kernels from the cache, or compile) before any timing
+    gearuq_run("dopri5", 1e-3, True, idx=[0])
+    gearuq_run("dop853", 1e-3, True, idx=[0])
+    gearuq_run("dopri5", 1e-3, False, idx=[0])
+    t_ref, ref_res = _timed(lambda: gearuq_run("dop853", 1e-12, True))
+    ref = ref_res.y
+    scipy_idx = list(range(min(n_scipy, n_samples)))
+    scipy_ref = _scipy_loop(prob, scipy_idx, t_eval, "DOP853", 1e-12, 1e-14)
+    ref_check = _error(scipy_ref, ref[scipy_idx])
+
+    rows: list[dict[str, Any]] = []
+
+    def add(method, rtol, seconds, n, y, ref_rows, **extra):
+        rows.append({"method": method, "rtol": rtol, "time_per_sample": seconds / n,
+                     "error": _error(y, ref_rows), "n_samples": n, **extra})
+
+    for rtol in rtols:
+        for label, meth, events in (("gearuq DOPRI5 + events", "dopri5", True),
+                                    ("gearuq DOPRI5 no events", "dopri5", False),
+                                    ("gearuq DOP853 + events", "dop853", True)):
+            sec, res = _timed(lambda m=meth, e=events, r=rtol: gearuq_run(m, r, e), repeat=2)
+            add(label, rtol, sec, n_samples, res.y, ref,
+                steps=float(res.n_steps.mean()), events=float(res.n_events.mean()),
+                failed=int((res.status != 0).sum()))
+    for rtol in rtols:
+        if rtol < 1e-8:  # RK45 in Python needs minutes per sample there
+            continue
+        if "rhs_numpy" in prob:
+            sec, y = _timed(lambda r=rtol: _scipy_loop(prob, scipy_idx, t_eval, "RK45", r,
+                                                       r * 1e-2, numpy_rhs=True))
+            add("scipy RK45 loop", rtol, sec, len(scipy_idx), y, ref[scipy_idx])
+        sec, y = _timed(lambda r=rtol: _scipy_loop(prob, scipy_idx, t_eval, "RK45", r, r * 1e-2))
+        add("scipy RK45 loop, numba rhs", rtol, sec, len(scipy_idx), y, ref[scipy_idx])
+    for label, go in _numbalsoda_solvers(prob).items():
+        go(scipy_idx[:1], t_eval, 1e-3, 1e-5)  # compile the cfunc path
+        for rtol in rtols:
+            sec, y = _timed(lambda r=rtol, g=go: g(list(range(n_samples)), t_eval, r, r * 1e-2))
+            add(label, rtol, sec, n_samples, y, ref)
+    # the parallel throughput actually used by studies
+    sec, res = _timed(lambda: gearuq_run("dopri5", 1e-6, True, parallel=True), repeat=2)
+    parallel_row = {"method": "gearuq DOPRI5 + events, all cores", "rtol": 1e-6,
+                    "time_per_sample": sec / n_samples, "error": _error(res.y, ref)}
+    return {"rows": rows, "parallel": parallel_row, "reference_time_per_sample": t_ref / n_samples,
+            "reference_vs_scipy_dop853": ref_check, "n_samples": n_samples,
+            "machine": _machine(), "model": model_name, "tau_end": TAU_END, "n_out": N_OUT}
+
+
+def matched_error_ratios(rows: list[dict[str, Any]], baseline: str = "scipy RK45 loop",
+                         baseline_rtol: float = 1e-6) -> dict[str, float]:
+    """Speed ratio baseline/method at the baseline's error (log-log interpolation)."""
+    base = [r for r in rows if r["method"] == baseline and r["rtol"] == baseline_rtol]
+    if not base:
+        return {}
+    target = np.log10(base[0]["error"])
+    out = {}
+    for method in sorted({r["method"] for r in rows} - {baseline}):
+        pts = sorted((np.log10(r["error"]), np.log10(r["time_per_sample"]))
+                     for r in rows if r["method"] == method and r["error"] > 0)
+        if len(pts) < 2:
+            continue
+        e, t = np.array(pts).T
+        if not e.min() <= target <= e.max():
+            continue
+        order = np.argsort(e)
+        t_at = 10 ** np.interp(target, e[order], t[order])
+        out[method] = base[0]["time_per_sample"] / t_at
+    return out
+
+
+def render_markdown(result: dict[str, Any]) -> str:
+    """Markdown table of a :func:`integrator_table` result."""
+    lines = [
+        f"Machine: {result['machine']}. Model `{result['model']}`, tau in [0, "
+        f"{result['tau_end']:g}], {result['n_out']} output instants, {result['n_samples']} "
+        "samples of the built-in space; times on ONE core (serial), error = max |p - p_ref| "
+        "over samples, instants and the 10 nondimensional displacements (1 = 10 um).",
+        f"Reference: gearuq DOP853 + events, rtol 1e-12 "
+        f"({result['reference_time_per_sample'] * 1e3:.2f} ms/sample); its difference to "
+        f"scipy DOP853 rtol 1e-12: {result['reference_vs_scipy_dop853']:.1e}.",
+        "",
+        "| method | rtol | ms per sample | error | mean steps | located switchings |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in result["rows"]:
+        lines.append(f"| {r['method']} | {r['rtol']:.0e} | {r['time_per_sample'] * 1e3:.3f} | "
+                     f"{r['error']:.2e} | {r.get('steps', float('nan')):.0f} | "
+                     f"{r.get('events', float('nan')):.0f} |")
+    p = result["parallel"]
+    lines += ["", f"All cores: {p['method']} at rtol 1e-6: {p['time_per_sample'] * 1e3:.3f} ms "
+              f"per sample (error {p['error']:.2e})."]
+    ratios = matched_error_ratios(result["rows"])
+    if ratios:
+        lines += ["", "Speed-up over the scipy RK45 loop at the error scipy reaches with rtol "
+                  "1e-6 (log-log interpolation of each method's curve, one core):", ""]
+        lines += [f"- {m}: {v:.0f}x" for m, v in ratios.items()]
+    return "\n".join(lines)
+
+
+def run_bench(what: str, out: str | Path = "gearuq_bench", quick: bool = False) -> int:
+    """Run a benchmark, write ``integrator.md``, ``integrator.json`` and a PNG into ``out``."""
+    from gearuq import plot
+
+    if what != "integrator":
+        raise ValueError(f"bench: unknown benchmark {what!r}; valid: 'integrator'")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    kwargs = {"n_samples": 4, "n_scipy": 1, "rtols": (1e-4, 1e-6, 1e-8)} if quick else {}
+    result = integrator_table(**kwargs)
+    text = render_markdown(result)
+    (out / "integrator.md").write_text(text + "\n")
+    (out / "integrator.json").write_text(json.dumps(result, indent=1, default=float))
+    fig, ax = plot.plot_work_precision(result["rows"])
+    ax.set_title("helical_pair, tau in [0, 200]: work-precision (one core)")
+    plot.save_figure(fig, out / "integrator_work_precision.png")
+    print(text)
+    print(f"\nwritten: {out}/integrator.md, integrator.json, integrator_work_precision.png")
+    return 0
