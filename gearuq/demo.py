@@ -176,7 +176,7 @@ def run_demo(
     # 5. best-fit distribution of the vibration magnitude at tau = 200 per DOF
     valid = ds["status"].values == 0
     rows, fits = [], {}
-    for i, row in enumerate(band_rows):
+    for row in band_rows:
         dev = np.abs(ds[row["output"]].values[valid, -1])
         fit = gearuq.fit_distributions(
             dev, candidates=("lognormal", "rayleigh", "normal", "weibull", "gamma"),

@@ -99,7 +99,8 @@ class Output:
 
     def __post_init__(self) -> None:
         if not self.dims or self.dims[0] != "sample":
-            raise ValueError(f"output {self.name!r}: dims must start with 'sample', got {self.dims}")
+            raise ValueError(
+                f"output {self.name!r}: dims must start with 'sample', got {self.dims}")
 
     @property
     def time_dependent(self) -> bool:
@@ -169,7 +170,8 @@ class Model:
             if p.name == name:
                 return p
         raise ValueError(
-            f"model {self.name!r} has no parameter {name!r}; valid: {', '.join(self.parameter_names)}"
+            f"model {self.name!r} has no parameter {name!r}; "
+            f"valid: {', '.join(self.parameter_names)}"
         )
 
     def output(self, name: str) -> Output:
@@ -341,7 +343,8 @@ class Model:
             })
         for k, (dims, values, attrs) in ev.extra.items():
             ds[k] = (dims, values, {**attrs, "role": "diagnostic"})
-        ds["status"] = ("sample", np.asarray(ev.status, dtype=np.int8), status_attrs(ev.status_meanings))
+        ds["status"] = ("sample", np.asarray(ev.status, dtype=np.int8),
+                        status_attrs(ev.status_meanings))
         ds.attrs.update({
             "gearuq_version": __version__,
             "model": self.name,

@@ -33,11 +33,15 @@ into the integrator; docs/ode.md gives the measured cost.
 Switching surfaces
 ------------------
 With ``switch`` and ``n_switch > 0`` the kernel watches ``n_switch`` switching functions
-``g(t, y, p)``. When a component changes sign within an accepted step (tested at the step end
-and at the interpolated midpoint), the first root is located on the dense-output interpolant
-by Brent's method and the step is re-taken so that it ends just past the root. This keeps
-the full order of the method for piecewise-smooth right-hand sides (dead zones, backlash,
-clearances). See docs/ode.md for the limits (grazing contacts).
+``g(t, y, p)``. When a component changes sign within a step (tested at the step end and at
+the interpolated midpoint), the first root is located on the dense-output interpolant by
+Brent's method and the step is re-taken so that it ends just past the root (re-located on
+the re-taken step until it ends within a tolerance of it). This keeps the order of the method
+for piecewise-smooth right-hand sides (dead zones, backlash, clearances). With
+``freeze_sides=True`` the rhs can read the side of every surface from ``p`` and evaluate all
+stages of a step on one side; the trial step is then smooth, error-tested as it is and
+truncated at the root on its own interpolant, which halves the cost per event. See
+docs/ode.md for the measured accuracy and the limits (grazing contacts).
 """
 
 from __future__ import annotations
@@ -586,41 +590,100 @@ def _root_bracket(switch, R, m, y, t, h, p, ym, gw, comp, old, ta, fa, tb, fb, x
 
 
 @njit(error_model="numpy")
+def _overshoot_tol(K, kf, y, atol, rtol, hs):
+    """How far past a surface a step may end: the time in which y moves by one tolerance unit.
+
+    1 / RMS(f_i / (atol_i + rtol |y_i|)) with f = K[kf] = f(t_new, y): ending that far past a
+    jump of rhs of the size of f costs about one unit of the local error tolerance, and far
+    less at a kink (O(overshoot^2)). Capped at 1e-3 * hs for a state at rest.
+    """
+    n = y.size
+    s = 0.0
+    for i in range(n):
+        r = K[kf, i] / max(atol[i] + rtol * abs(y[i]), 1e-300)
+        s += r * r
+    cap = 1e-3 * hs
+    if s * cap * cap <= n:
+        return cap
+    return math.sqrt(n / s)
+
+
+@njit(error_model="numpy")
 def _write_state(y, save, out, j):
     for k in range(save.size):
         out[j, k] = y[save[k]]
 
 
 @njit(error_model="numpy")
-def _find_crossing(switch, R, m, y, t, hs, p, t_base, g_base, t_new, g1, sgn, n_switch, ym, gm,
+def _find_crossing(switch, R, m, y, t, hs, p, t_base, g_base, t_new, g1, sgn, n_switch, ym, gs,
                    ga, gb, gw, detect_only, dt_ok):
     """First sign change of the switching functions in (t_base, t_new] of the current step.
 
-    The sign test uses the step end and the interpolated midpoint of (t_base, t_new]. Returns
-    ``(comp, tb)``: comp = -1 when no component changed sign; otherwise the component whose
-    root comes first and the end of its root bracket that lies past the surface. With
-    ``detect_only`` the roots are not located (comp = 0 just means "some crossing"). A root
-    closer than ``dt_ok`` to the end of its bracket is accepted without a search.
+    g is sampled on the interpolant at the quarter points of (t_base, t_new] and at the end
+    (gs rows 0..4, row 0 = g_base). A component that keeps its side at all five samples but
+    comes closest to the surface at an interior one is sampled once more where the parabola
+    through that sample and its neighbours has its extremum, if the parabola gets within a
+    quarter of the way to the surface: that catches an excursion across the surface and back
+    between two samples. Returns ``(comp, tb)``: comp = -1 when no crossing was found;
+    otherwise the component whose root comes first and the end of its root bracket that lies
+    past the surface. With ``detect_only`` the roots are not located (comp = 0 then just means
+    "some crossing"). A root closer than ``dt_ok`` to the end of its bracket is accepted
+    without a search.
     """
-    tm = 0.5 * (t_base + t_new)
-    _g_at(switch, R, m, y, t, hs, p, tm, ym, gm)
-    cross_mid = _crossing(sgn, gm, n_switch)
-    if not cross_mid and not _crossing(sgn, g1, n_switch):
+    span = t_new - t_base
+    for s in range(n_switch):
+        gs[0, s] = g_base[s]
+        gs[4, s] = g1[s]
+    for k in range(1, 4):
+        _g_at(switch, R, m, y, t, hs, p, t_base + 0.25 * k * span, ym, gw)
+        for s in range(n_switch):
+            gs[k, s] = gw[s]
+    # First quarter with a sign change.
+    kc = 5
+    for k in range(1, 5):
+        for s in range(n_switch):
+            sg = _sgn(gs[k, s])
+            if sgn[s] != 0 and sg != 0 and sg != sgn[s]:
+                kc = k
+                break
+        if kc < 5:
+            break
+    ta = t_base + 0.25 * (kc - 1) * span
+    tb = t_new if kc >= 4 else t_base + 0.25 * kc * span
+    found = kc < 5
+    if found:
+        for s in range(n_switch):
+            ga[s] = gs[kc - 1, s]
+            gb[s] = gs[kc, s]
+    # Excursions between samples, before the first quarter with a sign change.
+    for k in range(1, min(kc - 1, 4)):
+        for s in range(n_switch):
+            if sgn[s] == 0:
+                continue
+            a0 = gs[k - 1, s] * sgn[s]
+            a1 = gs[k, s] * sgn[s]
+            a2 = gs[k + 1, s] * sgn[s]
+            if not (0.0 < a1 < a0 and a1 < a2):
+                continue
+            c1 = 0.5 * (a2 - a0)
+            c2 = 0.5 * (a0 + a2) - a1
+            if a1 - c1 * c1 / (4.0 * c2) >= 0.25 * a1:
+                continue
+            tv = t_base + 0.25 * (k - c1 / (2.0 * c2)) * span
+            if found and tv >= tb:
+                continue
+            _g_at(switch, R, m, y, t, hs, p, tv, ym, gw)
+            if _sgn(gw[s]) == -sgn[s]:
+                found = True
+                ta = t_base + 0.25 * (k - 1) * span
+                tb = tv
+                for q in range(n_switch):
+                    ga[q] = gs[k - 1, q]
+                    gb[q] = gw[q]
+    if not found:
         return -1, t_new
     if detect_only:
         return 0, t_new
-    if cross_mid:
-        ta = t_base
-        tb = tm
-        for s in range(n_switch):
-            ga[s] = g_base[s]
-            gb[s] = gm[s]
-    else:
-        ta = tm
-        tb = t_new
-        for s in range(n_switch):
-            ga[s] = gm[s]
-            gb[s] = g1[s]
     xtol = _ROOT_XTOL_REL * hs
     first = -1
     for s in range(n_switch):
@@ -656,7 +719,7 @@ def _find_crossing(switch, R, m, y, t, hs, p, t_base, g_base, t_new, g1, sgn, n_
 
 @njit(error_model="numpy")
 def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, max_step,
-                   first_step, max_steps, fixed_h, n_switch, cnt):
+                   first_step, max_steps, fixed_h, n_switch, freeze, cnt):
     """Integrate one sample from t0 over the output instants te; returns its status.
 
     out (n_t, n_save) is pre-filled with NaN by the caller: rows not reached stay NaN.
@@ -681,7 +744,10 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
     # _combine); p and atol are private copies, so no thread touches a shared count.
     ns = max(n_switch, 1)
     npar = p.size
-    work = np.zeros(8 * n + (nk + 7) * n + 7 * ns + npar)
+    # With frozen sides, p is extended by the side (+1/-1, 0 unknown) of every switching
+    # function at the step start, so that the rhs can pick its branch from them.
+    n_side = n_switch if freeze else 0
+    work = np.zeros(8 * n + (nk + 7) * n + 11 * ns + npar + n_side)
     y = _view1(work, 0, n)
     f = _view1(work, n, n)
     ynew = _view1(work, 2 * n, n)
@@ -695,11 +761,11 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
     g0 = _view1(work, o, ns)  # g at the current accepted state
     g1 = _view1(work, o + ns, ns)  # g at the end of the step being taken
     g_base = _view1(work, o + 2 * ns, ns)
-    gm = _view1(work, o + 3 * ns, ns)
-    ga = _view1(work, o + 4 * ns, ns)
-    gb = _view1(work, o + 5 * ns, ns)
-    gw = _view1(work, o + 6 * ns, ns)
-    p = _copy_into(_view1(work, o + 7 * ns, npar), p)
+    ga = _view1(work, o + 3 * ns, ns)
+    gb = _view1(work, o + 4 * ns, ns)
+    gw = _view1(work, o + 5 * ns, ns)
+    gs = _view2(work, o + 6 * ns, 5, ns)  # samples of g within a step (_find_crossing)
+    p = _copy_into(_view1(work, o + 11 * ns, npar + n_side), p)
     for i in range(n):
         y[i] = y0[i]
     te = _view1(te, 0, nt)
@@ -731,6 +797,8 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
             switch(t, y, p, g0)
             for s in range(n_switch):
                 sgn[s] = _sgn(g0[s])
+                if freeze:
+                    p[npar + s] = sgn[s]
         if adaptive:
             hmax = min(max_step, t_end - t)
             if first_step > 0.0:
@@ -766,17 +834,24 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
             tb = t_new  # end of the step as cut at a switching surface
 
             # ---- trial step, then (with switching functions) cut it at the first crossing.
-            # The cut comes before the error test: a step across a kink has a large error
-            # estimate, and testing it first would cost a cascade of rejections per kink.
+            # Without frozen sides the cut comes before the error test (a step across a kink
+            # has a large error estimate, and testing it first would cost a cascade of
+            # rejections per kink) and the step is re-taken up to the root. With frozen sides
+            # the trial integrates one smooth field, so it is error-tested as it is and, if
+            # accepted, truncated at the root on its own interpolant (no re-take).
             shortened = False
+            hd = hs  # size of the step the interpolant R belongs to
             finite = True
             dense_rows = 0  # rows of the interpolant filled for the current step (0: none)
             for attempt in range(9):
                 if attempt > 0:
-                    # Redo the step so that it ends just past the located root.
+                    # Redo the step: cut so that it ends just past the located root, or
+                    # unchanged after a side flip at its start (frozen sides).
+                    if tb < t_new:
+                        shortened = True
                     t_new = tb
                     hs = t_new - t
-                    shortened = True
+                    hd = hs
                     dense_rows = 0
                 err, nf = _step(rhs, method, t, t_new, y, p, hs, K, yt, f, ynew, ev, atol, rtol,
                                 adaptive)
@@ -787,13 +862,15 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                     _eval_into(rhs, t_new, ynew, p, f, K, kf)
                     n_rhs += 1
                 finite = finite and _row_finite(K, kf)
-                if not finite or n_switch == 0:
+                if not finite or n_switch == 0 or (freeze and adaptive and err > 1.0):
                     break
                 switch(t_new, ynew, p, g1)
                 t_base = t
                 for s in range(n_switch):
                     g_base[s] = g0[s]
                 first = -1
+                redo = False
+                dt_ok = 0.0
                 for _sub in range(n_switch + 1):
                     if dense_rows == 0:
                         dense_rows, nf = _dense_prepare(rhs, method, t, y, p, hs, K, yt, f, ynew,
@@ -802,16 +879,17 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                     if dense_rows < m_full:
                         # dop853: cheap Hermite test first, the 7th-order rows only on a hit.
                         first, tb = _find_crossing(switch, R, dense_rows, y, t, hs, p, t_base,
-                                                   g_base, t_new, g1, sgn, n_switch, ym, gm,
+                                                   g_base, t_new, g1, sgn, n_switch, ym, gs,
                                                    ga, gb, gw, True, 0.0)
                         if first < 0:
                             break
                         dense_rows, nf = _dense_prepare(rhs, method, t, y, p, hs, K, yt, f, ynew,
                                                         kf, R, True)
                         n_rhs += nf
+                    dt_ok = _overshoot_tol(K, kf, ynew, atol, rtol, hs)
                     first, tb = _find_crossing(switch, R, dense_rows, y, t, hs, p, t_base,
-                                               g_base, t_new, g1, sgn, n_switch, ym, gm, ga,
-                                               gb, gw, False, rtol * hs)
+                                               g_base, t_new, g1, sgn, n_switch, ym, gs, ga,
+                                               gb, gw, False, dt_ok)
                     if first < 0:
                         break
                     tol = 2.0 * (_ROOT_XTOL_REL * hs + 4.0 * _EPS * abs(tb))
@@ -823,14 +901,33 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                     n_ev += 1
                     sgn[first] = -sgn[first]
                     g0[first] = 0.0
+                    if freeze:
+                        # The step was computed on the old side: redo it on the new one.
+                        p[npar + first] = sgn[first]
+                        redo = True
+                        break
                     t_base = tb
                     _g_at(switch, R, dense_rows, y, t, hs, p, t_base, ym, g_base)
                     first = -1
-                if first < 0 or t_new - tb <= max(rtol * hs,
-                                                  2.0 * (_ROOT_XTOL_REL * hs + 4.0 * _EPS * abs(tb))):
-                    # No crossing, or the step already ends just past the first root: by at
-                    # most rtol * hs, which perturbs the step by O(rtol * hs) for a jump of rhs
-                    # and O((rtol * hs)^2) for a kink.
+                if redo:
+                    tb = t_new
+                    continue
+                if freeze and first >= 0 and t_new - tb > max(
+                        dt_ok, 2.0 * (_ROOT_XTOL_REL * hs + 4.0 * _EPS * abs(tb))):
+                    # Truncate the accepted trial at the root: the end state is the (error
+                    # controlled) interpolant there, and f is evaluated afresh at it.
+                    _dense_eval(R, dense_rows, y, (tb - t) / hd, ynew)
+                    t_new = tb
+                    hs = t_new - t
+                    _eval_into(rhs, t_new, ynew, p, f, K, kf)
+                    n_rhs += 1
+                    finite = _all_finite(ynew) and _row_finite(K, kf)
+                    switch(t_new, ynew, p, g1)
+                    break
+                # No crossing, or the step already ends just past the first root (by at most
+                # dt_ok, see _overshoot_tol).
+                if first < 0 or t_new - tb <= max(
+                        dt_ok, 2.0 * (_ROOT_XTOL_REL * hs + 4.0 * _EPS * abs(tb))):
                     break
 
             if not finite:
@@ -849,24 +946,28 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                 fac11 = err ** expo1
                 fac = fac11 / facold ** beta
                 fac = max(facc2, min(facc1, fac / safe))
-                hnew = hs / fac
+                # hd: the size of the step err belongs to (a truncated step keeps its trial's).
+                hnew = hd / fac
                 if err > 1.0:
                     n_rej += 1
-                    h = hs / min(facc1, fac11 / safe)
+                    h = hd / min(facc1, fac11 / safe)
                     last_rejected = True
                     nonfinite_reject = False
                     continue
 
             # ---- the step [t, t_new] is accepted
             if n_switch > 0:
-                # Register the sides reached at the step end. The FSAL stage needs no
-                # refresh after a cut: it was evaluated at the end point, past the surface.
+                # Register the sides reached at the step end. The stage f(t_new, y_new) that
+                # starts the next step is already the new side's: a re-taken step evaluates
+                # it at its end, past the surface, and a truncated one evaluates it afresh.
                 for s in range(n_switch):
                     sg = _sgn(g1[s])
                     if sg != 0:
                         if sgn[s] != 0 and sg != sgn[s]:
                             n_ev += 1
                         sgn[s] = sg
+                        if freeze:
+                            p[npar + s] = sg
 
             # ---- output instants inside (t, t_new] by dense output
             while j < nt and te[j] <= t_new:
@@ -874,10 +975,11 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                     _write_state(ynew, save, out, j)
                 else:
                     if dense_rows < m_full:
+                        # (never for a truncated step: its rows were completed to find the root)
                         dense_rows, nf = _dense_prepare(rhs, method, t, y, p, hs, K, yt, f, ynew,
                                                         kf, R, True)
                         n_rhs += nf
-                    _dense_eval_save(R, dense_rows, y, (te[j] - t) / hs, save, out, j)
+                    _dense_eval_save(R, dense_rows, y, (te[j] - t) / hd, save, out, j)
                 j += 1
 
             n_acc += 1
@@ -893,7 +995,7 @@ def _integrate_one(rhs, switch, method, y0, p, t0, te, save, out, rtol, atol, ma
                 facold = max(err, 1e-4)
                 if last_rejected:
                     # Hairer: no step growth right after a rejection.
-                    hnew = min(hnew, hs)
+                    hnew = min(hnew, hd)
                 if shortened:
                     # A step cut at a surface says nothing about the step size beyond it; the
                     # size proposed before the cut does.
@@ -926,26 +1028,26 @@ _KERNEL_SIGNATURE = types.void(
     types.float64[:, ::1], types.float64[:, ::1], _F1, types.float64[:, ::1],
     types.int64[::1], types.float64[:, :, ::1],
     types.float64, _F1, types.float64, types.float64, types.int64, types.float64,
-    types.int64, types.int8[::1], types.int64[:, ::1],
+    types.int64, types.boolean, types.int8[::1], types.int64[:, ::1],
 )
 
 
 def _solve_serial(rhs, switch, method, Y0, P, T0, TE, save, out, rtol, atol, max_step,
-                  first_step, max_steps, fixed_h, n_switch, status, counts):
+                  first_step, max_steps, fixed_h, n_switch, freeze, status, counts):
     for i in range(Y0.shape[0]):
         te = TE[0] if TE.shape[0] == 1 else TE[i]
         status[i] = _integrate_one(rhs, switch, method, Y0[i], P[i], T0[i], te, save, out[i],
                                    rtol, atol, max_step, first_step, max_steps, fixed_h,
-                                   n_switch, counts[i])
+                                   n_switch, freeze, counts[i])
 
 
 def _solve_parallel(rhs, switch, method, Y0, P, T0, TE, save, out, rtol, atol, max_step,
-                    first_step, max_steps, fixed_h, n_switch, status, counts):
+                    first_step, max_steps, fixed_h, n_switch, freeze, status, counts):
     for i in prange(Y0.shape[0]):
         te = TE[0] if TE.shape[0] == 1 else TE[i]
         status[i] = _integrate_one(rhs, switch, method, Y0[i], P[i], T0[i], te, save, out[i],
                                    rtol, atol, max_step, first_step, max_steps, fixed_h,
-                                   n_switch, counts[i])
+                                   n_switch, freeze, counts[i])
 
 
 _KERNELS: dict[bool, Any] = {}
@@ -1052,7 +1154,7 @@ def _check_numba_function(fn: Any, name: str) -> None:
         )
 
 
-def _probe(fn: Any, name: str, t: float, y: np.ndarray, p: np.ndarray, n_out: int) -> None:
+def _probe(fn: Any, name: str, t: float, y: np.ndarray, p: np.ndarray, n_out: int) -> np.ndarray:
     """Call fn once from Python so that signature problems surface as a clear TypeError."""
     out = np.zeros(n_out)
     try:
@@ -1069,6 +1171,7 @@ def _probe(fn: Any, name: str, t: float, y: np.ndarray, p: np.ndarray, n_out: in
             f"solve_batch: {name} returned {type(ret).__name__}; it must return None and "
             "write its values into its last argument"
         )
+    return out
 
 
 def _as_float_array(x: Any, name: str) -> np.ndarray:
@@ -1102,6 +1205,7 @@ def solve_batch(
     n_switch: int = 0,
     save: Any = None,
     parallel: bool = True,
+    freeze_sides: bool = False,
 ) -> ODEResult:
     """Integrate many independent ODE samples with an embedded Runge-Kutta method.
 
@@ -1152,6 +1256,14 @@ def solve_batch(
     parallel : bool, optional
         Run the samples in parallel threads (numba ``prange``). Results are bit-identical
         to ``parallel=False`` because samples do not interact.
+    freeze_sides : bool, optional
+        With ``switch``: pass ``rhs`` and ``switch`` a parameter vector extended by
+        ``n_switch`` entries, ``p[n_par + k]`` = side of switching function k at the start
+        of the current step (+1.0 or -1.0; 0.0 while unknown because g was exactly 0). They
+        stay constant within a step and flip only at located crossings. An ``rhs`` that
+        picks its branch from them (falling back to the state when the side is 0) sees one
+        smooth vector field per step, so no Runge-Kutta stage straddles a surface; see
+        docs/ode.md for why this matters most for dop853.
 
     Returns
     -------
@@ -1270,6 +1382,10 @@ def solve_batch(
                     "when switch= is passed")
     if switch is not None:
         _check_numba_function(switch, "switch")
+    if not isinstance(freeze_sides, bool | np.bool_):
+        raise _fail("freeze_sides", freeze_sides, "must be True or False")
+    if freeze_sides and switch is None:
+        raise _fail("freeze_sides", freeze_sides, "needs switch= and n_switch > 0")
 
     # ---- stored components
     if save is None:
@@ -1284,9 +1400,14 @@ def solve_batch(
         save_a = np.ascontiguousarray(save_a, dtype=np.int64)
 
     # ---- probe the user functions from Python (clear errors instead of numba tracebacks)
-    _probe(rhs, "rhs", t0a[0], y0a[0], pa[0], n_state)
+    p_probe = pa[0]
     if switch is not None:
-        _probe(switch, "switch", t0a[0], y0a[0], pa[0], int(n_switch))
+        if freeze_sides:
+            p_probe = np.concatenate([pa[0], np.zeros(int(n_switch))])
+        g_probe = _probe(switch, "switch", t0a[0], y0a[0], p_probe, int(n_switch))
+        if freeze_sides:
+            p_probe[pa.shape[1]:] = np.sign(g_probe)
+    _probe(rhs, "rhs", t0a[0], y0a[0], p_probe, n_state)
 
     # ---- run
     n_t = te2.shape[1]
@@ -1297,7 +1418,7 @@ def solve_batch(
     kernel(rhs, switch if switch is not None else _no_switch, _METHOD_CODE[method],
            y0a, np.ascontiguousarray(pa), t0a, te2, save_a, out, float(rtol), atol_vec,
            float(max_step), float(first_step), int(max_steps), fixed_h, int(n_switch),
-           status, counts)
+           bool(freeze_sides), status, counts)
 
     return ODEResult(
         y=out,
@@ -1317,6 +1438,7 @@ def solve_batch(
             "max_steps": int(max_steps),
             "fixed_step": None if fixed_step is None else float(fixed_step),
             "n_switch": int(n_switch),
+            "freeze_sides": bool(freeze_sides),
             "parallel": bool(parallel),
             "rhs": getattr(rhs, "__qualname__", repr(rhs)),
             "switch": None if switch is None else getattr(switch, "__qualname__", repr(switch)),

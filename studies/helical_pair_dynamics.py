@@ -72,8 +72,9 @@ def main(out: Path, n_rpm: float = 3600.0, torque: float = 2600.0, periods: int 
             peaks, amps = signal.dominant_frequencies(f, a, n=3)
             orders = ", ".join(f"{p * period:.3f} ({q:.3g})" for p, q in zip(peaks, amps,
                                                                               strict=True))
-            print(f"  {name:<9} rms {signal.rms(ds[f'p{i}'].values[0][tau >= t_start], center=True):.4f}"
-                  f"  p-p {signal.peak_to_peak(ds[f'p{i}'].values[0][tau >= t_start]):.4f}"
+            steady = ds[f"p{i}"].values[0][tau >= t_start]
+            print(f"  {name:<9} rms {signal.rms(steady, center=True):.4f}"
+                  f"  p-p {signal.peak_to_peak(steady):.4f}"
                   f"  response: {cls.label:<15} peaks at mesh orders {orders}")
     print(f"written: {out}")
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from gearuq.model import Evaluation, Model, Output, Parameter
+from gearuq.model import Model, Output, Parameter
 
 __all__ = ["HelicalPair", "DOFS", "SEED_TABLE2"]
 
@@ -80,10 +80,10 @@ _PARAMETERS = (
 
 def _outputs() -> tuple[Output, ...]:
     outs = []
-    for i, (name, unit, meaning) in enumerate(DOFS):
+    for i, (_, _, meaning) in enumerate(DOFS):
         outs.append(Output(f"p{i + 1}", "1", ("sample", "time"),
                            f"nondimensional {meaning} (seed p{i + 1})"))
-    for i, (name, unit, meaning) in enumerate(DOFS):
+    for i in range(len(DOFS)):
         outs.append(Output(f"dp{i + 1}", "1", ("sample", "time"),
                            f"nondimensional velocity d p{i + 1} / d tau"))
     for name, unit, meaning in DOFS:
@@ -212,11 +212,12 @@ class HelicalPair(Model):
             ``state_names`` (p1..p10, dp1..dp10). Time is nondimensional tau.
         """
         from gearuq_plugins.helical_pair import kernel
+        from gearuq_plugins.helical_pair.layout import N_SWITCH
         from gearuq_plugins.helical_pair.physics import rhs_numpy
 
         coef, _ = self.coefficients(self.validate_params(params))
         return {
-            "rhs": kernel.rhs, "switch": kernel.switch, "n_switch": kernel.N_SWITCH,
+            "rhs": kernel.rhs, "switch": kernel.switch, "n_switch": N_SWITCH,
             "rhs_numpy": rhs_numpy,
             "y0": self.initial_state(coef, initial), "coef": coef,
             "state_names": [f"p{i + 1}" for i in range(10)] + [f"dp{i + 1}" for i in range(10)],

@@ -9,31 +9,25 @@ the length scale L; rotations as pitch-radius arc lengths). Per-sample coefficie
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
-
 from gearuq_plugins.helical_pair.layout import (
-    N_DOF,
-    N_STATE,
-    MAX_HARMONICS,
-    I_OMEGA,
-    I_S,
+    I_B5,
+    I_BETA,
     I_EPS0,
     I_EPSA,
-    I_PHI,
-    I_ZETA,
-    I_V,
-    I_MU,
     I_ETA,
-    I_XI,
-    I_BETA,
-    I_B5,
     I_G,
-    I_NHARM,
     I_HARM,
-    N_COEF,
-    N_SWITCH,
+    I_MU,
+    I_NHARM,
+    I_OMEGA,
+    I_PHI,
+    I_S,
+    I_V,
+    I_XI,
+    I_ZETA,
+    N_DOF,
 )
-
+from numba import njit
 
 
 @njit(cache=True, inline="always")

@@ -10,8 +10,6 @@ import math
 from typing import Any
 
 import numpy as np
-
-from gearuq.model import Evaluation
 from gearuq_plugins.helical_pair.layout import (
     I_B5,
     I_BETA,
@@ -31,7 +29,10 @@ from gearuq_plugins.helical_pair.layout import (
     N_COEF,
     N_DOF,
     N_STATE,
+    N_SWITCH,
 )
+
+from gearuq.model import Evaluation
 
 _GEOMETRY_KEYS = ("z1", "z2", "m_n", "beta", "alpha_n", "x_shift_p", "x_shift_g", "C_R")
 
@@ -291,8 +292,9 @@ def simulate(
     extra: dict[str, tuple] = {}
     save = _needed_states(outputs)
     if save.size:
-        from gearuq.ode import solve_batch
         from gearuq_plugins.helical_pair import kernel
+
+        from gearuq.ode import solve_batch
 
         if t.size == 0:
             raise ValueError("t: give output instants for time-dependent outputs")
@@ -304,7 +306,7 @@ def simulate(
             kernel.rhs, y0, coef, tau, t0=0.0, method=method, rtol=rtol, atol=atol,
             max_step=max_step, max_steps=max_steps, fixed_step=fixed_step,
             switch=kernel.switch if events else None,
-            n_switch=kernel.N_SWITCH if events else 0, save=save, parallel=parallel,
+            n_switch=N_SWITCH if events else 0, save=save, parallel=parallel,
         )
         status[:] = res.status
         attrs.update({f"solver_{k}": v for k, v in res.settings().items()})
