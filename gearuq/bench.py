@@ -5,9 +5,11 @@ built-in parameter space, tau in [0, 200]: for rtol from 1e-3 to 1e-10, time per
 one core and the error against a tight reference (gearuq DOP853 with located switchings,
 rtol 1e-12, itself cross-checked against scipy DOP853 at rtol 1e-12), for
 
-- gearuq Dormand-Prince 5(4) with located switching instants (the default),
+- gearuq Dormand-Prince 5(4) with located switching instants, stages on the branch frozen
+  at the step start and the step cut at the crossing (the default), and with the step
+  re-taken up to the crossing instead,
 - the same stepping across the kinks (no event location),
-- gearuq DOP853 with located switchings,
+- gearuq DOP853 with located switchings and frozen sides,
 - scipy ``solve_ivp`` RK45, a per-sample Python loop with the model's plain-NumPy
   right-hand side (the usual baseline), and the same loop calling the compiled rhs,
 - numbalsoda LSODA and DOP853 where the package is installed (it needs a Fortran compiler).
@@ -124,18 +126,20 @@ def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
     rhs, switch, n_switch = prob["rhs"], prob["switch"], prob["n_switch"]
     save = np.arange(10)
 
-    def gearuq_run(method, rtol, events, parallel=False, idx=None):
+    def gearuq_run(method, rtol, events, parallel=False, idx=None, frozen=False):
         sel = slice(None) if idx is None else idx
-        res = solve_batch(rhs, prob["y0"][sel], prob["coef"][sel], t_eval, method=method,
+        res = solve_batch(prob["rhs_sides"] if frozen else rhs, prob["y0"][sel],
+                          prob["coef"][sel], t_eval, method=method,
                           rtol=rtol, atol=rtol * 1e-2, switch=switch if events else None,
                           n_switch=n_switch if events else 0, save=save, parallel=parallel,
-                          max_steps=5_000_000)
+                          max_steps=5_000_000, freeze_sides=frozen)
         return res
 
     # warm up (load compiled kernels from the cache, or compile) before any timing
     gearuq_run("dopri5", 1e-3, True, idx=[0])
     gearuq_run("dop853", 1e-3, True, idx=[0])
     gearuq_run("dopri5", 1e-3, False, idx=[0])
+    gearuq_run("dopri5", 1e-3, True, idx=[0], frozen=True)
     t_ref, ref_res = _timed(lambda: gearuq_run("dop853", 1e-12, True))
     ref = ref_res.y
     scipy_idx = list(range(min(n_scipy, n_samples)))
@@ -149,10 +153,14 @@ def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
                      "error": _error(y, ref_rows), "n_samples": n, **extra})
 
     for rtol in rtols:
-        for label, meth, events in (("gearuq DOPRI5 + events", "dopri5", True),
-                                    ("gearuq DOPRI5 no events", "dopri5", False),
-                                    ("gearuq DOP853 + events", "dop853", True)):
-            sec, res = _timed(lambda m=meth, e=events, r=rtol: gearuq_run(m, r, e), repeat=2)
+        for label, meth, events, frozen in (
+                ("gearuq DOPRI5 + events (frozen sides)", "dopri5", True, True),
+                ("gearuq DOPRI5 + events (re-take)", "dopri5", True, False),
+                ("gearuq DOPRI5 no events", "dopri5", False, False),
+                ("gearuq DOP853 + events (frozen sides)", "dop853", True, True)):
+            sec, res = _timed(lambda m=meth, e=events, r=rtol, f=frozen: gearuq_run(m, r, e,
+                                                                                   frozen=f),
+                              repeat=2)
             add(label, rtol, sec, n_samples, res.y, ref,
                 steps=float(res.n_steps.mean()), events=float(res.n_events.mean()),
                 failed=int((res.status != 0).sum()))
@@ -171,8 +179,9 @@ def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
             sec, y = _timed(lambda r=rtol, g=go: g(list(range(n_samples)), t_eval, r, r * 1e-2))
             add(label, rtol, sec, n_samples, y, ref)
     # the parallel throughput actually used by studies
-    sec, res = _timed(lambda: gearuq_run("dopri5", 1e-6, True, parallel=True), repeat=2)
-    parallel_row = {"method": "gearuq DOPRI5 + events, all cores", "rtol": 1e-6,
+    sec, res = _timed(lambda: gearuq_run("dopri5", 1e-6, True, parallel=True, frozen=True),
+                      repeat=2)
+    parallel_row = {"method": "gearuq DOPRI5 + events (frozen sides), all cores", "rtol": 1e-6,
                     "time_per_sample": sec / n_samples, "error": _error(res.y, ref)}
     return {"rows": rows, "parallel": parallel_row, "reference_time_per_sample": t_ref / n_samples,
             "reference_vs_scipy_dop853": ref_check, "n_samples": n_samples,

@@ -33,11 +33,12 @@ into the integrator; docs/ode.md gives the measured cost.
 Switching surfaces
 ------------------
 With ``switch`` and ``n_switch > 0`` the kernel watches ``n_switch`` switching functions
-``g(t, y, p)``. When a component changes sign within a step (tested at the step end and at
-the interpolated midpoint), the first root is located on the dense-output interpolant by
-Brent's method and the step is re-taken so that it ends just past the root (re-located on
-the re-taken step until it ends within a tolerance of it). This keeps the order of the method
-for piecewise-smooth right-hand sides (dead zones, backlash, clearances). With
+``g(t, y, p)``. When a component changes sign within a step (tested at the step end, at the
+interpolated quarter points, and at the predicted extremum of g where g comes close to the
+surface), the first root is located on the dense-output interpolant by Brent's method and
+the step is re-taken so that it ends just past the root (re-located on the re-taken step
+until it ends within a tolerance of it). This keeps the order of the method for
+piecewise-smooth right-hand sides (dead zones, backlash, clearances). With
 ``freeze_sides=True`` the rhs can read the side of every surface from ``p`` and evaluate all
 stages of a step on one side; the trial step is then smooth, error-tested as it is and
 truncated at the root on its own interpolant, which halves the cost per event. See
@@ -620,15 +621,15 @@ def _find_crossing(switch, R, m, y, t, hs, p, t_base, g_base, t_new, g1, sgn, n_
     """First sign change of the switching functions in (t_base, t_new] of the current step.
 
     g is sampled on the interpolant at the quarter points of (t_base, t_new] and at the end
-    (gs rows 0..4, row 0 = g_base). A component that keeps its side at all five samples but
-    comes closest to the surface at an interior one is sampled once more where the parabola
-    through that sample and its neighbours has its extremum, if the parabola gets within a
-    quarter of the way to the surface: that catches an excursion across the surface and back
-    between two samples. Returns ``(comp, tb)``: comp = -1 when no crossing was found;
-    otherwise the component whose root comes first and the end of its root bracket that lies
-    past the surface. With ``detect_only`` the roots are not located (comp = 0 then just means
-    "some crossing"). A root closer than ``dt_ok`` to the end of its bracket is accepted
-    without a search.
+    (gs rows 0..4, row 0 = g_base). Where the parabola through three consecutive samples of a
+    component that keeps its side has its extremum between them and comes within a quarter
+    of the way to the surface, g is sampled once more at that extremum: that catches an
+    excursion across the surface and back between two samples.
+
+    Returns ``(comp, tb)``: comp = -1 when no crossing was found; otherwise the component
+    whose root comes first and the end of its root bracket that lies past the surface. With
+    ``detect_only`` the roots are not located (comp = 0 then just means "some crossing"). A
+    root closer than ``dt_ok`` to the end of its bracket is accepted without a search.
     """
     span = t_new - t_base
     for s in range(n_switch):
@@ -660,16 +661,18 @@ def _find_crossing(switch, R, m, y, t, hs, p, t_base, g_base, t_new, g1, sgn, n_
         for s in range(n_switch):
             if sgn[s] == 0:
                 continue
+            # Distances to the surface (positive on the current side) at samples k-1, k, k+1.
             a0 = gs[k - 1, s] * sgn[s]
             a1 = gs[k, s] * sgn[s]
             a2 = gs[k + 1, s] * sgn[s]
-            if not (0.0 < a1 < a0 and a1 < a2):
-                continue
             c1 = 0.5 * (a2 - a0)
             c2 = 0.5 * (a0 + a2) - a1
-            if a1 - c1 * c1 / (4.0 * c2) >= 0.25 * a1:
+            if not (a0 > 0.0 and a1 > 0.0 and a2 > 0.0 and c2 > 0.0):
                 continue
-            tv = t_base + 0.25 * (k - c1 / (2.0 * c2)) * span
+            uv = -c1 / (2.0 * c2)  # minimum of the parabola, in quarters from sample k
+            if abs(uv) > 1.0 or a1 - c1 * c1 / (4.0 * c2) >= 0.25 * min(a0, a1, a2):
+                continue
+            tv = t_base + 0.25 * (k + uv) * span
             if found and tv >= tb:
                 continue
             _g_at(switch, R, m, y, t, hs, p, tv, ym, gw)
@@ -1034,6 +1037,7 @@ _KERNEL_SIGNATURE = types.void(
 
 def _solve_serial(rhs, switch, method, Y0, P, T0, TE, save, out, rtol, atol, max_step,
                   first_step, max_steps, fixed_h, n_switch, freeze, status, counts):
+    """Serial loop over the samples (TE has one row shared by all, or one row per sample)."""
     for i in range(Y0.shape[0]):
         te = TE[0] if TE.shape[0] == 1 else TE[i]
         status[i] = _integrate_one(rhs, switch, method, Y0[i], P[i], T0[i], te, save, out[i],
@@ -1043,6 +1047,7 @@ def _solve_serial(rhs, switch, method, Y0, P, T0, TE, save, out, rtol, atol, max
 
 def _solve_parallel(rhs, switch, method, Y0, P, T0, TE, save, out, rtol, atol, max_step,
                     first_step, max_steps, fixed_h, n_switch, freeze, status, counts):
+    """The same loop with prange; samples share nothing, so results equal the serial ones."""
     for i in prange(Y0.shape[0]):
         te = TE[0] if TE.shape[0] == 1 else TE[i]
         status[i] = _integrate_one(rhs, switch, method, Y0[i], P[i], T0[i], te, save, out[i],
@@ -1218,7 +1223,9 @@ def solve_batch(
     rhs : numba dispatcher
         ``@njit`` function ``rhs(t, y, p, dydt) -> None`` writing dy/dt into ``dydt``. It
         must compile for ``(float64, float64[::1], float64[::1], float64[::1])``. Decorate
-        it with ``cache=True`` to skip its compilation in later processes.
+        it with ``cache=True`` to skip its compilation in later processes, and with
+        ``error_model="numpy"`` so that a division by zero yields inf/nan (that sample then
+        stops with ``STATUS_NONFINITE``) instead of raising and aborting the batch.
     y0 : array_like, shape (n_samples, n_state)
         Initial states; must be finite.
     params : array_like, shape (n_samples, n_par)
@@ -1275,6 +1282,9 @@ def solve_batch(
         On invalid arguments; the message names the argument, its value and the valid range.
     TypeError
         When ``rhs`` or ``switch`` is not a numba function of the required signature.
+    RuntimeError
+        When ``rhs`` or ``switch`` raised inside the kernel (e.g. ZeroDivisionError under
+        numba's default error model); use ``@njit(error_model="numpy")`` to avoid it.
 
     Notes
     -----
@@ -1282,9 +1292,12 @@ def solve_batch(
     are NaN and ``status`` tells why. Failures never raise and never affect other samples.
 
     Event location finds a crossing when a switching function has changed sign at the end
-    of an accepted step or at the interpolated midpoint of the step. A touch that does not
-    cross (grazing) is not an event; a crossing and re-crossing both inside one half-step
-    is missed, which only a smaller ``max_step`` prevents.
+    of a step, at one of its interpolated quarter points, or at the extremum of the parabola
+    through three samples where g comes close to the surface. A touch that does not cross
+    (grazing) is not an event; an excursion across the surface and back that falls between
+    two samples and is not revealed by the parabola is missed, which only a smaller
+    ``max_step`` prevents. The number of events counts sign changes (two surfaces crossed at
+    once count two).
     """
     # ---- functions and method
     _check_numba_function(rhs, "rhs")
@@ -1415,10 +1428,20 @@ def solve_batch(
     status = np.zeros(n_samples, dtype=np.int8)
     counts = np.zeros((n_samples, 4), dtype=np.int64)
     kernel = _get_kernel(bool(parallel))
-    kernel(rhs, switch if switch is not None else _no_switch, _METHOD_CODE[method],
-           y0a, np.ascontiguousarray(pa), t0a, te2, save_a, out, float(rtol), atol_vec,
-           float(max_step), float(first_step), int(max_steps), fixed_h, int(n_switch),
-           bool(freeze_sides), status, counts)
+    try:
+        kernel(rhs, switch if switch is not None else _no_switch, _METHOD_CODE[method],
+               y0a, np.ascontiguousarray(pa), t0a, te2, save_a, out, float(rtol), atol_vec,
+               float(max_step), float(first_step), int(max_steps), fixed_h, int(n_switch),
+               bool(freeze_sides), status, counts)
+    except Exception as exc:
+        # Only user code can raise in the kernel (numba's default error model raises
+        # ZeroDivisionError on float division by zero), and it aborts the whole batch.
+        raise RuntimeError(
+            f"solve_batch: rhs or switch raised {type(exc).__name__}: {exc}. An exception in "
+            "the compiled kernel aborts the whole batch: compile rhs and switch with "
+            "@njit(error_model='numpy') so that a division by zero gives inf/nan and only "
+            "that sample stops, with STATUS_NONFINITE."
+        ) from exc
 
     return ODEResult(
         y=out,

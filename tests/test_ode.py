@@ -88,6 +88,24 @@ def quad_rhs(t, y, p, d):
         d[0] = math.nan
 
 
+@njit(cache=True)
+def level_switch(t, y, p, g):
+    g[0] = y[0] - p[7]
+
+
+@njit(cache=True)
+def zero_division_rhs(t, y, p, d):
+    """Raises ZeroDivisionError under numba's default error model once t > p[0]."""
+    z = 0.0 if t > p[0] else 1.0
+    d[0] = 1.0 / z
+
+
+@njit(cache=True, error_model="numpy")
+def zero_division_rhs_numpy(t, y, p, d):
+    z = 0.0 if t > p[0] else 1.0
+    d[0] = 1.0 / z
+
+
 def not_jitted(t, y, p, d):
     d[0] = 0.0
 
@@ -398,6 +416,20 @@ def test_grazing_orbit(excess, frozen):
     assert res.n_events[0] <= 2 * ex.n_switches
 
 
+@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+def test_short_excursions_inside_long_steps_are_found(method):
+    # x = cos t crosses the level cos(0.1) twice around every maximum, 0.2 apart: far less
+    # than the step sizes (dop853 takes steps near 1 here), so only the interior samples and
+    # the parabola check see these excursions.
+    level = math.cos(0.1)
+    params = np.array([[1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, level]])
+    res = solve_batch(dz_rhs, np.array([[1.0, 0.0]]), params, [0.0, 20.0], method=method,
+                      rtol=1e-6, switch=level_switch, n_switch=1, parallel=False)
+    crossings = [0.1] + [2 * math.pi * k + d for k in (1, 2, 3) for d in (-0.1, 0.1)]
+    assert res.n_events[0] == sum(c <= 20.0 for c in crossings) == 7
+    assert res.y[0, -1, 0] == pytest.approx(math.cos(20.0), abs=1e-5)
+
+
 # --------------------------------------------------------------------------------------------
 # 4. Failure statuses
 # --------------------------------------------------------------------------------------------
@@ -434,6 +466,16 @@ def test_fixed_step_overflow_gives_nonfinite_status():
                       fixed_step=0.01, parallel=False)
     assert res.status[0] == STATUS_NONFINITE
     assert res.y[0, 1, 0] == pytest.approx(2.0, rel=1e-6) and np.isnan(res.y[0, 2, 0])
+
+
+def test_exception_in_rhs_is_reported_and_numpy_error_model_avoids_it():
+    params = np.array([[0.5], [5.0]])
+    with pytest.raises(RuntimeError, match="error_model='numpy'"):
+        solve_batch(zero_division_rhs, np.zeros((2, 1)), params, [0.0, 1.0], parallel=False)
+    res = solve_batch(zero_division_rhs_numpy, np.zeros((2, 1)), params, [0.0, 0.4, 1.0],
+                      parallel=False)
+    assert res.status.tolist() == [STATUS_NONFINITE, STATUS_OK]
+    assert res.y[0, 1, 0] == pytest.approx(0.4) and np.isnan(res.y[0, 2, 0])
 
 
 def test_step_limit():

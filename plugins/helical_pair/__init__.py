@@ -208,6 +208,7 @@ class HelicalPair(Model):
         dict
             ``rhs`` and ``switch`` (numba functions ``f(tau, y, p, out)``), ``n_switch``,
             ``rhs_numpy`` (the same equations in plain NumPy, ``f(tau, y, p) -> dy``),
+            ``rhs_sides`` (the rhs for ``solve_batch(..., freeze_sides=True)``),
             ``y0`` (n, 20) initial states, ``coef`` (n, N_COEF) per-sample coefficients and
             ``state_names`` (p1..p10, dp1..dp10). Time is nondimensional tau.
         """
@@ -218,6 +219,7 @@ class HelicalPair(Model):
         coef, _ = self.coefficients(self.validate_params(params))
         return {
             "rhs": kernel.rhs, "switch": kernel.switch, "n_switch": N_SWITCH,
+            "rhs_sides": kernel.rhs_sides,
             "rhs_numpy": rhs_numpy,
             "y0": self.initial_state(coef, initial), "coef": coef,
             "state_names": [f"p{i + 1}" for i in range(10)] + [f"dp{i + 1}" for i in range(10)],

@@ -25,6 +25,7 @@ from gearuq_plugins.helical_pair.layout import (
     I_V,
     I_XI,
     I_ZETA,
+    N_COEF,
     N_DOF,
 )
 from numba import njit
@@ -78,6 +79,43 @@ def rhs(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
         dydt[N_DOF + i] = (
             p[I_G + i]
             - p[I_ETA + i] * dead_zone(q, p[I_BETA + i])
+            - p[I_XI + i] * dq
+            - p[I_V + i] * p[I_MU + i] * fm
+        )
+
+
+@njit(cache=True, inline="always")
+def dead_zone_sided(x: float, b: float, side_hi: float, side_lo: float) -> float:
+    """Dead zone evaluated on the branch given by the frozen sides of x - b and x + b.
+
+    The sides come from the integrator (``freeze_sides=True``): they are constant within a
+    step, so every Runge-Kutta stage uses one smooth branch even if a stage overshoots the
+    kink. A side of 0 (unknown, g exactly 0) falls back to the state.
+    """
+    if side_hi > 0.0:
+        return x - b
+    if side_lo < 0.0:
+        return x + b
+    if side_hi < 0.0 and side_lo > 0.0:
+        return 0.0
+    return dead_zone(x, b)
+
+
+@njit(cache=True)
+def rhs_sides(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
+    """dy/dtau like :func:`rhs`, branches taken from the frozen sides ``p[N_COEF + k]``."""
+    d, dd = mesh_deflection(tau, y, p)
+    s = N_COEF
+    fm = stiffness_factor(tau, p) * dead_zone_sided(d, p[I_B5], p[s], p[s + 1]) \
+        + 2.0 * p[I_ZETA] * dd
+    for i in range(N_DOF):
+        q = y[i]
+        dq = y[N_DOF + i]
+        dydt[i] = dq
+        dydt[N_DOF + i] = (
+            p[I_G + i]
+            - p[I_ETA + i] * dead_zone_sided(q, p[I_BETA + i], p[s + 2 + 2 * i],
+                                             p[s + 3 + 2 * i])
             - p[I_XI + i] * dq
             - p[I_V + i] * p[I_MU + i] * fm
         )

@@ -260,6 +260,7 @@ def simulate(
     max_steps: int = 2_000_000,
     fixed_step: float | None = None,
     events: bool = True,
+    freeze_sides: bool = True,
     initial: str = "static",
     parallel: bool = True,
 ) -> Evaluation:
@@ -274,6 +275,10 @@ def simulate(
         Integrator settings (see :func:`gearuq.ode.solve_batch`).
     events : bool
         Locate every dead-zone switching instant (default) or step across the kinks.
+    freeze_sides : bool
+        With events: evaluate every stage of a step on the branch of the dead zones that
+        holds at the step start (``kernel.rhs_sides``), so no stage straddles a kink; the
+        step is cut at the located crossing (default; keeps DOP853 at its order).
     initial : {"static", "zero"}
         Initial state (see :func:`initial_state`).
     """
@@ -302,11 +307,13 @@ def simulate(
             raise ValueError(f"t: instants must be >= 0 (start of the run), got {t[0]}")
         tau = t[None, :] * omega_n[:, None] if time == "s" else t
         y0 = initial_state(coef, initial)
+        frozen = bool(events and freeze_sides)
         res = solve_batch(
-            kernel.rhs, y0, coef, tau, t0=0.0, method=method, rtol=rtol, atol=atol,
-            max_step=max_step, max_steps=max_steps, fixed_step=fixed_step,
-            switch=kernel.switch if events else None,
+            kernel.rhs_sides if frozen else kernel.rhs, y0, coef, tau, t0=0.0, method=method,
+            rtol=rtol, atol=atol, max_step=max_step, max_steps=max_steps,
+            fixed_step=fixed_step, switch=kernel.switch if events else None,
             n_switch=N_SWITCH if events else 0, save=save, parallel=parallel,
+            freeze_sides=frozen,
         )
         status[:] = res.status
         attrs.update({f"solver_{k}": v for k, v in res.settings().items()})
