@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-from gearuq_plugins.helical_pair import DOFS, kernel
-from gearuq_plugins.helical_pair.layout import I_B5, I_ETA, I_MU, I_V, I_XI, I_ZETA, N_DOF
 
 import gearuq
 from gearuq.testing import check_model
+from gearuq_plugins.helical_pair import DOFS, kernel
+from gearuq_plugins.helical_pair.layout import I_B5, I_ETA, I_MU, I_V, I_XI, I_ZETA, N_DOF
 
 SI_DOFS = [d[0] for d in DOFS]
 

@@ -9,9 +9,12 @@ the length scale L; rotations as pitch-radius arc lengths). Per-sample coefficie
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
+
 from gearuq_plugins.helical_pair.layout import (
     I_B5,
     I_BETA,
+    I_CPHI,
     I_EPS0,
     I_EPSA,
     I_ETA,
@@ -22,13 +25,13 @@ from gearuq_plugins.helical_pair.layout import (
     I_OMEGA,
     I_PHI,
     I_S,
+    I_SPHI,
     I_V,
     I_XI,
     I_ZETA,
     N_COEF,
     N_DOF,
 )
-from numba import njit
 
 
 @njit(cache=True, inline="always")
@@ -42,25 +45,35 @@ def dead_zone(x: float, b: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def stiffness_factor(tau: float, p: np.ndarray) -> float:
-    """k(tau) / k_m: seed form 1 + s cos(Omega tau), or a Fourier series (Eq. 6)."""
+def excitation(tau: float, p: np.ndarray) -> tuple[float, float, float]:
+    """kappa = k(tau)/k_m, eps = e/L and d eps/d tau from one sin/cos pair of Omega tau.
+
+    kappa is the seed form 1 + s cos(Omega tau) or the Fourier series of Eq. 6 (harmonics by
+    the angle-addition recurrence); the error phase enters through precomputed cos/sin(phi).
+    """
     om = p[I_OMEGA]
+    c1 = np.cos(om * tau)
+    s1 = np.sin(om * tau)
     nh = int(p[I_NHARM])
     if nh == 0:
-        return 1.0 + p[I_S] * np.cos(om * tau)
-    kappa = 1.0
-    for j in range(nh):
-        h = (j + 1) * om * tau
-        kappa += p[I_HARM + 2 * j] * np.cos(h) + p[I_HARM + 2 * j + 1] * np.sin(h)
-    return kappa
+        kappa = 1.0 + p[I_S] * c1
+    else:
+        kappa = 1.0
+        cj, sj = c1, s1
+        for j in range(nh):
+            kappa += p[I_HARM + 2 * j] * cj + p[I_HARM + 2 * j + 1] * sj
+            cj, sj = cj * c1 - sj * s1, sj * c1 + cj * s1
+    ea = p[I_EPSA]
+    eps = p[I_EPS0] + ea * (s1 * p[I_CPHI] + c1 * p[I_SPHI])
+    deps = ea * om * (c1 * p[I_CPHI] - s1 * p[I_SPHI])
+    return kappa, eps, deps
 
 
 @njit(cache=True, inline="always")
-def mesh_deflection(tau: float, y: np.ndarray, p: np.ndarray) -> tuple[float, float]:
-    """Nondimensional mesh deflection d = v.q - eps(tau) and its rate."""
-    ph = p[I_OMEGA] * tau + p[I_PHI]
-    d = -(p[I_EPS0] + p[I_EPSA] * np.sin(ph))
-    dd = -p[I_EPSA] * p[I_OMEGA] * np.cos(ph)
+def mesh_deflection(y: np.ndarray, p: np.ndarray, eps: float, deps: float) -> tuple[float, float]:
+    """Nondimensional mesh deflection d = v.q - eps and its rate."""
+    d = -eps
+    dd = -deps
     for i in range(N_DOF):
         d += p[I_V + i] * y[i]
         dd += p[I_V + i] * y[N_DOF + i]
@@ -70,8 +83,9 @@ def mesh_deflection(tau: float, y: np.ndarray, p: np.ndarray) -> tuple[float, fl
 @njit(cache=True)
 def rhs(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
     """dy/dtau of the nondimensional equations of motion."""
-    d, dd = mesh_deflection(tau, y, p)
-    fm = stiffness_factor(tau, p) * dead_zone(d, p[I_B5]) + 2.0 * p[I_ZETA] * dd
+    kappa, eps, deps = excitation(tau, p)
+    d, dd = mesh_deflection(y, p, eps, deps)
+    fm = kappa * dead_zone(d, p[I_B5]) + 2.0 * p[I_ZETA] * dd
     for i in range(N_DOF):
         q = y[i]
         dq = y[N_DOF + i]
@@ -104,10 +118,10 @@ def dead_zone_sided(x: float, b: float, side_hi: float, side_lo: float) -> float
 @njit(cache=True)
 def rhs_sides(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
     """dy/dtau like :func:`rhs`, branches taken from the frozen sides ``p[N_COEF + k]``."""
-    d, dd = mesh_deflection(tau, y, p)
+    kappa, eps, deps = excitation(tau, p)
+    d, dd = mesh_deflection(y, p, eps, deps)
     s = N_COEF
-    fm = stiffness_factor(tau, p) * dead_zone_sided(d, p[I_B5], p[s], p[s + 1]) \
-        + 2.0 * p[I_ZETA] * dd
+    fm = kappa * dead_zone_sided(d, p[I_B5], p[s], p[s + 1]) + 2.0 * p[I_ZETA] * dd
     for i in range(N_DOF):
         q = y[i]
         dq = y[N_DOF + i]
@@ -124,7 +138,10 @@ def rhs_sides(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> Non
 @njit(cache=True)
 def switch(tau: float, y: np.ndarray, p: np.ndarray, g: np.ndarray) -> None:
     """Switching functions: kinks of the mesh and support dead zones (1.0 where inactive)."""
-    d, _ = mesh_deflection(tau, y, p)
+    # only d is needed here: one sin instead of the rhs's sin/cos pair
+    d = -(p[I_EPS0] + p[I_EPSA] * np.sin(p[I_OMEGA] * tau + p[I_PHI]))
+    for i in range(N_DOF):
+        d += p[I_V + i] * y[i]
     b5 = p[I_B5]
     if b5 > 0.0:
         g[0] = d - b5

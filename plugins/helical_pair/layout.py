@@ -20,6 +20,8 @@ I_B5 = I_BETA + N_DOF  # mesh half backlash b5 / L
 I_G = I_B5 + 1  # 10 constant generalised loads (torques) / (M_i L omega_n^2)
 I_NHARM = I_G + N_DOF  # number of Fourier harmonics of the stiffness (0: seed cosine form)
 I_HARM = I_NHARM + 1  # a_1, b_1, a_2, b_2, ... relative to k_m
-N_COEF = I_HARM + 2 * MAX_HARMONICS
+I_CPHI = I_HARM + 2 * MAX_HARMONICS  # cos(phi), precomputed (saves a trig call per rhs)
+I_SPHI = I_CPHI + 1  # sin(phi)
+N_COEF = I_SPHI + 1
 #: number of switching functions: 2 for the mesh, 2 per support DOF
 N_SWITCH = 2 + 2 * N_DOF

@@ -10,9 +10,12 @@ import math
 from typing import Any
 
 import numpy as np
+
+from gearuq.model import Evaluation
 from gearuq_plugins.helical_pair.layout import (
     I_B5,
     I_BETA,
+    I_CPHI,
     I_EPS0,
     I_EPSA,
     I_ETA,
@@ -23,6 +26,7 @@ from gearuq_plugins.helical_pair.layout import (
     I_OMEGA,
     I_PHI,
     I_S,
+    I_SPHI,
     I_V,
     I_XI,
     I_ZETA,
@@ -31,8 +35,6 @@ from gearuq_plugins.helical_pair.layout import (
     N_STATE,
     N_SWITCH,
 )
-
-from gearuq.model import Evaluation
 
 _GEOMETRY_KEYS = ("z1", "z2", "m_n", "beta", "alpha_n", "x_shift_p", "x_shift_g", "C_R")
 
@@ -131,6 +133,8 @@ def coefficients(
     coef[:, I_EPS0] = params["e_0"] / L
     coef[:, I_EPSA] = params["e_a"] / L
     coef[:, I_PHI] = params["phi"]
+    coef[:, I_CPHI] = np.cos(params["phi"])
+    coef[:, I_SPHI] = np.sin(params["phi"])
     coef[:, I_ZETA] = params["zeta_m"]
     coef[:, I_V:I_V + N_DOF] = v
     coef[:, I_MU:I_MU + N_DOF] = m_e[:, None] / M
@@ -297,9 +301,8 @@ def simulate(
     extra: dict[str, tuple] = {}
     save = _needed_states(outputs)
     if save.size:
-        from gearuq_plugins.helical_pair import kernel
-
         from gearuq.ode import solve_batch
+        from gearuq_plugins.helical_pair import kernel
 
         if t.size == 0:
             raise ValueError("t: give output instants for time-dependent outputs")
