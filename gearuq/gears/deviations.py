@@ -1,0 +1,234 @@
+"""Gear errors and flank modifications as initial normal clearances at the contact points.
+
+Sign convention: a positive value removes material from the working flank (moves it away
+from the mate), i.e. it *adds* initial clearance ``xi`` at the contact points. All inputs are
+measured as ISO 1328 / ISO 21771 measure them and converted to the normal of the flank at
+the contact (the direction of the LTCA compatibility equation):
+
+- cumulative pitch deviations ``F_pk`` [m], tangential on the reference circle (seed 002,
+  Eq. 2): ``xi = F_pk cos(alpha_t) cos(beta_b)``;
+- profile (tip/root) relief and lead crowning, measured in the transverse plane along the
+  base tangent (the line of action): ``xi = C cos(beta_b)``.
+
+The parabolic tip relief of seed 002 (Eq. 12) is written in the POA coordinate ``s``; see
+``docs/theory/ltca.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from gearuq.gears.contact import MeshKinematics
+from gearuq.gears.geometry import HelicalGearPair
+
+__all__ = [
+    "FlankDeviations",
+    "iso1328_pitch_tolerances",
+    "pitch_deviations_from_cumulative",
+    "random_cumulative_pitch_deviations",
+]
+
+
+def pitch_deviations_from_cumulative(Fp: np.ndarray) -> np.ndarray:
+    """Return single pitch deviations ``f_pt,k = F_p,k - F_p,k-1`` (cyclic; seed Eq. 1)."""
+    Fp = np.asarray(Fp, dtype=float)
+    return Fp - np.roll(Fp, 1)
+
+
+def iso1328_pitch_tolerances(d: float, mn: float, accuracy_grade: int) -> tuple[float, float]:
+    """Return ISO 1328-1:2013 tolerances ``(f_pT, F_pT)`` [m] for a gear.
+
+    ``f_pT = (0.001 d + 0.4 mn + 5) sqrt(2)^(A-5)`` um and
+    ``F_pT = (0.002 d + 0.55 sqrt(d) + 0.7 mn + 12) sqrt(2)^(A-5)`` um, ``d``, ``mn`` in mm.
+
+    Parameters
+    ----------
+    d, mn : float
+        Reference diameter and normal module [m].
+    accuracy_grade : int
+        Flank tolerance class ``A`` in 1..11.
+    """
+    if int(accuracy_grade) != accuracy_grade or not 1 <= accuracy_grade <= 11:
+        raise ValueError(
+            f"accuracy_grade={accuracy_grade!r} is outside its valid range: integers 1..11"
+        )
+    dm, mm = d * 1e3, mn * 1e3
+    f = math.sqrt(2.0) ** (accuracy_grade - 5)
+    return (0.001 * dm + 0.4 * mm + 5.0) * f * 1e-6, (
+        0.002 * dm + 0.55 * math.sqrt(dm) + 0.7 * mm + 12.0
+    ) * f * 1e-6
+
+
+def random_cumulative_pitch_deviations(
+    z: int,
+    *,
+    amplitude: float = 15e-6,
+    sigma: float = 3e-6,
+    phase: float | None = None,
+    seed: int | np.random.Generator | None = 0,
+    accuracy_grade: int | None = None,
+    d: float | None = None,
+    mn: float | None = None,
+) -> np.ndarray:
+    """Return random cumulative pitch deviations ``F_p,k``, k = 0..z-1 [m] (seed 002, Sec. 3).
+
+    ``F_p,k = amplitude sin(2 pi k / z + phase) + e_k - e_0``, ``e_k ~ N(0, sigma^2)`` i.i.d.:
+    a once-per-revolution sine (run-out-like) plus normal scatter; tooth 0 is the reference
+    (``F_p,0 = amplitude sin(phase)``, the scatter is referenced to it).
+
+    Parameters
+    ----------
+    z : int
+        Number of teeth (>= 5).
+    amplitude, sigma : float, optional
+        Sine amplitude and scatter standard deviation [m] (seed 002: 15 um, 3 um).
+    phase : float or None, optional
+        Sine phase [rad]; ``None`` draws it uniformly from the generator.
+    seed : int, Generator or None, optional
+        Reproducibility: same seed, same deviations.
+    accuracy_grade : int or None, optional
+        ISO 1328-1:2013 class: overrides ``amplitude = F_pT / 2`` (the sine spans the total
+        cumulative tolerance) and ``sigma = f_pT / (3 sqrt(2))`` (single pitch deviations,
+        the differences of two scatters, stay within ``f_pT`` at 3 sigma). Needs ``d``, ``mn``.
+    d, mn : float or None, optional
+        Reference diameter and normal module [m] for ``accuracy_grade``.
+
+    Returns
+    -------
+    ndarray, (z,)
+        ``F_p,k`` [m], tangential on the reference circle.
+    """
+    if int(z) != z or z < 5:
+        raise ValueError(f"z={z!r} is outside its valid range: integers >= 5")
+    if accuracy_grade is not None:
+        if d is None or mn is None:
+            raise ValueError("accuracy_grade needs d and mn (reference diameter, module) in m")
+        f_pT, F_pT = iso1328_pitch_tolerances(d, mn, accuracy_grade)
+        amplitude, sigma = 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
+    if not (math.isfinite(amplitude) and amplitude >= 0):
+        raise ValueError(f"amplitude={amplitude!r} is outside its valid range [0, inf) m")
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma={sigma!r} is outside its valid range [0, inf) m")
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    ph = rng.uniform(0.0, 2.0 * math.pi) if phase is None else float(phase)
+    e = rng.normal(0.0, sigma, int(z)) if sigma > 0 else np.zeros(int(z))
+    k = np.arange(int(z))
+    return amplitude * np.sin(2.0 * math.pi * k / z + ph) + e - e[0]
+
+
+def _relief(u: np.ndarray, amount: float, length: float) -> np.ndarray:
+    """Parabolic relief ``amount ((length - u)/length)^2`` for ``0 <= u <= length``, else 0.
+
+    ``u`` is the distance from the end of the path of contact (seed Eq. 12).
+    """
+    if amount == 0.0 or length <= 0.0:
+        return np.zeros_like(u)
+    return np.where(u < length, amount * ((length - np.clip(u, 0.0, None)) / length) ** 2, 0.0)
+
+
+@dataclass(frozen=True)
+class FlankDeviations:
+    """Errors and modifications of both gears, turned into normal clearances ``xi``.
+
+    Parameters
+    ----------
+    Fp1, Fp2 : array_like or None
+        Cumulative pitch deviations of pinion (``z1`` values) and wheel (``z2``) [m],
+        tangential on the reference circle, teeth numbered in the order they enter mesh.
+    tip_relief1, tip_relief2 : tuple (amount, length) or None
+        Parabolic tip relief of pinion / wheel: amount [m] (transverse, along the line of
+        action) and length along the path of contact [m] from the tip end (``s_E`` for the
+        pinion, ``s_A`` for the wheel).
+    root_relief1, root_relief2 : tuple (amount, length) or None
+        Parabolic root relief (pinion root at ``s_A``, wheel root at ``s_E``).
+    crowning : float
+        Lead crowning ``C_b`` [m] (sum over both gears), ``C_b (2 y / b - 1)^2``.
+    user : callable or None
+        ``user(s, y, k1, k2) -> xi`` [m], extra normal clearance (already in the normal
+        direction) for points ``(s, y)`` of pinion tooth ``k1`` and wheel tooth ``k2``.
+    """
+
+    Fp1: np.ndarray | None = None
+    Fp2: np.ndarray | None = None
+    tip_relief1: tuple[float, float] | None = None
+    tip_relief2: tuple[float, float] | None = None
+    root_relief1: tuple[float, float] | None = None
+    root_relief2: tuple[float, float] | None = None
+    crowning: float = 0.0
+    user: Callable[..., np.ndarray] | None = None
+
+    @classmethod
+    def symmetric_tip_relief(cls, amount: float, length: float, **kw: object) -> FlankDeviations:
+        """Seed 002 Eq. 12: the same parabolic tip relief on pinion and wheel."""
+        return cls(tip_relief1=(amount, length), tip_relief2=(amount, length), **kw)
+
+    def validate(self, pair: HelicalGearPair) -> None:
+        """Raise ValueError naming the field when an array has the wrong length or a value
+        is outside its valid range."""
+        for name, z in (("Fp1", pair.z1), ("Fp2", pair.z2)):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            arr = np.asarray(v, dtype=float)
+            if arr.shape != (z,):
+                raise ValueError(
+                    f"{name} has shape {arr.shape}, valid: ({z},) (one value per tooth, z={z})"
+                )
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name} contains non-finite values; valid range (-inf, inf) m")
+        for name in ("tip_relief1", "tip_relief2", "root_relief1", "root_relief2"):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            if len(v) != 2:
+                raise ValueError(f"{name}={v!r} must be (amount [m], length [m])")
+            amount, length = float(v[0]), float(v[1])
+            if not (math.isfinite(amount) and amount >= 0):
+                raise ValueError(f"{name} amount={amount!r} is outside its valid range [0, inf) m")
+            if not (math.isfinite(length) and 0 <= length <= pair.g_alpha):
+                raise ValueError(
+                    f"{name} length={length!r} is outside its valid range "
+                    f"[0, g_alpha={pair.g_alpha!r}] m"
+                )
+        if not math.isfinite(self.crowning):
+            raise ValueError(f"crowning={self.crowning!r} is outside its valid range (-inf, inf)")
+
+    def clearance(
+        self,
+        pair: HelicalGearPair,
+        kin: MeshKinematics,
+        s: np.ndarray,
+        y: np.ndarray,
+        k1: np.ndarray,
+        k2: np.ndarray,
+    ) -> np.ndarray:
+        """Return the initial normal clearance ``xi`` [m] at points ``(s, y)``.
+
+        ``k1``, ``k2`` are the pinion and wheel tooth numbers of each point (broadcastable).
+        """
+        cb = kin.cos_bb
+        xi = np.zeros(np.broadcast_shapes(s.shape, np.shape(k1)))
+        conv = math.cos(pair.alpha_t) * cb  # seed Eq. 2
+        if self.Fp1 is not None:
+            xi = xi + np.asarray(self.Fp1, dtype=float)[k1] * conv
+        if self.Fp2 is not None:
+            xi = xi + np.asarray(self.Fp2, dtype=float)[k2] * conv
+        prof = np.zeros_like(s)
+        if self.tip_relief1 is not None:
+            prof = prof + _relief(kin.s_E - s, *self.tip_relief1)
+        if self.tip_relief2 is not None:
+            prof = prof + _relief(s - kin.s_A, *self.tip_relief2)
+        if self.root_relief1 is not None:
+            prof = prof + _relief(s - kin.s_A, *self.root_relief1)
+        if self.root_relief2 is not None:
+            prof = prof + _relief(kin.s_E - s, *self.root_relief2)
+        if self.crowning:
+            prof = prof + self.crowning * (2.0 * y / kin.b - 1.0) ** 2
+        xi = xi + prof * cb
+        if self.user is not None:
+            xi = xi + np.asarray(self.user(s, y, k1, k2), dtype=float)
+        return xi
