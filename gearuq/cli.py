@@ -77,6 +77,10 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
+    if args.what == "surrogate":
+        from gearuq.bench_surrogate import run
+
+        return int(run(args.out, quick=args.quick) or 0)
     from gearuq.bench import run_bench
 
     return run_bench(args.what, out=args.out, quick=args.quick)
@@ -117,7 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="work-precision benchmarks",
                        description="Speed against error, side by side in one run.")
-    p.add_argument("what", choices=["integrator"], help="which benchmark")
+    p.add_argument("what", choices=["integrator", "surrogate"],
+                   help="integrator: work-precision of the batched ODE solver on helical_pair; "
+                        "surrogate: PCE / Sobol-MC speed against error on analytic benchmarks")
     p.add_argument("--out", default="gearuq_bench", help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer samples and tolerances")
     p.set_defaults(func=_cmd_bench)
