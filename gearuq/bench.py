@@ -113,7 +113,7 @@ def _numbalsoda_solvers(prob: dict) -> dict[str, Any]:
 
 
 def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
-                     n_scipy: int = 2, rtols=RTOLS, seed: int = 7) -> dict[str, Any]:
+                     n_scipy: int = 4, rtols=RTOLS, seed: int = 7) -> dict[str, Any]:
     """Measure the work-precision table; returns rows and metadata (no files written)."""
     import gearuq
     from gearuq.ode import solve_batch
