@@ -64,6 +64,31 @@ def _resolve_model(model: Any) -> Model:
     return model
 
 
+def resolve_model_and_space(model: Any, space: Any) -> tuple[Any, ParameterSpace]:
+    """Resolve a model (instance or registered name) and a space (or a mapping of marginals).
+
+    Raises
+    ------
+    TypeError
+        If ``space`` is neither a ParameterSpace nor a mapping.
+    ValueError
+        If the space has parameters the model does not know (the message lists both sets).
+    """
+    model = _resolve_model(model)
+    if not isinstance(space, ParameterSpace):
+        if isinstance(space, Mapping):
+            space = ParameterSpace(space)
+        else:
+            raise TypeError(f"space: expected a ParameterSpace, got {type(space).__name__}")
+    unknown = [k for k in space.names if k not in model.parameter_names]
+    if unknown:
+        raise ValueError(
+            f"space parameter(s) {', '.join(map(repr, unknown))} not in model {model.name!r}; "
+            f"model parameters: {', '.join(model.parameter_names)}"
+        )
+    return model, space
+
+
 def monte_carlo(
     model: Model | str,
     space: ParameterSpace | Mapping[str, Any],
@@ -138,18 +163,7 @@ def monte_carlo(
     >>> ds.sizes["sample"], ds.attrs["seed"]
     (100, 1)
     """
-    model = _resolve_model(model)
-    if not isinstance(space, ParameterSpace):
-        if isinstance(space, Mapping):
-            space = ParameterSpace(space)
-        else:
-            raise TypeError(f"space: expected a ParameterSpace, got {type(space).__name__}")
-    unknown = [k for k in space.names if k not in model.parameter_names]
-    if unknown:
-        raise ValueError(
-            f"space parameter(s) {', '.join(map(repr, unknown))} not in model {model.name!r}; "
-            f"model parameters: {', '.join(model.parameter_names)}"
-        )
+    model, space = resolve_model_and_space(model, space)
     if isinstance(n_samples, (bool, np.bool_)) or not isinstance(n_samples, (int, np.integer)):
         raise ValueError(f"n_samples: expected a positive integer, got {n_samples!r}")
     if n_samples <= 0:

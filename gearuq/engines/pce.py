@@ -752,21 +752,11 @@ def polynomial_chaos(
         Negative or non-integer order, unknown method/rule/solver, parameters not in the model,
         a design smaller than the basis, no valid sample.
     """
-    from gearuq.engines.montecarlo import _resolve_model, resolve_seed
+    from gearuq.engines.montecarlo import resolve_model_and_space, resolve_seed
     from gearuq.execution import evaluate_chunks
 
     wall0 = _now()
-    model = _resolve_model(model)
-    if not isinstance(space, ParameterSpace):
-        if isinstance(space, Mapping):
-            space = ParameterSpace(space)
-        else:
-            raise TypeError(f"space: expected a ParameterSpace, got {type(space).__name__}")
-    unknown = [k for k in space.names if k not in model.parameter_names]
-    if unknown:
-        raise ValueError(
-            f"space parameter(s) {', '.join(map(repr, unknown))} not in model {model.name!r}; "
-            f"model parameters: {', '.join(model.parameter_names)}")
+    model, space = resolve_model_and_space(model, space)
     if method not in METHODS:
         raise ValueError(f"method: unknown {method!r}; valid: {', '.join(METHODS)}")
     if solver not in ("lars", "omp"):

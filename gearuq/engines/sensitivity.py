@@ -45,16 +45,9 @@ ESTIMATORS = ("saltelli", "jansen")
 
 
 def _prepare(model: Any, space: Any, t: Any, outputs: Any, route: str):
-    from gearuq.engines.montecarlo import _resolve_model
+    from gearuq.engines.montecarlo import resolve_model_and_space
 
-    model = _resolve_model(model)
-    if not isinstance(space, ParameterSpace):
-        raise TypeError(f"space: expected a ParameterSpace, got {type(space).__name__}")
-    unknown = [k for k in space.names if k not in model.parameter_names]
-    if unknown:
-        raise ValueError(
-            f"space parameter(s) {', '.join(map(repr, unknown))} not in model {model.name!r}; "
-            f"model parameters: {', '.join(model.parameter_names)}")
+    model, space = resolve_model_and_space(model, space)
     if route == "mc" and space.correlation is not None:
         raise ValueError(
             "sobol_indices/morris_screening: SALib's estimators assume independent inputs but "
