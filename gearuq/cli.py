@@ -80,7 +80,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "surrogate":
         from gearuq.bench_surrogate import run
 
-        return int(run(args.out, quick=args.quick) or 0)
+        run(args.out, quick=args.quick)  # returns the measured table; prints the report
+        return 0
     from gearuq.bench import run_bench
 
     return run_bench(args.what, out=args.out, quick=args.quick)

@@ -118,3 +118,9 @@ def test_cli_version_and_help():
                          capture_output=True, text=True, check=True).stdout
     for cmd in ("models", "info", "demo", "bench"):
         assert cmd in out
+
+
+def test_cli_bench_surrogate_quick(tmp_path, capsys):
+    assert cli.main(["bench", "surrogate", "--quick", "--out", str(tmp_path)]) == 0
+    assert "four_branch" in capsys.readouterr().out
+    assert any(p.suffix == ".png" for p in tmp_path.iterdir())
