@@ -335,7 +335,12 @@ def _future_result(fut: Any) -> tuple:
     try:
         return fut.result()
     except Exception as exc:  # noqa: BLE001 - e.g. BrokenProcessPool, KilledWorker
-        return ("error", f"executor failure: {type(exc).__name__}: {exc}",
+        hint = ""
+        if type(exc).__name__ == "BrokenProcessPool":
+            hint = (" (worker processes are started with 'spawn' and re-import the calling "
+                    "script: put the script's code under `if __name__ == \"__main__\":`, or "
+                    "pass executor='serial')")
+        return ("error", f"executor failure: {type(exc).__name__}: {exc}{hint}",
                 "".join(traceback.format_exception(exc, limit=5)))
 
 
@@ -345,7 +350,8 @@ def resolve_executor(executor: Any = None, n_workers: int | None = None) -> Runn
     Parameters
     ----------
     executor : None, str, distributed.Client, concurrent.futures.Executor or Runner
-        ``None`` (``"processes"`` when ``os.cpu_count() > 1``, else ``"serial"``),
+        ``None`` (``"processes"`` when ``os.cpu_count() > 1``, else ``"serial"``; models with
+        ``internally_parallel = True`` run serially by default in :func:`evaluate_chunks`),
         ``"serial"``, ``"processes"``, ``"dask"`` (current default dask client), a dask
         scheduler address such as ``"tcp://127.0.0.1:8786"``, a ``distributed.Client``, any
         ``concurrent.futures.Executor``, or a ready :class:`Runner`.
@@ -715,7 +721,11 @@ def evaluate_chunks(
     todo = [(i, {k: a[s:e] for k, a in params.items()})
             for i, (s, e) in enumerate(bounds) if i not in chunks]
 
-    if not todo or (executor is None and len(todo) == 1):
+    # Models whose evaluation already uses every core (compiled kernels running sample blocks
+    # in threads) gain nothing from worker processes and would pay their start-up and compile
+    # cost: they run serially unless an executor is asked for.
+    internally_parallel = bool(getattr(model, "internally_parallel", False))
+    if not todo or (executor is None and (len(todo) == 1 or internally_parallel)):
         runner: Runner = SerialRunner()
     else:
         runner = resolve_executor(executor, n_workers)

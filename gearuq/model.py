@@ -152,6 +152,9 @@ class Model:
     outputs: tuple[Output, ...] = ()
     time_units: str = "s"
     time_long_name: str = "time"
+    #: True when ``response`` already uses every core (e.g. a compiled kernel that runs
+    #: sample blocks in threads): engines then evaluate serially unless told otherwise.
+    internally_parallel: bool = False
 
     # ----------------------------------------------------------------- metadata helpers
     @property

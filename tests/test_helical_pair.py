@@ -252,3 +252,11 @@ def test_frozen_sides_and_retake_agree_with_tight_reference(model, method):
                             freeze_sides=frozen)
         err = float(np.abs(ds["p5"] - ref["p5"]).max())
         assert err < 1e-6 * float(np.abs(ref["p5"]).max()), (frozen, err)
+
+
+def test_internally_parallel_model_runs_serially_by_default(model):
+    """The compiled integrator already uses every core: no worker processes by default."""
+    ds = gearuq.monte_carlo(model, model.default_space(), np.linspace(0, 5, 3), n_samples=64,
+                            rng=1, outputs=["p1"], chunk_size=16, progress=False)
+    assert ds.attrs["executor"] == "serial"
+    assert int((ds["status"] != 0).sum()) == 0

@@ -136,6 +136,7 @@ class HelicalPair(Model):
     version = "1.0"
     time_units = "1"
     time_long_name = "nondimensional time tau = omega_n t"
+    internally_parallel = True  # the batched integrator runs sample blocks in threads
     parameters = _PARAMETERS
     outputs = _outputs()
 
