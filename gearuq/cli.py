@@ -32,8 +32,10 @@ def _cmd_models(args: argparse.Namespace) -> int:
               f"{p.description}")
     print("\noutputs:")
     w = max(len(o.name) for o in model.outputs)
+    wu = max(len(o.units) for o in model.outputs) + 2
     for o in model.outputs:
-        print(f"  {o.name:<{w}}  [{o.units}]  dims {', '.join(o.dims):<22} {o.description}")
+        print(f"  {o.name:<{w}}  {'[' + o.units + ']':<{wu}}  dims {', '.join(o.dims):<14} "
+              f"{o.description}")
     space = getattr(model, "default_space", None)
     if callable(space):
         print("\nbuilt-in parameter space:")
