@@ -52,6 +52,7 @@ import multiprocessing
 import os
 import pickle
 import sys
+import time
 import traceback
 import warnings
 from collections.abc import Iterable, Iterator, Mapping
@@ -469,8 +470,15 @@ class ChunkStore:
         self.path = Path(path)
         self.fingerprint = _jsonable(dict(fingerprint))
         self.path.mkdir(parents=True, exist_ok=True)
-        for stale in self.path.glob("*.tmp"):  # left by an interrupted write
-            stale.unlink(missing_ok=True)
+        # Temp files left by an interrupted write; young ones may belong to another process
+        # writing to the same store right now, so only those older than 10 minutes go.
+        now = time.time()
+        for stale in self.path.glob("*.tmp"):
+            try:
+                if now - stale.stat().st_mtime > 600.0:
+                    stale.unlink(missing_ok=True)
+            except FileNotFoundError:
+                pass
         manifest = self.path / self.MANIFEST
         if manifest.exists():
             try:
