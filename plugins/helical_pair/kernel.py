@@ -80,6 +80,20 @@ def mesh_deflection(y: np.ndarray, p: np.ndarray, eps: float, deps: float) -> tu
     return d, dd
 
 
+@njit(cache=True, inline="always")
+def set_rates(i: int, y: np.ndarray, p: np.ndarray, fm: float, fz: float,
+              dydt: np.ndarray) -> None:
+    """Equation of motion of DOF i: q' = dq, dq' = g - eta f(q) - xi dq - v mu F_mesh.
+
+    ``fz`` is the support dead-zone value f(q_i) and ``fm`` the nondimensional mesh force;
+    both right-hand sides (state-decided and frozen-side branches) share this line.
+    """
+    dq = y[N_DOF + i]
+    dydt[i] = dq
+    dydt[N_DOF + i] = (p[I_G + i] - p[I_ETA + i] * fz - p[I_XI + i] * dq
+                       - p[I_V + i] * p[I_MU + i] * fm)
+
+
 @njit(cache=True)
 def rhs(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
     """dy/dtau of the nondimensional equations of motion."""
@@ -87,15 +101,7 @@ def rhs(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
     d, dd = mesh_deflection(y, p, eps, deps)
     fm = kappa * dead_zone(d, p[I_B5]) + 2.0 * p[I_ZETA] * dd
     for i in range(N_DOF):
-        q = y[i]
-        dq = y[N_DOF + i]
-        dydt[i] = dq
-        dydt[N_DOF + i] = (
-            p[I_G + i]
-            - p[I_ETA + i] * dead_zone(q, p[I_BETA + i])
-            - p[I_XI + i] * dq
-            - p[I_V + i] * p[I_MU + i] * fm
-        )
+        set_rates(i, y, p, fm, dead_zone(y[i], p[I_BETA + i]), dydt)
 
 
 @njit(cache=True, inline="always")
@@ -123,16 +129,8 @@ def rhs_sides(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> Non
     s = N_COEF
     fm = kappa * dead_zone_sided(d, p[I_B5], p[s], p[s + 1]) + 2.0 * p[I_ZETA] * dd
     for i in range(N_DOF):
-        q = y[i]
-        dq = y[N_DOF + i]
-        dydt[i] = dq
-        dydt[N_DOF + i] = (
-            p[I_G + i]
-            - p[I_ETA + i] * dead_zone_sided(q, p[I_BETA + i], p[s + 2 + 2 * i],
-                                             p[s + 3 + 2 * i])
-            - p[I_XI + i] * dq
-            - p[I_V + i] * p[I_MU + i] * fm
-        )
+        fz = dead_zone_sided(y[i], p[I_BETA + i], p[s + 2 + 2 * i], p[s + 3 + 2 * i])
+        set_rates(i, y, p, fm, fz, dydt)
 
 
 @njit(cache=True)
