@@ -1,0 +1,47 @@
+"""Shared rotor finite elements (one element type per module) and their assembly.
+
+- :mod:`gearuq.rotor.element`: the :class:`Element` interface, DOF order, materials
+- :mod:`gearuq.rotor.shaft`: :class:`TimoshenkoShaftElement`, :class:`ShaftLine`
+- :mod:`gearuq.rotor.disk`: :class:`DiskElement`
+- :mod:`gearuq.rotor.bearing`: :class:`BearingElement`
+- :mod:`gearuq.rotor.mesh`: :class:`HelicalMeshElement` (12-DOF mesh along the normal LOA)
+- :mod:`gearuq.rotor.assembly`: :class:`Rotor` (global M, K, C, G; statics)
+- :mod:`gearuq.rotor.modal`: real and complex modes, Campbell data
+- :mod:`gearuq.rotor.examples`: ``*_example()`` rotors (Friswell 5.9.1, the seed-002 pair)
+
+Theory and checks: docs/theory/geared_rotor.md.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY = {
+    "Element": "gearuq.rotor.element",
+    "Material": "gearuq.rotor.element",
+    "steel": "gearuq.rotor.element",
+    "TimoshenkoShaftElement": "gearuq.rotor.shaft",
+    "ShaftLine": "gearuq.rotor.shaft",
+    "DiskElement": "gearuq.rotor.disk",
+    "BearingElement": "gearuq.rotor.bearing",
+    "HelicalMeshElement": "gearuq.rotor.mesh",
+    "Rotor": "gearuq.rotor.assembly",
+    "undamped_modes": "gearuq.rotor.modal",
+    "complex_modes": "gearuq.rotor.modal",
+    "campbell": "gearuq.rotor.modal",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'gearuq.rotor' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
