@@ -108,6 +108,202 @@ class Output:
         return "time" in self.dims
 
 
+_OPTION_KINDS = {"float": float, "int": int, "bool": bool, "str": str, "any": object}
+
+
+@dataclass(frozen=True)
+class Option:
+    """Metadata of one model option (solver or fidelity setting), declared like a parameter.
+
+    Options are validated once, at the call site (:meth:`Model.prepare`), before any design is
+    drawn: an unknown name or a bad value raises a ValueError that lists the valid options.
+    Unlike parameters, options are the same for every sample of a run.
+
+    Parameters
+    ----------
+    name : str
+        Keyword used in ``response(..., name=value)``.
+    default : object
+        Value used when the caller does not give the option.
+    description : str
+        One-line meaning (shown by ``gearuq models NAME``).
+    kind : {"float", "int", "bool", "str", "any"} or type, optional
+        Value type; inferred from ``default`` when omitted (``bool`` before ``int``). Integers
+        are accepted for ``float`` options; ``"any"`` accepts every value that ``check``
+        accepts (tables, arrays).
+    choices : tuple, optional
+        The only valid values.
+    lower, upper : float
+        Closed valid range of numeric options (``inf`` allowed as a value when the bound is
+        open, e.g. ``max_step = inf``).
+    allow_none : bool
+        ``None`` is a valid value (meaning given in ``description``).
+    units : str
+        Unit of a numeric option ("" when dimensionless or not numeric).
+    check : callable, optional
+        ``check(value) -> value`` for ``kind="any"``; raises ValueError on a bad value.
+    """
+
+    name: str
+    default: Any
+    description: str = ""
+    kind: Any = None
+    choices: tuple | None = None
+    lower: float = -math.inf
+    upper: float = math.inf
+    allow_none: bool = False
+    units: str = ""
+    check: Callable[[Any], Any] | None = field(default=None, compare=False)
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise ValueError(f"option name {self.name!r} is not a valid identifier")
+        kind = self.kind
+        if kind is None:
+            if self.default is None:
+                raise ValueError(f"option {self.name!r}: give kind= when the default is None")
+            kind = next(k for k, tp in (("bool", bool), ("int", int), ("float", float),
+                                        ("str", str), ("any", object))
+                        if isinstance(self.default, tp))
+        elif isinstance(kind, type):
+            kind = {bool: "bool", int: "int", float: "float", str: "str"}.get(kind, "any")
+        if kind not in _OPTION_KINDS:
+            raise ValueError(f"option {self.name!r}: kind {kind!r} not in {list(_OPTION_KINDS)}")
+        object.__setattr__(self, "kind", kind)
+        if self.choices is not None:
+            object.__setattr__(self, "choices", tuple(self.choices))
+        self.validate(self.default, "declaration")
+
+    def valid_text(self) -> str:
+        """Human-readable description of the valid values."""
+        if self.choices is not None:
+            text = "one of " + ", ".join(map(repr, self.choices))
+        elif self.kind in ("int", "float") and (math.isfinite(self.lower)
+                                                or math.isfinite(self.upper)):
+            text = f"{self.kind} in [{self.lower:g}, {self.upper:g}]"
+            text += f" {self.units}" if self.units else ""
+        else:
+            text = {"any": "see description"}.get(self.kind, self.kind)
+        return text + (" or None" if self.allow_none else "")
+
+    def validate(self, value: Any, where: str = "") -> Any:
+        """Return ``value`` converted to the option's type, or raise a ValueError naming it."""
+        where = f"{where}: " if where else ""
+
+        def bad(reason: str) -> ValueError:
+            return ValueError(f"{where}option {self.name!r}: {reason} (got {value!r}; valid: "
+                              f"{self.valid_text()})")
+
+        if value is None:
+            if self.allow_none:
+                return None
+            raise bad("None is not allowed")
+        if self.kind == "bool":
+            if not isinstance(value, (bool, np.bool_)):
+                raise bad("expected True or False")
+            value = bool(value)
+        elif self.kind in ("int", "float"):
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float,
+                                                                            np.integer,
+                                                                            np.floating)):
+                raise bad(f"expected a number ({self.kind})")
+            if self.kind == "int":
+                if isinstance(value, (float, np.floating)) and not float(value).is_integer():
+                    raise bad("expected a whole number")
+                value = int(value)
+            else:
+                value = float(value)
+                if math.isnan(value):
+                    raise bad("NaN is not a valid value")
+            if not self.lower <= value <= self.upper:
+                raise bad("outside the valid range")
+        elif self.kind == "str":
+            if not isinstance(value, str):
+                raise bad("expected a string")
+        elif self.check is not None:
+            try:
+                value = self.check(value)
+            except (TypeError, ValueError) as exc:
+                raise bad(str(exc)) from None
+        if self.choices is not None and value not in self.choices:
+            raise bad("not one of the choices")
+        return value
+
+
+@dataclass(frozen=True, eq=False)
+class Request:
+    """A validated evaluation request: what to compute, at which instants, with which options.
+
+    Made by :meth:`Model.prepare` once per call, before any design is drawn; engines and the
+    execution layer carry it to every chunk (it pickles) and fingerprint it for stores.
+
+    Attributes
+    ----------
+    model : str
+        Name of the model that prepared it.
+    outputs : tuple of str
+        Requested outputs, in declaration order of the request.
+    t : ndarray or None
+        Output instants (``None`` when no time-dependent output was asked and no ``t`` given).
+    options : dict
+        Every declared option, defaults filled in.
+    """
+
+    model: str
+    outputs: tuple[str, ...]
+    t: np.ndarray | None
+    options: Mapping[str, Any]
+
+    @property
+    def needs_time(self) -> bool:
+        """Whether ``t`` was given (time-dependent outputs need it)."""
+        return self.t is not None
+
+    def fingerprint(self) -> dict[str, Any]:
+        """JSON-able description (arrays by shape and SHA-256 digest)."""
+        return {
+            "model": self.model,
+            "outputs": list(self.outputs),
+            "t": None if self.t is None else array_digest(self.t),
+            "options": {k: _jsonable_value(v) for k, v in sorted(self.options.items())},
+        }
+
+    def options_json(self) -> str:
+        """The options as a JSON string (for provenance attributes)."""
+        import json
+
+        return json.dumps(self.fingerprint()["options"], sort_keys=True)
+
+
+def array_digest(a: Any) -> dict[str, Any]:
+    """Shape, dtype and SHA-256 of an array (a JSON-able stand-in for fingerprints)."""
+    import hashlib
+
+    arr = np.ascontiguousarray(np.asarray(a))
+    return {"shape": list(arr.shape), "dtype": str(arr.dtype),
+            "sha256": hashlib.sha256(arr.tobytes()).hexdigest()}
+
+
+def _jsonable_value(v: Any) -> Any:
+    """A JSON-able form of an option value (arrays digested, floats kept exactly)."""
+    if v is None or isinstance(v, (bool, int, str)):
+        return v
+    if isinstance(v, float):
+        return v if math.isfinite(v) else repr(v)
+    if isinstance(v, (np.integer, np.floating, np.bool_)):
+        return _jsonable_value(v.item())
+    if isinstance(v, np.ndarray):
+        return array_digest(v)
+    if isinstance(v, Mapping):
+        return {str(k): _jsonable_value(x) for k, x in sorted(v.items(), key=lambda kv: str(kv[0]))}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable_value(x) for x in v]
+    to_dict = getattr(v, "to_dict", None)
+    if callable(to_dict):
+        return {"type": type(v).__name__, "value": _jsonable_value(to_dict())}
+    return {"type": type(v).__name__, "repr": repr(v)}
+
+
 @dataclass
 class Evaluation:
     """What a model's ``_evaluate`` hands back to :meth:`Model.response`.
@@ -150,6 +346,8 @@ class Model:
     version: str = "0"
     parameters: tuple[Parameter, ...] = ()
     outputs: tuple[Output, ...] = ()
+    #: Declared solver/fidelity options (validated by :meth:`prepare`).
+    options: tuple[Option, ...] = ()
     time_units: str = "s"
     time_long_name: str = "time"
     #: True when ``response`` already uses every core (e.g. a compiled kernel that runs
@@ -190,9 +388,28 @@ class Model:
         """Nominal parameter values as a dict."""
         return {p.name: p.nominal for p in self.parameters}
 
+    @property
+    def option_names(self) -> list[str]:
+        """Names of the declared options."""
+        return [o.name for o in self.options]
+
+    def option(self, name: str) -> Option:
+        """Return the metadata of option ``name``."""
+        for o in self.options:
+            if o.name == name:
+                return o
+        raise ValueError(
+            f"model {self.name!r} has no option {name!r}; valid: "
+            f"{', '.join(self.option_names) or 'none (this model takes no options)'}"
+        )
+
     def settings(self) -> dict[str, Any]:
         """Model construction options, recorded as provenance (override in subclasses)."""
         return {}
+
+    def default_space(self) -> Any:
+        """The model's documented default random inputs (a ParameterSpace), or ``None``."""
+        return None
 
     # ----------------------------------------------------------------- validation
     def validate_params(self, params: Mapping[str, Any] | None) -> dict[str, np.ndarray]:
@@ -276,7 +493,80 @@ class Model:
             raise ValueError("outputs: empty selection; ask for at least one output")
         return outputs
 
+    def validate_options(self, options: Mapping[str, Any] | None) -> dict[str, Any]:
+        """Check option names and values; return every declared option with defaults filled.
+
+        Raises
+        ------
+        ValueError
+            For an unknown option (the message lists the valid ones) or a bad value (the
+            message names the option, the value and the valid values).
+        """
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(self.option_names))
+        if unknown:
+            valid = ", ".join(f"{o.name} ({o.valid_text()})" for o in self.options)
+            raise ValueError(
+                f"model {self.name!r}: unknown option(s) {', '.join(map(repr, unknown))}; "
+                f"valid: {valid or 'none (this model takes no options)'}"
+            )
+        return {o.name: o.validate(options.get(o.name, o.default), f"model {self.name!r}")
+                for o in self.options}
+
     # ----------------------------------------------------------------- the contract
+    def prepare(
+        self, t: Any = None, *, outputs: str | Iterable[str] | None = None, **options: Any
+    ) -> Request:
+        """Validate outputs, output instants and options once; return a :class:`Request`.
+
+        Engines call this at the call site, before any design is drawn, and carry the
+        request to every chunk; :meth:`response` is ``evaluate(params, prepare(...))``.
+
+        Parameters
+        ----------
+        t : array_like, optional
+            Output instants (in :attr:`time_units`); required for time-dependent outputs.
+        outputs : str or list of str, optional
+            Outputs to compute and keep (default: all).
+        **options
+            Declared model options (see :attr:`options`; ``gearuq models NAME`` lists them).
+
+        Raises
+        ------
+        ValueError
+            Unknown or empty outputs, missing/unsorted/non-finite ``t``, unknown options or
+            option values outside their valid set.
+        """
+        names = self.validate_outputs(outputs)
+        clash = sorted(set(names) & set(self.parameter_names))
+        if clash:
+            raise ValueError(f"model {self.name!r}: output name(s) {clash} are also parameter "
+                             "names; a result cannot hold both")
+        opts = self.validate_options(options)
+        need_time = any(self.output(o).time_dependent for o in names)
+        tt = self.validate_time(t) if (need_time or t is not None) else None
+        return Request(model=self.name, outputs=tuple(names), t=tt, options=opts)
+
+    def evaluate(self, params: Mapping[str, Any] | None, request: Request) -> xr.Dataset:
+        """Evaluate a prepared request on parameter samples (the chunk-level entry point).
+
+        Parameters
+        ----------
+        params : mapping
+            Parameter name -> array ``(n_samples,)``; validated here (names, ranges).
+        request : Request
+            From :meth:`prepare` of this model.
+        """
+        if not isinstance(request, Request) or request.model != self.name:
+            raise ValueError(
+                f"request: expected a Request prepared by model {self.name!r}, got "
+                f"{getattr(request, 'model', type(request).__name__)!r}")
+        p = self.validate_params(params)
+        names = list(request.outputs)
+        tt = np.zeros(0) if request.t is None else request.t
+        ev = self._evaluate(p, tt, names, **request.options)
+        return self._assemble(p, tt, names, ev, request.options)
+
     def response(
         self,
         params: Mapping[str, Any] | None,
@@ -297,19 +587,14 @@ class Model:
         outputs : str or list of str, optional
             Outputs to compute and keep (default: all).
         **options
-            Model-specific solver/fidelity options.
+            Declared model options (solver/fidelity settings; see :attr:`options`).
 
         Returns
         -------
         xarray.Dataset
             Inputs and outputs over ``sample`` (and ``time``), a ``status`` flag per sample.
         """
-        p = self.validate_params(params)
-        names = self.validate_outputs(outputs)
-        need_time = any(self.output(o).time_dependent for o in names)
-        tt = self.validate_time(t) if (need_time or t is not None) else np.zeros(0)
-        ev = self._evaluate(p, tt, names, **options)
-        return self._assemble(p, tt, names, ev, options)
+        return self.evaluate(params, self.prepare(t, outputs=outputs, **options))
 
     def _evaluate(
         self, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str], **options: Any
@@ -354,6 +639,11 @@ class Model:
             "model_version": str(self.version),
             "outputs": " ".join(names),
         })
+        if options:
+            import json
+
+            ds.attrs["options"] = json.dumps(
+                {k: _jsonable_value(v) for k, v in sorted(options.items())}, sort_keys=True)
         ds.attrs.update({k: _attr_value(v) for k, v in ev.attrs.items()})
         return ds
 
@@ -422,6 +712,11 @@ class FunctionModel(Model):
         Metadata shown by ``gearuq models``.
     time_dependent : bool
         Default dims for outputs given by name only.
+    time_units : str
+        Unit of ``t``.
+    options : sequence of Option
+        Keyword options of ``fn`` that callers may set (validated like any model's options
+        and passed to ``fn``).
 
     Examples
     --------
@@ -444,6 +739,7 @@ class FunctionModel(Model):
         version: str = "0",
         time_dependent: bool = False,
         time_units: str = "s",
+        options: Sequence[Option] = (),
     ) -> None:
         self.fn = fn
         self.name = name
@@ -452,8 +748,13 @@ class FunctionModel(Model):
         self.time_units = time_units
         self.parameters = tuple(_as_parameter(p) for p in parameters)
         self.outputs = tuple(_as_output(o, time_dependent) for o in outputs)
+        self.options = tuple(options)
         if not self.parameters or not self.outputs:
             raise ValueError("FunctionModel needs at least one parameter and one output")
+        clash = sorted({p.name for p in self.parameters} & {o.name for o in self.outputs})
+        if clash:
+            raise ValueError(f"FunctionModel {name!r}: names {clash} are given both as "
+                             "parameters and as outputs; rename the outputs")
         try:
             sig = inspect.signature(fn)
             self._wants_t = "t" in sig.parameters

@@ -205,8 +205,12 @@ def test_bad_input(model):
         model.response({"b5": [-1e-6]}, [0.0, 1.0], outputs=["p1"])
     with pytest.raises(ValueError, match="'z1'.*whole number"):
         model.response({"z1": [34.5]}, [0.0, 1.0], outputs=["p1"])
-    with pytest.raises(ValueError, match="time: unknown"):
+    with pytest.raises(ValueError, match="option 'time'.*'ms'.*'tau', 's'"):
         model.response({}, [0.0, 1.0], outputs=["p1"], time="ms")
+    with pytest.raises(ValueError, match="option 'rtol'.*-5.*valid: float in"):
+        model.response({}, [0.0, 1.0], outputs=["k_mesh"], rtol=-5)
+    with pytest.raises(ValueError, match="unknown option.*'rtoll'.*valid: time"):
+        model.response({}, [0.0, 1.0], outputs=["p1"], rtoll=1e-6)
     with pytest.raises(ValueError, match="length_scale"):
         gearuq.get_model("helical_pair", length_scale=0.0)
     with pytest.raises(ValueError, match="sample 0.*contact ratio|eps_alpha|geometry"):

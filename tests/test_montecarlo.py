@@ -31,7 +31,8 @@ from gearuq.model import Output, Parameter
 from gearuq.space import ParameterSpace
 
 REPO = Path(gearuq.__file__).resolve().parents[1]
-VOLATILE = ("created", "executor", "chunk_size", "n_chunks")
+VOLATILE = ("created", "executor", "executor_reason", "chunk_size", "n_chunks", "store",
+            "reused_chunks")
 
 
 # ------------------------------------------------------------------------------- models
@@ -267,14 +268,20 @@ import numpy as np
 import gearuq
 from gearuq.engines.montecarlo import monte_carlo
 
+COUNT_FILE = sys.argv[2]
+
 def fn(x1, x2):
-    time.sleep(0.25)
+    with open(COUNT_FILE, "a") as fh:
+        fh.write("call\\n")
+    time.sleep(float(sys.argv[3]))
     return x1 * x2 + x1
 
 model = gearuq.FunctionModel(fn, ["x1", "x2"], ["y"], name="slowsum", version="1")
 space = gearuq.ParameterSpace.normal(x1=(1.0, 0.3), x2=(2.0, 0.4))
-monte_carlo(model, space, n_samples=60, rng=31, chunk_size=5, executor="serial",
-            store=sys.argv[1], progress=False)
+if __name__ == "__main__":
+    ds = monte_carlo(model, space, n_samples=60, rng=31, chunk_size=5, executor="serial",
+                     store=sys.argv[1], progress=False)
+    gearuq.save(ds.load(), sys.argv[4])
 """
 
 
@@ -282,32 +289,40 @@ def _resume_space():
     return ParameterSpace.normal(x1=(1.0, 0.3), x2=(2.0, 0.4))
 
 
+def _script_env():
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO),
+                                                         os.environ.get("PYTHONPATH", "")])}
+
+
 def test_resume_after_killed_subprocess(tmp_path):
+    """Kill a run after >= 3 of 12 chunks; the identical rerun computes only the rest."""
     store = tmp_path / "store"
     script = tmp_path / "run.py"
     script.write_text(textwrap.dedent(RESUME_SCRIPT))
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO),
-                                                        os.environ.get("PYTHONPATH", "")])}
-    proc = subprocess.Popen([sys.executable, str(script), str(store)], env=env,
+    calls = tmp_path / "calls.txt"
+    cmd = [sys.executable, str(script), str(store), str(calls)]
+    proc = subprocess.Popen([*cmd, "0.25", str(tmp_path / "unused.nc")], env=_script_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 120  # guard against a hang, not a timing assertion
     try:
         while time.monotonic() < deadline and proc.poll() is None:
-            if len(list(store.glob("chunk_*.nc"))) >= 3:
+            if len(list(store.glob("chunk_*.nc.sha256"))) >= 3:
                 break
             time.sleep(0.02)
     finally:
-        proc.kill()
+        proc.kill()  # SIGKILL: no clean-up runs, the OS releases the store lock
         _, err = proc.communicate()
-    on_disk = len(list(store.glob("chunk_*.nc")))
+    on_disk = len(list(store.glob("chunk_*.nc.sha256")))
     assert 3 <= on_disk < 12, err.decode()[-2000:]
 
-    model = CountingModel()
-    resumed = monte_carlo(model, _resume_space(), n_samples=60, rng=31, chunk_size=5,
-                          executor="serial", store=store, progress=False)
-    assert model.calls == 12 - on_disk
-    assert len(list(store.glob("chunk_*.nc"))) == 12
+    calls.unlink()
+    out = subprocess.run([*cmd, "0", str(tmp_path / "resumed.nc")], env=_script_env(),
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert len(calls.read_text().splitlines()) == 12 - on_disk
+    assert len(list(store.glob("chunk_*.nc.sha256"))) == 12
     assert not list(store.glob("*.tmp"))
+    resumed = gearuq.load(tmp_path / "resumed.nc")
     fresh = monte_carlo(CountingModel(), _resume_space(), n_samples=60, rng=31, chunk_size=5,
                         executor="serial", progress=False)
     xr.testing.assert_identical(_data(fresh), _data(resumed))
@@ -317,13 +332,13 @@ def test_resume_recomputes_only_missing_chunks(tmp_path):
     kw = {"n_samples": 40, "rng": 5, "chunk_size": 4, "executor": "serial", "progress": False,
           "store": tmp_path / "s"}
     first_model = CountingModel()
-    first = monte_carlo(first_model, _resume_space(), **kw)
+    first = monte_carlo(first_model, _resume_space(), **kw).load()  # files change below
     assert first_model.calls == 10
     for i in (0, 3, 9):
         (tmp_path / "s" / f"chunk_{i:06d}.nc").unlink()
     (tmp_path / "s" / "chunk_000005.nc").write_bytes(b"garbage")  # a corrupt chunk
     again = CountingModel()
-    with pytest.warns(RuntimeWarning, match="unreadable chunk chunk_000005.nc"):
+    with pytest.warns(RuntimeWarning, match="chunk_000005.nc is corrupt"):
         second = monte_carlo(again, _resume_space(), **kw)
     assert again.calls == 4
     xr.testing.assert_identical(_data(first), _data(second))
@@ -356,30 +371,30 @@ def _fails_above(x1, x2):
     return x1 + x2
 
 
-def test_failing_chunk_gets_status_4_and_others_survive(tmp_path):
+def test_only_the_failing_samples_get_status_4(tmp_path):
+    """A chunk that raises is bisected: exactly the samples that fail are flagged."""
     model = gearuq.FunctionModel(_fails_above, ["x1", "x2"], ["y"], name="flaky")
     space = ParameterSpace.normal(x1=(1.0, 0.3), x2=(2.0, 0.4))
     kw = {"n_samples": 200, "rng": 8, "chunk_size": 10, "progress": False}
-    with pytest.warns(RuntimeWarning, match=r"chunk\(s\) raised.*FloatingPointError"):
+    with pytest.warns(RuntimeWarning, match=r"sample\(s\) raised.*FloatingPointError"):
         ds = monte_carlo(model, space, executor="serial", store=tmp_path / "s", **kw)
-    x1 = ds["x1"].values.reshape(20, 10)
-    bad_chunks = np.flatnonzero((x1 > 1.4).any(axis=1))
-    assert 0 < len(bad_chunks) < 20
-    status = ds["status"].values.reshape(20, 10)
-    y = ds["y"].values.reshape(20, 10)
-    assert np.all(status[bad_chunks] == 4) and np.all(np.isnan(y[bad_chunks]))
-    good = np.setdiff1d(np.arange(20), bad_chunks)
-    assert np.all(status[good] == 0)
-    np.testing.assert_array_equal(y[good], (x1 + ds["x2"].values.reshape(20, 10))[good])
+    x1, x2 = ds["x1"].values, ds["x2"].values
+    bad = x1 > 1.4
+    assert 0 < bad.sum() < 200
+    np.testing.assert_array_equal(ds["status"].values, np.where(bad, 4, 0))
+    assert np.all(np.isnan(ds["y"].values[bad]))
+    np.testing.assert_array_equal(ds["y"].values[~bad], (x1 + x2)[~bad])
     assert ds.sizes["sample"] == 200 and not np.isnan(ds["x1"]).any()
-    assert ds.attrs["n_failed"] == 10 * len(bad_chunks)
-    errors = json.loads(ds.attrs["errors"])
-    assert [e["chunk"] for e in errors] == list(bad_chunks)
-    assert all("FloatingPointError: diverged" in e["error"] for e in errors)
-    assert errors[0]["start"] == 10 * bad_chunks[0]
-    # failed chunks are not stored, so a rerun retries exactly them
-    assert len(list((tmp_path / "s").glob("chunk_*.nc"))) == len(good)
-    ds.to_netcdf(tmp_path / "flaky.nc", engine="netcdf4")
+    assert ds.attrs["n_failed"] == ds.attrs["n_model_errors"] == bad.sum()
+    failures = json.loads(ds.attrs["failures"])
+    flagged = sorted(s for g in failures for s in g["samples"])
+    assert flagged == list(np.flatnonzero(bad))
+    for g in failures:  # each sample keeps its own exception message
+        for s in g["samples"]:
+            assert g["error"] == f"FloatingPointError: diverged at x1={x1[s]:.3f}"
+    # every chunk is stored, failed samples included (a model error is a result)
+    assert len(list((tmp_path / "s").glob("chunk_*.nc.sha256"))) == 20
+    ds.load().to_netcdf(tmp_path / "flaky.nc", engine="netcdf4")
 
 
 def test_every_chunk_failing_raises():
@@ -387,7 +402,7 @@ def test_every_chunk_failing_raises():
         raise RuntimeError("solver exploded")
 
     model = gearuq.FunctionModel(always, ["x1", "x2"], ["y"], name="broken")
-    with pytest.raises(RuntimeError, match="every chunk failed.*solver exploded"):
+    with pytest.raises(RuntimeError, match="every sample failed.*solver exploded"):
         monte_carlo(model, ParameterSpace.normal(x1=(1.0, 0.3)), n_samples=20, chunk_size=5,
                     rng=1, executor="serial", progress=False)
 

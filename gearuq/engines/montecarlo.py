@@ -8,85 +8,54 @@ confidence interval and coefficients of variation.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Iterable, Mapping
-from datetime import datetime, timezone
 from typing import Any
 
 import numpy as np
 import xarray as xr
 from scipy import stats
 
-from gearuq._version import __version__
-from gearuq.execution import default_chunk_size, evaluate_chunks
+from gearuq.engines.common import (
+    check_positive_int,
+    provenance,
+    resolve_model_and_space,
+    resolve_seed,
+    space_json,
+)
+from gearuq.execution import evaluate_chunks
 from gearuq.model import Model
 from gearuq.space import RULES, ParameterSpace
 
-__all__ = ["monte_carlo", "estimate_mean", "resolve_seed"]
-
-_MAX_SEED = 2**63 - 1
-
-
-def resolve_seed(rng: Any = None) -> int:
-    """Integer seed to record for a run.
-
-    Parameters
-    ----------
-    rng : int, numpy.random.Generator, numpy.random.SeedSequence or None
-        An int in ``[0, 2**63 - 1]`` is used as is. ``None`` draws one from fresh OS entropy
-        (``SeedSequence``); a Generator or SeedSequence gives one deterministically. Either
-        way the recorded seed alone reproduces the design.
-    """
-    if rng is None:
-        return int(np.random.SeedSequence().entropy % _MAX_SEED)
-    if isinstance(rng, np.random.Generator):
-        return int(rng.integers(0, _MAX_SEED))
-    if isinstance(rng, np.random.SeedSequence):
-        return int(rng.generate_state(1, np.uint64)[0] % _MAX_SEED)
-    if isinstance(rng, (bool, np.bool_)) or not isinstance(rng, (int, np.integer)):
-        raise ValueError(f"rng: expected an int seed, a numpy Generator or None, got {rng!r}")
-    if not 0 <= rng <= _MAX_SEED:
-        raise ValueError(f"rng: seed must lie in [0, 2**63 - 1], got {rng}")
-    return int(rng)
+__all__ = ["monte_carlo", "estimate_mean", "resolve_seed", "resolve_model_and_space",
+           "draw_design"]
 
 
-def _resolve_model(model: Any) -> Model:
-    if isinstance(model, str):
-        from gearuq.registry import get_model
-
-        model = get_model(model)
-    if not isinstance(model, Model):
-        raise TypeError(
-            f"model: expected a gearuq Model or a registered model name, got "
-            f"{type(model).__name__}"
-        )
-    return model
-
-
-def resolve_model_and_space(model: Any, space: Any) -> tuple[Any, ParameterSpace]:
-    """Resolve a model (instance or registered name) and a space (or a mapping of marginals).
+def draw_design(model: Model, space: ParameterSpace, n_samples: int, rule: str,
+                seed: int) -> dict[str, np.ndarray]:
+    """Draw a design once and check it against the model's valid ranges.
 
     Raises
     ------
-    TypeError
-        If ``space`` is neither a ParameterSpace nor a mapping.
     ValueError
-        If the space has parameters the model does not know (the message lists both sets).
+        Unknown rule, or draws outside the model's valid range (the message gives the
+        probability mass outside the range and how to truncate).
     """
-    model = _resolve_model(model)
-    if not isinstance(space, ParameterSpace):
-        if isinstance(space, Mapping):
-            space = ParameterSpace(space)
-        else:
-            raise TypeError(f"space: expected a ParameterSpace, got {type(space).__name__}")
-    unknown = [k for k in space.names if k not in model.parameter_names]
-    if unknown:
-        raise ValueError(
-            f"space parameter(s) {', '.join(map(repr, unknown))} not in model {model.name!r}; "
-            f"model parameters: {', '.join(model.parameter_names)}"
-        )
-    return model, space
+    if not isinstance(rule, str) or rule.lower() not in RULES:
+        raise ValueError(f"rule: unknown sampling rule {rule!r}; valid: {', '.join(RULES)}")
+    design = space.sample(n_samples, rule=rule.lower(), rng=seed)
+    try:
+        model.validate_params(design)
+    except ValueError as exc:
+        outside = {k: p for k, p in space.check_range(model).items() if p > 0}
+        hint = ""
+        if outside:
+            hint = ("; probability outside the valid range: "
+                    + ", ".join(f"{k}: {p:.3g}" for k, p in outside.items())
+                    + ". Truncate the distribution (truncnormal, or "
+                    "ParameterSpace.around_nominal(..., outside='truncate'))")
+        raise ValueError(f"{exc}{hint}") from None
+    return design
 
 
 def monte_carlo(
@@ -102,6 +71,7 @@ def monte_carlo(
     chunk_size: int | None = None,
     store: str | os.PathLike | None = None,
     progress: bool | None = None,
+    memory_limit: float | None = None,
     **options: Any,
 ) -> xr.Dataset:
     """Evaluate a model on ``n_samples`` draws of a parameter space.
@@ -110,9 +80,10 @@ def monte_carlo(
     ----------
     model : Model or str
         A model instance or a registered model name.
-    space : ParameterSpace or mapping
-        Random parameters (a mapping is passed to :class:`ParameterSpace`). Model parameters
-        not in the space take their nominal values.
+    space : ParameterSpace, mapping or None
+        Random parameters (a mapping is passed to :class:`ParameterSpace`; ``None`` takes
+        the model's ``default_space()``). Model parameters not in the space take their
+        nominal values.
     t : array_like, optional
         Output instants (required for time-dependent outputs).
     n_samples : int
@@ -128,16 +99,23 @@ def monte_carlo(
     executor : optional
         ``"serial"``, ``"processes"``, a dask ``Client`` or scheduler address, a
         ``concurrent.futures.Executor``; see :func:`gearuq.execution.resolve_executor`.
+        ``None`` chooses from a timed first chunk (the choice and reason are recorded).
         Results are bit-identical whatever the executor and chunk size.
     chunk_size : int, optional
         Samples per chunk (default :func:`gearuq.execution.default_chunk_size`).
     store : path-like, optional
-        Directory for a durable run: each finished chunk is written there and an interrupted
-        run resumes from it when called again with the same arguments (same ``rng`` seed!).
+        Directory for a durable run: each finished chunk is written there (by the worker
+        that computed it), an interrupted run resumes from it when called again with the
+        same arguments (same ``rng`` seed!), and the result is loaded lazily from it, so
+        memory stays bounded whatever ``n_samples``. See :func:`gearuq.execution.evaluate_chunks`.
     progress : bool, optional
         Progress bar: ``True`` always, ``False`` never, ``None`` only for runs past 2 s.
+    memory_limit : float, optional
+        Bytes an in-memory result may take (default 60 % of the available memory); a larger
+        run without ``store`` is refused before it starts.
     **options
-        Model options (solver/fidelity settings), passed to ``model.response``.
+        Declared model options (solver/fidelity settings, see ``gearuq models NAME``),
+        validated before the design is drawn.
 
     Returns
     -------
@@ -164,68 +142,19 @@ def monte_carlo(
     (100, 1)
     """
     model, space = resolve_model_and_space(model, space)
-    if isinstance(n_samples, (bool, np.bool_)) or not isinstance(n_samples, (int, np.integer)):
-        raise ValueError(f"n_samples: expected a positive integer, got {n_samples!r}")
-    if n_samples <= 0:
-        raise ValueError(f"n_samples: must be positive, got {n_samples}")
-    n_samples = int(n_samples)
-    if not isinstance(rule, str) or rule.lower() not in RULES:
-        raise ValueError(f"rule: unknown sampling rule {rule!r}; valid: {', '.join(RULES)}")
-    rule = rule.lower()
-    names = model.validate_outputs(outputs)
-    need_time = any(model.output(o).time_dependent for o in names)
-    t_arr = model.validate_time(t) if (need_time or t is not None) else None
+    n_samples = check_positive_int("n_samples", n_samples)
+    request = model.prepare(t, outputs=outputs, **options)
     seed = resolve_seed(rng)
-    chunk_size = default_chunk_size(n_samples) if chunk_size is None else chunk_size
-
-    design = space.sample(n_samples, rule=rule, rng=seed)
-    try:
-        model.validate_params(design)
-    except ValueError as exc:
-        outside = {k: p for k, p in space.check_range(model).items() if p > 0}
-        hint = ""
-        if outside:
-            hint = (
-                "; probability outside the valid range: "
-                + ", ".join(f"{k}: {p:.3g}" for k, p in outside.items())
-                + ". Truncate the distribution (truncnormal, or "
-                "ParameterSpace.around_nominal(..., outside='truncate'))"
-            )
-        raise ValueError(f"{exc}{hint}") from None
-
-    try:
-        space_json = space.to_json()
-    except ValueError:
-        space_json = repr(space)
-    options_json = json.dumps(options, sort_keys=True, default=repr)
+    rule = rule.lower() if isinstance(rule, str) else rule
+    design = draw_design(model, space, n_samples, rule, seed)
     ds = evaluate_chunks(
-        model,
-        design,
-        t_arr,
-        names,
-        options,
-        chunk_size=chunk_size,
-        executor=executor,
-        store=store,
-        progress=progress,
-        fingerprint={"engine": "monte_carlo", "space": space_json, "rule": rule, "seed": seed},
+        model, design, request, chunk_size=chunk_size, executor=executor, store=store,
+        progress=progress, memory_limit=memory_limit,
+        fingerprint={"engine": "monte_carlo", "space": space_json(space), "rule": rule,
+                     "seed": seed},
     )
-    ds.attrs.update({
-        "gearuq_version": __version__,
-        "model": model.name,
-        "model_version": str(model.version),
-        "engine": "monte_carlo",
-        "space": space_json,
-        "rule": rule,
-        "seed": seed,
-        "n_samples": n_samples,
-        "chunk_size": int(ds.attrs.get("chunk_size", chunk_size)),
-        "executor": str(ds.attrs.get("executor", "")),
-        "options": options_json,
-        "model_settings": json.dumps(model.settings(), sort_keys=True, default=repr),
-        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "n_failed": int(np.count_nonzero(ds["status"].values)),
-    })
+    ds.attrs.update(provenance("monte_carlo", model, request, space, seed, rule=rule,
+                               n_samples=n_samples))
     return ds
 
 

@@ -402,8 +402,6 @@ class PolynomialChaos(Model):
         return out.reshape(c.shape[0], t.size, *c.shape[2:])
 
     def _evaluate(self, params, t, outputs, **options):
-        if options:
-            raise ValueError(f"surrogate {self.name!r} takes no options, got {sorted(options)}")
         n = next(iter(params.values())).shape[0]
         z = self._germ.from_physical(params)
         coefs = {o: self._coef_at(o, t) for o in outputs}
@@ -770,9 +768,8 @@ def polynomial_chaos(
         raise ValueError(f"rule: unknown sampling rule {rule!r}; valid: {', '.join(RULES)}")
     if order == "auto" and (not isinstance(max_order, int) or max_order < 1):
         raise ValueError(f"max_order: expected an integer >= 1, got {max_order!r}")
-    names = model.validate_outputs(outputs)
-    need_time = any(model.output(o).time_dependent for o in names)
-    t_arr = model.validate_time(t) if (need_time or t is not None) else None
+    request = model.prepare(t, outputs=outputs, **options)
+    names, t_arr = list(request.outputs), request.t
     seed = resolve_seed(rng)
     g = _Germ(space, germ)
     d = space.dim
@@ -813,7 +810,7 @@ def polynomial_chaos(
         raise ValueError(f"design: {exc}") from None
 
     t_eval = _now()
-    ds = evaluate_chunks(model, x, t_arr, names, options, chunk_size=chunk_size,
+    ds = evaluate_chunks(model, x, request, chunk_size=chunk_size,
                          executor=executor, progress=progress)
     t_eval = _now() - t_eval
     status = np.asarray(ds["status"].values)
@@ -919,8 +916,7 @@ def polynomial_chaos(
         pce.fit_info["n_terms_selected"] = int(idx.shape[0])
     if n_holdout:
         xh = space.sample(int(n_holdout), "random", seed + 1)
-        dh = evaluate_chunks(model, xh, t_arr, names, options, executor=executor,
-                             progress=progress)
+        dh = evaluate_chunks(model, xh, request, executor=executor, progress=progress)
         ok = np.asarray(dh["status"].values) == 0
         pred = pce.response({k: v[ok] for k, v in xh.items()}, t_arr, outputs=names)
         for o in names:

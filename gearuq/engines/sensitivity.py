@@ -44,7 +44,8 @@ __all__ = ["sobol_indices", "morris_screening", "ESTIMATORS"]
 ESTIMATORS = ("saltelli", "jansen")
 
 
-def _prepare(model: Any, space: Any, t: Any, outputs: Any, route: str):
+def _prepare(model: Any, space: Any, t: Any, outputs: Any, route: str,
+             options: dict[str, Any] | None = None):
     from gearuq.engines.montecarlo import resolve_model_and_space
 
     model, space = resolve_model_and_space(model, space)
@@ -53,13 +54,12 @@ def _prepare(model: Any, space: Any, t: Any, outputs: Any, route: str):
             "sobol_indices/morris_screening: SALib's estimators assume independent inputs but "
             "this space has a correlation matrix; use method='pce' (indices of the "
             "independent germ of the Nataf decorrelation) or an independent space")
-    names = model.validate_outputs(outputs)
-    need_time = any(model.output(o).time_dependent for o in names)
-    t_arr = model.validate_time(t) if (need_time or t is not None) else None
+    request = model.prepare(t, outputs=outputs, **(options or {}))
+    names, t_arr = list(request.outputs), request.t
     dims = {o: tuple(d for d in model.output(o).dims if d != "sample") for o in names}
     if len(set(dims.values())) > 1:
         raise ValueError(f"outputs: analyse outputs with the same dims together, got {dims}")
-    return model, names, t_arr, dims[names[0]]
+    return model, names, t_arr, dims[names[0]], request
 
 
 def _columns(ds: xr.Dataset, names: list[str], valid: np.ndarray | None = None) -> np.ndarray:
@@ -201,7 +201,7 @@ def sobol_indices(
     if not 0 < confidence < 1:
         raise ValueError(f"confidence: must lie in (0, 1), got {confidence!r}")
     wall0 = time.perf_counter()
-    model, names, t_arr, rest = _prepare(model, space, t, outputs, method)
+    model, names, t_arr, rest, request = _prepare(model, space, t, outputs, method, options)
     seed = 0 if rng is None else int(rng)
     if method == "pce":
         from gearuq.engines.pce import polynomial_chaos
@@ -241,8 +241,7 @@ def sobol_indices(
                                  scramble=True, seed=seed)
     design = space.from_salib(xs, problem)
     model.validate_params(design)
-    ds_m = evaluate_chunks(model, design, t_arr, names, options, executor=executor,
-                           progress=False)
+    ds_m = evaluate_chunks(model, design, request, executor=executor, progress=False)
     status = np.asarray(ds_m["status"].values)
     n_failed = int((status != 0).sum())
     if n_failed:
@@ -360,7 +359,7 @@ def morris_screening(
     if not isinstance(num_levels, (int, np.integer)) or num_levels < 2 or num_levels % 2:
         raise ValueError(f"num_levels: expected an even integer >= 2, got {num_levels!r}")
     wall0 = time.perf_counter()
-    model, names, t_arr, rest = _prepare(model, space, t, outputs, "mc")
+    model, names, t_arr, rest, request = _prepare(model, space, t, outputs, "mc", options)
     seed = 0 if rng is None else int(rng)
     d = space.dim
     problem = {"num_vars": d, "names": space.names, "bounds": [[0.0, 1.0]] * d}
@@ -369,8 +368,7 @@ def morris_screening(
     u = (xu * (num_levels - 1) + 0.5) / num_levels
     design = space.transform(u)
     model.validate_params(design)
-    ds_m = evaluate_chunks(model, design, t_arr, names, options, executor=executor,
-                           progress=False)
+    ds_m = evaluate_chunks(model, design, request, executor=executor, progress=False)
     status = np.asarray(ds_m["status"].values)
     if np.any(status != 0):
         raise ValueError(f"morris_screening: {int((status != 0).sum())} model runs failed; "

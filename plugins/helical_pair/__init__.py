@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from gearuq.model import Model, Output, Parameter
+from gearuq.model import Model, Option, Output, Parameter
 
 __all__ = ["HelicalPair", "DOFS", "SEED_TABLE2"]
 
@@ -75,6 +75,27 @@ _PARAMETERS = (
     _P("e_a", "m", 1.08e-5, 0.0, 2e-4, "static error amplitude (seed '108 um' read as 10.8 um)"),
     _P("phi", "rad", 0.0, -2 * math.pi, 2 * math.pi, "static error phase"),
     _P("C_R", "1", 1.0, 0.1, 1.0, "ISO 6336-1 gear blank factor (1: solid)"),
+)
+
+
+_O = Option
+_OPTIONS = (
+    _O("time", "tau", "unit of t: nondimensional tau = omega_n t (as the seed) or seconds",
+       choices=("tau", "s")),
+    _O("method", "dop853", "Runge-Kutta method of the batched integrator",
+       choices=("dopri5", "dop853", "rk4")),
+    _O("rtol", 1e-6, "relative tolerance of the step control", lower=1e-13, upper=0.1),
+    _O("atol", 1e-8, "absolute tolerance (nondimensional states)", lower=0.0, upper=1.0),
+    _O("max_step", math.inf, "largest step in tau (inf: no bound)", lower=1e-9),
+    _O("max_steps", 2_000_000, "step attempts per sample before status step_limit_reached",
+       lower=1),
+    _O("fixed_step", None, "fixed step in tau without error control (None: adaptive)",
+       kind="float", lower=1e-9, allow_none=True),
+    _O("events", True, "locate every dead-zone switching instant (else step across kinks)"),
+    _O("freeze_sides", True, "with events: each step stays on one branch of the dead zones"),
+    _O("initial", "static", "initial state: static equilibrium or rest at zero",
+       choices=("static", "zero")),
+    _O("parallel", True, "run sample blocks in threads (bit-identical to serial)"),
 )
 
 
@@ -139,6 +160,7 @@ class HelicalPair(Model):
     internally_parallel = True  # the batched integrator runs sample blocks in threads
     parameters = _PARAMETERS
     outputs = _outputs()
+    options = _OPTIONS
 
     def __init__(
         self,

@@ -95,8 +95,6 @@ class LinearOscillator(Model):
     )
 
     def _evaluate(self, params, t, outputs, **options):
-        if options:
-            raise ValueError(f"linear_oscillator takes no options, got {sorted(options)}")
         p = params
         data: dict[str, np.ndarray] = {}
         if {"displacement", "velocity"} & set(outputs):

@@ -1,0 +1,138 @@
+"""What every engine shares: model and space resolution, seeds, and provenance.
+
+Every engine (Monte Carlo, polynomial chaos, Sobol, Morris, reliability methods) resolves its
+inputs, its seed and its provenance attributes here, so that ``rng=None`` means the same
+everywhere (a fresh seed from OS entropy, recorded so the run can be repeated) and every
+result carries the same provenance keys.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from datetime import datetime, timezone
+from typing import Any
+
+import numpy as np
+
+from gearuq._version import __version__
+from gearuq.model import Model, Request
+from gearuq.space import ParameterSpace
+
+__all__ = ["resolve_model", "resolve_model_and_space", "resolve_seed", "provenance",
+           "check_positive_int"]
+
+_MAX_SEED = 2**63 - 1
+
+
+def resolve_seed(rng: Any = None) -> int:
+    """Integer seed to use and record for a run.
+
+    Parameters
+    ----------
+    rng : int, numpy.random.Generator, numpy.random.SeedSequence or None
+        An int in ``[0, 2**63 - 1]`` is used as is. ``None`` draws one from fresh OS entropy
+        (``SeedSequence``); a Generator or SeedSequence gives one deterministically. Either
+        way the recorded seed alone reproduces the design.
+    """
+    if rng is None:
+        return int(np.random.SeedSequence().entropy % _MAX_SEED)
+    if isinstance(rng, np.random.Generator):
+        return int(rng.integers(0, _MAX_SEED))
+    if isinstance(rng, np.random.SeedSequence):
+        return int(rng.generate_state(1, np.uint64)[0] % _MAX_SEED)
+    if isinstance(rng, (bool, np.bool_)) or not isinstance(rng, (int, np.integer)):
+        raise ValueError(f"rng: expected an int seed, a numpy Generator or None, got {rng!r}")
+    if not 0 <= rng <= _MAX_SEED:
+        raise ValueError(f"rng: seed must lie in [0, 2**63 - 1], got {rng}")
+    return int(rng)
+
+
+def resolve_model(model: Any) -> Model:
+    """A model instance from an instance or a registered name."""
+    if isinstance(model, str):
+        from gearuq.registry import get_model
+
+        model = get_model(model)
+    if not isinstance(model, Model):
+        raise TypeError(
+            f"model: expected a gearuq Model or a registered model name, got "
+            f"{type(model).__name__}")
+    return model
+
+
+def resolve_model_and_space(model: Any, space: Any) -> tuple[Model, ParameterSpace]:
+    """Resolve a model (instance or registered name) and a space (or a mapping of marginals).
+
+    ``space=None`` takes the model's :meth:`~gearuq.model.Model.default_space`.
+
+    Raises
+    ------
+    TypeError
+        If ``space`` is neither a ParameterSpace nor a mapping.
+    ValueError
+        If the space has parameters the model does not know (the message lists both sets),
+        or no space is given and the model has no default space.
+    """
+    model = resolve_model(model)
+    if space is None:
+        space = model.default_space()
+        if space is None:
+            raise ValueError(f"space: model {model.name!r} has no default space; give one")
+    if not isinstance(space, ParameterSpace):
+        if isinstance(space, Mapping):
+            space = ParameterSpace(space)
+        else:
+            raise TypeError(f"space: expected a ParameterSpace, got {type(space).__name__}")
+    unknown = [k for k in space.names if k not in model.parameter_names]
+    if unknown:
+        raise ValueError(
+            f"space parameter(s) {', '.join(map(repr, unknown))} not in model {model.name!r}; "
+            f"model parameters: {', '.join(model.parameter_names)}")
+    return model, space
+
+
+def check_positive_int(name: str, value: Any) -> int:
+    """``value`` as a positive int, or a ValueError naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name}: expected a positive integer, got {value!r}")
+    if value <= 0:
+        raise ValueError(f"{name}: must be positive, got {value}")
+    return int(value)
+
+
+def space_json(space: ParameterSpace) -> str:
+    """The space as JSON (its repr when it cannot be serialised)."""
+    try:
+        return space.to_json()
+    except ValueError:
+        return repr(space)
+
+
+def provenance(engine: str, model: Model, request: Request | None, space: ParameterSpace | None,
+               seed: int | None, **settings: Any) -> dict[str, Any]:
+    """Provenance attributes shared by every engine's result.
+
+    Keys: ``gearuq_version``, ``engine``, ``model``, ``model_version``, ``model_settings``,
+    ``outputs``, ``options`` (JSON), ``space`` (JSON), ``seed``, ``created`` (UTC ISO 8601)
+    and the engine's own ``settings`` (each as its own key; dicts as JSON).
+    """
+    attrs: dict[str, Any] = {
+        "gearuq_version": __version__,
+        "engine": engine,
+        "model": model.name,
+        "model_version": str(model.version),
+        "model_settings": json.dumps(model.settings(), sort_keys=True, default=repr),
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+    if request is not None:
+        attrs["outputs"] = " ".join(request.outputs)
+        attrs["options"] = request.options_json()
+    if space is not None:
+        attrs["space"] = space_json(space)
+    if seed is not None:
+        attrs["seed"] = int(seed)
+    for k, v in settings.items():
+        attrs[k] = json.dumps(v, sort_keys=True, default=repr) if isinstance(v, (dict, list)) \
+            else ("none" if v is None else v)
+    return attrs
