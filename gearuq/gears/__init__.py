@@ -5,8 +5,49 @@
 - :mod:`gearuq.gears.contact`: lines of contact in the plane of action
 - :mod:`gearuq.gears.compliance`: tooth compliance (potential energy + fillet foundation,
   face-width coupling) and Hertzian line contact
+- :mod:`gearuq.gears.face_coupling`: face-width coupling length from cantilever-plate theory
 - :mod:`gearuq.gears.deviations`: pitch deviations, reliefs, crowning as initial clearances
-- :mod:`gearuq.gears.ltca`: loaded tooth contact analysis over the long period (STE, LPMS, CMS)
+- :mod:`gearuq.gears.ltca`: loaded tooth contact analysis over the long period (STE, LPMS
+  secant and tangent, CMS, force-deflection function)
 
-Submodules are imported on use so that ``import gearuq`` stays light.
+Submodules are imported on use so that ``import gearuq`` stays light; the main functions are
+also reachable as ``gearuq.gears.<name>`` (resolved lazily).
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: public name -> submodule that defines it (lazy attribute access, PEP 562)
+_LAZY = {
+    "HelicalGearPair": "geometry",
+    "seed000_pair": "geometry",
+    "seed002_pair": "geometry",
+    "iso_tr_6336_30_example1": "geometry",
+    "mesh_stiffness": "iso6336",
+    "contact_grid": "contact",
+    "long_period_cycles": "contact",
+    "ComplianceModel": "compliance",
+    "plate_coupling_length": "face_coupling",
+    "FlankDeviations": "deviations",
+    "random_cumulative_pitch_deviations": "deviations",
+    "ltca": "ltca",
+    "force_deflection": "ltca",
+    "force_at_deflection": "ltca",
+    "stiffness_at_deflection": "ltca",
+    "normal_force_from_torque": "ltca",
+    "tip_relief_map": "ltca",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(f"gearuq.gears.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'gearuq.gears' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

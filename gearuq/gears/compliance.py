@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gearuq.gears.contact import MeshKinematics
+from gearuq.gears.face_coupling import plate_coupling_length
 from gearuq.gears.geometry import HelicalGearPair, involute
 
 __all__ = [
@@ -75,6 +76,9 @@ class ToothCompliance:
         The four compliance terms per unit face width [m^2/N].
     half_thickness : ndarray
         Half transverse tooth thickness at the contact point [m].
+    beam_root_radius : float
+        Radius of the section where the cantilever is clamped on the fillet foundation [m]
+        (the root circle; the base circle in the ``beam_root="base_circle"`` variant).
     """
 
     rho: np.ndarray
@@ -83,6 +87,7 @@ class ToothCompliance:
     axial: np.ndarray
     foundation: np.ndarray
     half_thickness: np.ndarray
+    beam_root_radius: float = math.nan
 
     @property
     def total(self) -> np.ndarray:
@@ -108,6 +113,7 @@ def tooth_compliance(
     bore_ratio: float = 0.5,
     n_rho: int = 121,
     n_int: int = 400,
+    beam_root: str = "root_circle",
 ) -> ToothCompliance:
     """Return the potential-energy compliance of a tooth of ``gear`` (1 or 2) vs roll radius.
 
@@ -132,6 +138,12 @@ def tooth_compliance(
         ``r_int / r_f`` of the Sainsot foundation (bore radius over root radius), in (0, 1).
     n_rho, n_int : int, optional
         Table size and integration points.
+    beam_root : {"root_circle", "base_circle"}, optional
+        Where the cantilever is clamped when the root circle lies above the base circle.
+        ``"root_circle"`` (default, correct): the gear body below the root circle is not
+        beam. ``"base_circle"``: the version-1 behaviour, which counted the body between
+        base and root circle as tooth and made large-tooth-number gears 5-30 % too soft;
+        kept only to document that correction (``docs/theory/ltca.md``).
 
     Returns
     -------
@@ -139,6 +151,9 @@ def tooth_compliance(
     """
     if gear not in (1, 2):
         raise ValueError(f"gear={gear!r} is outside its valid set {{1, 2}}")
+    if beam_root not in ("root_circle", "base_circle"):
+        raise ValueError(f"beam_root={beam_root!r} is outside its valid set "
+                         "{'root_circle', 'base_circle'}")
     if not 0.0 < bore_ratio < 1.0:
         raise ValueError(f"bore_ratio={bore_ratio!r} is outside its valid range (0, 1)")
     z = pair.z1 if gear == 1 else pair.z2
@@ -152,20 +167,35 @@ def tooth_compliance(
     Ep = E / (1.0 - nu**2) if plane_strain else E
     G = E / (2.0 * (1.0 + nu))
 
-    # section table along the centreline from the root circle to the tip
-    r_inv = np.linspace(rb, ra, n_int)
+    # Section table along the centreline from the root circle to the tip. The cantilever is
+    # clamped at the root circle: below it lies the gear body, whose compliance is the
+    # Sainsot fillet-foundation term. When the root circle lies above the base circle
+    # (about z > 42 at x = 0, alpha_n = 20 deg) the beam therefore starts on the involute at
+    # r = r_f; otherwise it starts at r_f with the constant-thickness band between root and
+    # base circle (Chen & Shao 2011).
+    r_root_beam = max(rf, rb) if beam_root == "root_circle" else rb
+    r_inv = np.linspace(r_root_beam, ra, n_int)
     al_r = np.arccos(np.clip(rb / r_inv, -1.0, 1.0))
     psi = psi_b - (np.tan(al_r) - al_r)
     x_inv = r_inv * np.cos(psi)
     h_inv = r_inv * np.sin(psi)
-    r_low = min(rf, rb * math.cos(psi_b))
-    x_low = np.linspace(r_low, rb * math.cos(psi_b), max(n_int // 4, 8), endpoint=False)
+    if rf < rb:
+        x_base = rb * math.cos(psi_b)  # centreline coordinate of the base-circle section
+        x_low = np.linspace(min(rf, x_base), x_base, max(n_int // 4, 8), endpoint=False)
+        h_low = np.full_like(x_low, rb * math.sin(psi_b))
+    else:
+        x_low = np.zeros(0)
+        h_low = np.zeros(0)
     x_all = np.concatenate([x_low, x_inv])
-    h_all = np.concatenate([np.full_like(x_low, rb * math.sin(psi_b)), h_inv])
+    h_all = np.concatenate([h_low, h_inv])
+    # half angle of the tooth at the root circle (Sainsot's theta_f): psi_b below the base
+    # circle (the value used since the first version; radial flank), the involute half
+    # angle psi(r_f) when the root circle lies above the base circle
+    theta_f = psi_b if r_root_beam <= rb else float(psi[0])
 
-    # contact points: roll radius rho = rb tan(alpha_r), from the base circle to the tip
+    # contact points: roll radius rho = rb tan(alpha_r), from the beam root to the tip
     rho_max = math.sqrt(ra**2 - rb**2)
-    rho = np.linspace(0.0, rho_max, n_rho)
+    rho = np.linspace(math.sqrt(r_root_beam**2 - rb**2), rho_max, n_rho)
     r_c = np.sqrt(rb**2 + rho**2)
     al_c = np.arctan(rho / rb)
     psi_c = psi_b - (np.tan(al_c) - al_c)
@@ -186,7 +216,6 @@ def tooth_compliance(
         shear[i] = np.trapezoid(1.2 * math.cos(a1[i]) ** 2 / (G * area), xs)
         axial[i] = np.trapezoid(math.sin(a1[i]) ** 2 / (Ep * area), xs)
     # fillet foundation (Sainsot 2004): theta_f half angle of the tooth at the root circle
-    theta_f = psi_b
     s_f = 2.0 * rf * theta_f
     h_f = 1.0 / bore_ratio
     u_f = rb / np.cos(a1) - rf  # load line meets the centreline at rb / cos(alpha_1)
@@ -194,7 +223,7 @@ def tooth_compliance(
     found = (np.cos(a1) ** 2 / E) * (
         Lc * (u_f / s_f) ** 2 + Mc * (u_f / s_f) + Pc * (1.0 + Qc * np.tan(a1) ** 2)
     )
-    return ToothCompliance(rho, bend, shear, axial, found, h_c)
+    return ToothCompliance(rho, bend, shear, axial, found, h_c, float(min(r_root_beam, rf)))
 
 
 def weber_contact_approach(
@@ -253,7 +282,9 @@ class ComplianceModel:
         a constant normal stiffness per unit contact-line length ``k_per_length`` [N/m^2],
         no coupling and no Hertz term (the STE is then exactly ``P / (k L)``).
     coupling_length : float or None
-        Decay length ``lam`` of the face-width kernel [m]; ``None``: ``1.0 mn``.
+        Decay length ``lam`` of the face-width kernel [m]; ``None``: calibrated on the
+        cantilever plate, :func:`gearuq.gears.face_coupling.plate_coupling_length`
+        (1.85 ``mn`` for the seed-002 pair; versions before 0.2 used ``1.0 mn``).
     hertz : bool
         Include Weber's nonlinear contact approach.
     E, nu : float
@@ -264,6 +295,8 @@ class ComplianceModel:
         ``r_int / r_f`` for the Sainsot foundation.
     k_per_length : float
         Stiffness per unit contact-line length of the ``"constant"`` model [N/m^2].
+    beam_root : {"root_circle", "base_circle"}
+        See :func:`tooth_compliance` (``"base_circle"`` reproduces version 1).
     """
 
     pair: HelicalGearPair
@@ -275,6 +308,7 @@ class ComplianceModel:
     plane_strain: bool = True
     bore_ratio: float = 0.5
     k_per_length: float = 1.4e10
+    beam_root: str = "root_circle"
     tooth1: ToothCompliance | None = field(default=None, repr=False)
     tooth2: ToothCompliance | None = field(default=None, repr=False)
 
@@ -284,7 +318,8 @@ class ComplianceModel:
                 f"kind={self.kind!r} is outside its valid set {{'potential_energy', 'constant'}}"
             )
         if self.coupling_length is None:
-            self.coupling_length = 1.0 * self.pair.mn
+            # cantilever-plate calibration (gearuq.gears.face_coupling, docs/theory/ltca.md)
+            self.coupling_length = plate_coupling_length(self.pair, nu=self.nu)
         if not (math.isfinite(self.coupling_length) and self.coupling_length >= 0.0):
             raise ValueError(
                 f"coupling_length={self.coupling_length!r} is outside its valid range [0, inf) m"
@@ -298,7 +333,7 @@ class ComplianceModel:
             self.hertz = False
         elif self.tooth1 is None:
             opts = dict(E=self.E, nu=self.nu, plane_strain=self.plane_strain,
-                        bore_ratio=self.bore_ratio)
+                        bore_ratio=self.bore_ratio, beam_root=self.beam_root)
             self.tooth1 = tooth_compliance(self.pair, 1, **opts)
             self.tooth2 = tooth_compliance(self.pair, 2, **opts)
 

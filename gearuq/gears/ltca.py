@@ -34,6 +34,7 @@ from gearuq.gears.geometry import HelicalGearPair
 
 __all__ = [
     "force_at_deflection",
+    "stiffness_at_deflection",
     "force_deflection",
     "ltca",
     "normal_force_from_torque",
@@ -110,10 +111,15 @@ def _solve_lcp(A, xi, P, active, max_iter):
 
 @nb.njit(cache=True)
 def _hertz(F, dL, R, h1, h2, E, nu, p_floor):
-    """Weber's approach chi(F) and secant compliance chi/F per point (clamped load)."""
+    """Weber's approach chi(F), secant chi/F and tangent dchi/dF compliances per point.
+
+    ``w = k0 p [ln(4 h1 h2 / a^2) - c]`` with ``a^2`` proportional to ``p`` gives
+    ``dw/dp = w/p - k0``: the tangent compliance is the secant one minus ``k0 / dL``.
+    """
     m = F.shape[0]
     chi = np.zeros(m)
     sec = np.zeros(m)
+    tan = np.zeros(m)
     k0 = 2.0 * (1.0 - nu * nu) / (math.pi * E)
     c = nu / (1.0 - nu)
     for i in range(m):
@@ -121,8 +127,9 @@ def _hertz(F, dL, R, h1, h2, E, nu, p_floor):
         a2 = 8.0 * p * R[i] * (1.0 - nu * nu) / (math.pi * E)
         w_over_p = k0 * (math.log(4.0 * h1[i] * h2[i] / a2) - c)
         sec[i] = w_over_p / dL[i]
+        tan[i] = (w_over_p - k0) / dL[i]
         chi[i] = w_over_p * F[i] / dL[i] if F[i] > 0 else 0.0
-    return chi, sec
+    return chi, sec, tan
 
 
 @nb.njit(cache=True)
@@ -134,6 +141,7 @@ def _solve_all(Dblk, valid, pair_index, dL, xi, R, h1, h2, P, E, nu, hertz, tol,
     ste = np.zeros(n_pos)
     n_iter = np.zeros(n_pos, np.int64)
     status = np.zeros(n_pos, np.int64)
+    ktan = np.zeros(n_pos)
     prev_active = np.zeros((n_lines, n), np.bool_)
     prev_pairs = np.full(n_lines, -(10**12), np.int64)
     for p in range(n_pos):
@@ -183,7 +191,7 @@ def _solve_all(Dblk, valid, pair_index, dL, xi, R, h1, h2, P, E, nu, hertz, tol,
         while it < max_outer:
             it += 1
             if hertz:
-                chi, sec = _hertz(F, dv, Rv, h1v, h2v, E, nu, p_floor)
+                chi, sec, tan = _hertz(F, dv, Rv, h1v, h2v, E, nu, p_floor)
                 for i in range(m):
                     A[i, i] = A0[i, i] + sec[i]
             Fn, d, ok = _solve_lcp(A, xv, P, active, 20 * m + 50)
@@ -193,9 +201,18 @@ def _solve_all(Dblk, valid, pair_index, dL, xi, R, h1, h2, P, E, nu, hertz, tol,
                 break
         # residual gaps with the true nonlinear law
         g = xv + A0 @ F - d
+        tan = np.zeros(m)
         if hertz:
-            chi, sec = _hertz(F, dv, Rv, h1v, h2v, E, nu, p_floor)
+            chi, sec, tan = _hertz(F, dv, Rv, h1v, h2v, E, nu, p_floor)
             g = g + chi
+        # tangent mesh stiffness dP/dSTE on the loaded set: 1^T (D + dchi/dF)_AA^-1 1
+        idx = np.nonzero(F > 0.0)[0]
+        Mt = np.empty((idx.shape[0], idx.shape[0]))
+        for a in range(idx.shape[0]):
+            for c in range(idx.shape[0]):
+                Mt[a, c] = A0[idx[a], idx[c]]
+            Mt[a, a] += tan[idx[a]]
+        ktan[p] = np.linalg.solve(Mt, np.ones(idx.shape[0])).sum()
         ste[p] = d
         n_iter[p] = it
         status[p] = 0 if ok else 1
@@ -208,7 +225,7 @@ def _solve_all(Dblk, valid, pair_index, dL, xi, R, h1, h2, P, E, nu, hertz, tol,
                 Fout[p, ln, i] = F[a * n + i]
                 gout[p, ln, i] = g[a * n + i]
                 prev_active[a, i] = F[a * n + i] > 0.0
-    return Fout, gout, ste, n_iter, status
+    return Fout, gout, ste, ktan, n_iter, status
 
 
 # ------------------------------------------------------------------------------ public API
@@ -304,14 +321,14 @@ def ltca(
     D = comp.matrices(grid.s, grid.y, grid.y_lo, grid.dy, kin)
     R, h1, h2 = comp.hertz_params(grid.s, kin)
     dL = np.where(grid.valid, grid.dL, 1.0)
-    F, g, ste, n_iter, status = _solve_all(
+    F, g, ste, ktan, n_iter, status = _solve_all(
         np.ascontiguousarray(D), grid.valid, grid.pair_index, dL, np.ascontiguousarray(xi),
         R, h1, h2, P, comp.E, comp.nu, bool(comp.hertz), tol, max_outer,
     )
-    return _dataset(pair, grid, F, g, xi, ste, n_iter, status, P, comp, n_pts, keep_points)
+    return _dataset(pair, grid, F, g, xi, ste, ktan, n_iter, status, P, comp, n_pts, keep_points)
 
 
-def _dataset(pair, grid, F, g, xi, ste, n_iter, status, P, comp, n_pts, keep_points):
+def _dataset(pair, grid, F, g, xi, ste, ktan, n_iter, status, P, comp, n_pts, keep_points):
     kin = grid.kin
     valid = grid.valid[..., None] & np.ones(n_pts, bool)
     loaded = F > 0.0
@@ -344,6 +361,9 @@ def _dataset(pair, grid, F, g, xi, ste, n_iter, status, P, comp, n_pts, keep_poi
                             "action (base-circle arc of the pinion)"}),
         "lpms": ("position", km * 1e-6, {"units": "N/um", "long_name": "long-period mesh "
                                          "stiffness sum F_i/(STE - xi_i) (seed Eq. 4)"}),
+        "lpms_tangent": ("position", ktan * 1e-6, {
+            "units": "N/um", "long_name": "tangent mesh stiffness dP/dSTE (linearised "
+            "dynamics); seed Eq. 4 gives the secant lpms"}),
         "cms": ("position", em * um, {"units": "um", "long_name": "composite mesh error "
                                       "sum k_i xi_i / k_m (seed Eq. 5)"}),
         "kinematic_te": ("position", xi_min * um,
@@ -414,26 +434,99 @@ def force_deflection(
         raise ValueError(f"loads={loads!r} must be a strictly increasing 1-D array of > 0 N")
     kw = {**kw, "keep_points": False}
     runs = [ltca(pair, normal_force=float(p), **kw) for p in loads]
-    ds = xr.concat([r[["ste", "lpms", "cms"]] for r in runs], dim="load")
+    ds = xr.concat([r[["ste", "lpms", "lpms_tangent", "cms"]] for r in runs], dim="load")
     ds = ds.assign_coords(load=("load", loads, {"units": "N"}))
     ds["ste_at_zero_load"] = runs[0]["kinematic_te"]
     return ds
 
 
+def _hermite_force(fd: xr.Dataset, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Piecewise force ``F(delta)`` and slope ``dF/ddelta`` per position (SI: N, N/m).
+
+    Between load nodes: cubic Hermite on the exact node values ``(STE_j, P_j)`` and the exact
+    tangent stiffnesses ``dP/dSTE``; between the no-load TE and the first load: linear (the
+    Weber contact makes the true slope vanish at zero load, which a cubic would overshoot);
+    below the no-load TE: 0 (contact lost); above the last load: NaN (not computed).
+    """
+    loads = fd["load"].values
+    n_pos = fd.sizes["position"]
+    force = np.full((n_pos, delta.size), np.nan)
+    slope = np.full((n_pos, delta.size), np.nan)
+    d = delta * 1e-6
+    for p in range(n_pos):
+        ste = fd["ste"].values[:, p] * 1e-6
+        kt = fd["lpms_tangent"].values[:, p] * 1e6
+        d0 = float(fd["ste_at_zero_load"][p]) * 1e-6
+        below = d < d0
+        force[p, below] = 0.0
+        slope[p, below] = 0.0
+        first = (d >= d0) & (d <= ste[0])
+        k_first = loads[0] / (ste[0] - d0)
+        force[p, first] = k_first * (d[first] - d0)
+        slope[p, first] = k_first
+        for j in range(loads.size - 1):
+            inside = (d > ste[j]) & (d <= ste[j + 1])
+            if not inside.any():
+                continue
+            h = ste[j + 1] - ste[j]
+            u = (d[inside] - ste[j]) / h
+            h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+            h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
+            force[p, inside] = (h00 * loads[j] + h10 * h * kt[j] + h01 * loads[j + 1]
+                                + h11 * h * kt[j + 1])
+            dh00, dh10 = 6 * u**2 - 6 * u, 3 * u**2 - 4 * u + 1
+            dh01, dh11 = -6 * u**2 + 6 * u, 3 * u**2 - 2 * u
+            slope[p, inside] = (dh00 * loads[j] + dh01 * loads[j + 1]) / h + (
+                dh10 * kt[j] + dh11 * kt[j + 1])
+    return force, slope
+
+
 def force_at_deflection(fd: xr.Dataset, delta_um: float | np.ndarray) -> xr.DataArray:
     """Interpolate the mesh force ``F(delta)`` [N] at approaches ``delta_um`` [um].
 
-    Below the no-load TE the force is 0; between it and the first load, linear.
+    Parameters
+    ----------
+    fd : xarray.Dataset
+        Result of :func:`force_deflection` (needs ``ste``, ``lpms_tangent``,
+        ``ste_at_zero_load`` over ``(load, position)``).
+    delta_um : float or array_like
+        Normal approaches of the flanks (the STE coordinate) [um].
+
+    Returns
+    -------
+    xarray.DataArray
+        ``F`` over ``(position, delta)`` [N]: 0 below the no-load TE (contact loss), linear up
+        to the first load, cubic Hermite on the exact values and tangent stiffnesses between
+        loads (error O(h^4)), NaN above the last load.
     """
     delta = np.atleast_1d(np.asarray(delta_um, dtype=float))
-    loads = np.concatenate([[0.0], fd["load"].values])
-    out = np.empty((fd.sizes["position"], delta.size))
-    for p in range(fd.sizes["position"]):
-        ste = np.concatenate([[float(fd["ste_at_zero_load"][p])], fd["ste"].values[:, p]])
-        out[p] = np.interp(delta, ste, loads, left=0.0, right=np.nan)
-    return xr.DataArray(out, dims=("position", "delta"),
+    force, _ = _hermite_force(fd, delta)
+    return xr.DataArray(force, dims=("position", "delta"),
                         coords={"delta": ("delta", delta, {"units": "um"})},
                         attrs={"units": "N", "long_name": "mesh force F(delta)"})
+
+
+def stiffness_at_deflection(fd: xr.Dataset, delta_um: float | np.ndarray) -> xr.DataArray:
+    """Return the tangent mesh stiffness ``dF/ddelta`` [N/um] of :func:`force_at_deflection`.
+
+    Parameters
+    ----------
+    fd : xarray.Dataset
+        Result of :func:`force_deflection`.
+    delta_um : float or array_like
+        Normal approaches [um].
+
+    Returns
+    -------
+    xarray.DataArray
+        Slope over ``(position, delta)`` [N/um]; equals ``lpms_tangent`` at the load nodes,
+        0 below the no-load TE, NaN above the last load.
+    """
+    delta = np.atleast_1d(np.asarray(delta_um, dtype=float))
+    _, slope = _hermite_force(fd, delta)
+    return xr.DataArray(slope * 1e-6, dims=("position", "delta"),
+                        coords={"delta": ("delta", delta, {"units": "um"})},
+                        attrs={"units": "N/um", "long_name": "tangent stiffness dF/ddelta"})
 
 
 def tip_relief_map(
