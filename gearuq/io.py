@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
@@ -41,8 +42,63 @@ def sanitize_attrs(ds: xr.Dataset) -> xr.Dataset:
     return out
 
 
-def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False) -> Path:
-    """Write a result to netCDF4 atomically (temp file, then rename).
+CHECKSUM = "checksum"
+_HASHABLE = "biufcUSO"
+
+
+def _digest_variable(var: xr.Variable, attrs: dict[str, Any]) -> str:
+    """BLAKE2b digest of a variable's dtype, shape, values and attributes.
+
+    Values are read in slices along the first axis, so a lazily loaded (dask) variable is
+    hashed without loading it whole; the C-order bytes of consecutive first-axis slices are
+    the bytes of the whole array, so the digest does not depend on chunking.
+    """
+    h = hashlib.blake2b(digest_size=16)
+    h.update(f"{var.dtype.str}|{var.shape}".encode())
+    h.update(json.dumps({k: str(v) for k, v in sorted(attrs.items()) if k != CHECKSUM}).encode())
+    if var.ndim == 0:
+        blocks = [np.asarray(var.values)]
+    else:
+        row = max(1, int(np.prod(var.shape[1:])) * max(var.dtype.itemsize, 1))
+        step = max(1, (64 << 20) // row)
+        blocks = (np.asarray(var[i:i + step].values) for i in range(0, var.shape[0], step))
+    for block in blocks:
+        if block.dtype.kind in "OUS":
+            h.update("\x1f".join(map(str, block.ravel().tolist())).encode())
+        else:
+            h.update(np.ascontiguousarray(block).tobytes())
+    return "blake2b:" + h.hexdigest()
+
+
+def _global_digest(attrs: dict[str, Any]) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    h.update(json.dumps({k: str(v) for k, v in sorted(attrs.items()) if k != CHECKSUM}).encode())
+    return "blake2b:" + h.hexdigest()
+
+
+def _umask() -> int:
+    """The process umask, read without changing it where the OS allows."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
+         checksum: bool = True) -> Path:
+    """Write a result to netCDF4 atomically (temp file, then rename), with checksums.
+
+    Every numeric variable is written with HDF5's fletcher32 filter (verified by the library
+    on every read) and carries a ``checksum`` attribute (BLAKE2b of its values and
+    attributes); the global attributes carry one too. :func:`load` verifies them and names the
+    file and variable that do not match. The file gets the permissions of the user's umask
+    (like any file the user creates). A lazily loaded (dask) Dataset is written chunk by chunk.
 
     Parameters
     ----------
@@ -53,6 +109,8 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False) -> 
     compress : bool
         zlib level 1 on large numeric variables. Off by default: double-precision responses
         shrink by only ~10 % while writing takes several times longer.
+    checksum : bool
+        Write the fletcher32 filter and the ``checksum`` attributes (default).
 
     Returns
     -------
@@ -63,15 +121,27 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False) -> 
     path.parent.mkdir(parents=True, exist_ok=True)
     ds = sanitize_attrs(ds)
     ds.attrs.setdefault(MARKER, __version__)
-    encoding = {
-        name: {"zlib": True, "complevel": 1}
-        for name, var in ds.data_vars.items()
-        if compress and var.dtype.kind in "fiu" and var.size > 1024
-    }
+    encoding: dict[str, dict[str, Any]] = {}
+    for name, var in ds.variables.items():
+        var.encoding = {k: v for k, v in var.encoding.items()
+                        if k in ("dtype", "_FillValue", "units", "calendar")}
+        enc: dict[str, Any] = {}
+        numeric = var.dtype.kind in "biuf"
+        if compress and numeric and var.size > 1024 and name in ds.data_vars:
+            enc.update({"zlib": True, "complevel": 1})
+        if checksum and numeric and var.ndim > 0:
+            enc["fletcher32"] = True
+        if enc:
+            encoding[str(name)] = enc
+        if checksum and var.dtype.kind in _HASHABLE:
+            var.attrs[CHECKSUM] = _digest_variable(var, var.attrs)
+    if checksum:
+        ds.attrs[CHECKSUM] = _global_digest(ds.attrs)
     fd, tmp = tempfile.mkstemp(suffix=".nc.tmp", dir=path.parent)
     os.close(fd)
     try:
         ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -79,13 +149,67 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False) -> 
     return path
 
 
-def load(path: str | os.PathLike) -> xr.Dataset:
-    """Read a gearuq result written by :func:`save` fully into memory.
+class IntegrityError(ValueError):
+    """A result file whose contents do not match its checksums."""
+
+
+def _locate_read_error(path: Path, exc: Exception) -> IntegrityError:
+    """Name the variable whose stored bytes cannot be read back (fletcher32 mismatch)."""
+    import netCDF4
+
+    try:
+        with netCDF4.Dataset(path) as nc:
+            for name, var in nc.variables.items():
+                try:
+                    var[...]
+                except (RuntimeError, OSError) as inner:
+                    return IntegrityError(
+                        f"{path}: variable {name!r} is corrupt (its stored checksum does not "
+                        f"match: {inner})")
+    except (RuntimeError, OSError):
+        pass
+    return IntegrityError(f"{path} is corrupt or not a readable netCDF file: {exc}")
+
+
+def verify(ds: xr.Dataset, path: str | os.PathLike = "<dataset>") -> None:
+    """Check the ``checksum`` attributes written by :func:`save`.
+
+    Raises
+    ------
+    IntegrityError
+        Naming ``path`` and the first variable (or the global attributes) that differ.
+    """
+    for name, var in ds.variables.items():
+        want = var.attrs.get(CHECKSUM)
+        if want is not None and _digest_variable(var, var.attrs) != want:
+            raise IntegrityError(f"{path}: variable {name!r} does not match its checksum "
+                                 "(the file was changed or damaged after it was written)")
+    want = ds.attrs.get(CHECKSUM)
+    if want is not None and _global_digest(ds.attrs) != want:
+        raise IntegrityError(f"{path}: the global attributes do not match their checksum")
+
+
+def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool = True
+         ) -> xr.Dataset:
+    """Read a gearuq result written by :func:`save`, verifying its checksums.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.nc`` file.
+    lazy : bool
+        Open with dask arrays instead of loading everything into memory (checksums are then
+        verified slice by slice, which reads the file once).
+    verify_checksums : bool
+        Verify the ``checksum`` attributes (default); files written without them load as is.
 
     Raises
     ------
     FileNotFoundError
         If ``path`` does not exist.
+    IntegrityError
+        If a variable or the global attributes do not match their checksums (the message names
+        the file and the variable).
     ValueError
         If the file is not netCDF or not a gearuq result (no ``gearuq_version`` attribute).
     """
@@ -93,14 +217,25 @@ def load(path: str | os.PathLike) -> xr.Dataset:
     if not path.exists():
         raise FileNotFoundError(f"no such result file: {path}")
     try:
-        with xr.open_dataset(
-            path, engine="netcdf4", decode_times=False, decode_timedelta=False
-        ) as handle:
-            ds = handle.load()
-    except (OSError, ValueError) as exc:
+        handle = xr.open_dataset(path, engine="netcdf4", decode_times=False,
+                                 decode_timedelta=False, chunks={} if lazy else None)
+        ds = handle if lazy else handle.load()
+        if not lazy:
+            handle.close()
+    except (OSError, ValueError, RuntimeError) as exc:
+        if isinstance(exc, RuntimeError) or "HDF error" in str(exc):
+            raise _locate_read_error(path, exc) from exc
         raise ValueError(f"{path} is not a readable netCDF file: {exc}") from exc
     if MARKER not in ds.attrs:
         raise ValueError(
             f"{path} is not a gearuq result: the global attribute {MARKER!r} is missing"
         )
+    if verify_checksums:
+        try:
+            verify(ds, path)
+        except RuntimeError as exc:
+            raise _locate_read_error(path, exc) from exc
+    ds.attrs.pop(CHECKSUM, None)
+    for var in ds.variables.values():
+        var.attrs.pop(CHECKSUM, None)
     return ds

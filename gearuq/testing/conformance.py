@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -10,7 +11,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from gearuq.model import Model
+from gearuq.model import Model, Option
 
 
 def _inside_draws(model: Model, n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -38,10 +39,14 @@ def check_model(
 ) -> xr.Dataset:
     """Assert that ``model`` honours the gearuq plugin contract.
 
-    Checks metadata (names, units, ranges, nominal inside range), the Dataset schema of
+    Checks metadata (names, units, ranges, nominal inside range), declared options (Option
+    instances with descriptions, defaults valid, an unknown option refused by name), the
+    default space (its names are parameters and its draws are valid), the Dataset schema of
     ``response`` (dims, units attrs, inputs over ``sample``, ``status``), nominal filling,
     output restriction, sample independence (a sub-batch gives the same numbers), errors for
-    unknown parameters, out-of-range values and unknown outputs, and the netCDF round trip.
+    unknown parameters, out-of-range values and unknown outputs, a pickle round trip of the
+    model and its prepared request (as worker processes receive them), and the netCDF round
+    trip.
 
     Parameters
     ----------
@@ -86,8 +91,10 @@ def check_model(
     for o in model.outputs:
         assert o.units, f"output {o.name!r} has no units"
         assert o.dims[0] == "sample", f"output {o.name!r} dims must start with 'sample'"
+    _check_options(model, names)
     if t is None and any(o.time_dependent for o in model.outputs):
         t = np.linspace(0.0, 1.0, 5)
+    _check_default_space(model)
 
     rng = np.random.default_rng(seed)
     draws = _inside_draws(model, n_samples, rng)
@@ -163,6 +170,17 @@ def check_model(
     else:
         raise AssertionError("no ValueError for an unknown output")
 
+    # the model and its prepared request travel to worker processes by (cloud)pickle
+    import cloudpickle
+
+    request = model.prepare(t, **options)
+    clone = pickle.loads(cloudpickle.dumps(model))
+    again = clone.evaluate(draws, pickle.loads(pickle.dumps(request)))
+    for o in model.outputs:
+        np.testing.assert_array_equal(again[o.name].values, ds[o.name].values,
+                                      err_msg=f"output {o.name!r} differs after a pickle "
+                                              "round trip of the model")
+
     if roundtrip:
         with tempfile.TemporaryDirectory() as tmp:
             path = io.save(ds, Path(tmp) / "r.nc")
@@ -171,3 +189,40 @@ def check_model(
                                         ds.drop_attrs(deep=True))
             assert back.attrs["model"] == ds.attrs["model"]
     return ds
+
+
+def _check_options(model: Model, parameter_names: list[str]) -> None:
+    """Declared options: Option instances, unique names, defaults valid, unknown refused."""
+    opts = getattr(model, "options", ())
+    assert isinstance(opts, tuple), "model.options must be a tuple of Option"
+    names = []
+    for o in opts:
+        assert isinstance(o, Option), f"model.options holds {o!r}, not an Option"
+        assert o.description, f"option {o.name!r} has no description"
+        names.append(o.name)
+    assert len(set(names)) == len(names), f"duplicate option names {names}"
+    clash = set(names) & set(parameter_names)
+    assert not clash, f"names used both as parameter and option: {sorted(clash)}"
+    defaults = model.validate_options({})
+    assert set(defaults) == set(names), "validate_options({}) must fill every default"
+    try:
+        model.prepare(None if not any(o.time_dependent for o in model.outputs) else [0.0],
+                      __no_option__=1)
+    except ValueError as exc:
+        assert "__no_option__" in str(exc), f"unknown-option message {exc!s} does not name it"
+    else:
+        raise AssertionError("no ValueError for an unknown option")
+
+
+def _check_default_space(model: Model) -> None:
+    """A declared default space names model parameters and draws valid values."""
+    space = model.default_space()
+    if space is None:
+        return
+    from gearuq.space import ParameterSpace
+
+    assert isinstance(space, ParameterSpace), "default_space() must return a ParameterSpace"
+    unknown = [k for k in space.names if k not in model.parameter_names]
+    assert not unknown, f"default_space() names unknown parameters {unknown}"
+    draws = space.sample(64, rng=0)
+    model.validate_params(draws)  # raises with the parameter name if a draw is invalid
