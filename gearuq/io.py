@@ -222,6 +222,9 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
         ds = handle if lazy else handle.load()
         if not lazy:
             handle.close()
+    except AttributeError as exc:  # HDF5 checks its metadata: a damaged attribute
+        raise IntegrityError(f"{path} is corrupt: its attributes cannot be read ({exc})"
+                             ) from exc
     except (OSError, ValueError, RuntimeError) as exc:
         if isinstance(exc, RuntimeError) or "HDF error" in str(exc):
             raise _locate_read_error(path, exc) from exc

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import hashlib
 import importlib.metadata
-import inspect
 import pickle
 import sys
 import types
@@ -140,10 +139,6 @@ def model_fingerprint(model: Any) -> dict[str, Any]:
     if isinstance(model, FunctionModel):
         fp["function"] = function_digest(model.fn)
         fp["function_name"] = getattr(model.fn, "__qualname__", repr(model.fn))
-        try:
-            fp["function_file"] = Path(inspect.getfile(model.fn)).name
-        except (TypeError, OSError):
-            fp["function_file"] = None
         fp["declared"] = {
             "parameters": [[p.name, p.units, p.nominal, p.lower, p.upper] for p in
                            model.parameters],
