@@ -36,11 +36,38 @@ def _cmd_models(args: argparse.Namespace) -> int:
     for o in model.outputs:
         print(f"  {o.name:<{w}}  {'[' + o.units + ']':<{wu}}  dims {', '.join(o.dims):<14} "
               f"{o.description}")
-    space = getattr(model, "default_space", None)
-    if callable(space):
-        print("\nbuilt-in parameter space:")
-        print("  " + repr(space()).replace("\n", "\n  "))
+    if model.options:
+        print("\noptions (keyword arguments of response, monte_carlo, ...):")
+        w = max(len(o.name) for o in model.options)
+        for o in model.options:
+            print(f"  {o.name:<{w}}  default {o.default!r:<12} valid {o.valid_text():<30} "
+                  f"{o.description}")
+    space = model.default_space()
+    if space is not None:
+        print("\ndefault parameter space (default_space()):")
+        print("  " + repr(space).replace("\n", "\n  "))
     return 0
+
+
+def _cmd_studies(args: argparse.Namespace) -> int:
+    from gearuq import registry
+
+    rows = registry.describe_studies()
+    if not rows:
+        print("no studies registered")
+        return 0
+    width = max(len(r.name) for r in rows)
+    print(f"{'name':<{width}}  description")
+    for r in rows:
+        mark = " (gearuq demo)" if r.name == registry.DEFAULT_STUDY else ""
+        print(f"{r.name:<{width}}  {('BROKEN ' + r.error) if r.error else r.description}{mark}")
+    return 0
+
+
+def _cmd_study(args: argparse.Namespace) -> int:
+    from gearuq import registry
+
+    return int(registry.get_study(args.name)(out=args.out or f"gearuq_{args.name}") or 0)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
@@ -72,10 +99,12 @@ def _cmd_info(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from gearuq.demo import run_demo
+    from gearuq import registry
 
-    return run_demo(out=args.out, n_samples=args.n_samples, seed=args.seed,
-                    executor=args.executor, progress=not args.quiet)
+    run = registry.get_study(registry.DEFAULT_STUDY)
+    return int(run(out=args.out, n_samples=args.n_samples, seed=args.seed,
+                   executor=args.executor, progress=not args.quiet, store=args.store,
+                   keep_chunks=args.keep_chunks) or 0)
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -120,7 +149,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=20240607, help="random seed")
     p.add_argument("--executor", default=None, help="serial | processes | dask scheduler address")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--store", default=None,
+                   help="chunk store folder (default: OUT/chunks-<hash of the settings>); an "
+                        "interrupted run resumes from it")
+    p.add_argument("--keep-chunks", action=argparse.BooleanOptionalAction, default=False,
+                   help="keep the chunk store after the result is written (default: remove it)")
     p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("studies", help="list the packaged studies",
+                       description="Studies registered under the 'gearuq.studies' entry-point "
+                                   "group (run one with `gearuq study NAME`).")
+    p.set_defaults(func=_cmd_studies)
+
+    p = sub.add_parser("study", help="run a packaged study",
+                       description="Run a study registered under 'gearuq.studies'.")
+    p.add_argument("name", help="study name (see `gearuq studies`)")
+    p.add_argument("--out", default=None, help="output folder (default: gearuq_<name>)")
+    p.set_defaults(func=_cmd_study)
 
     p = sub.add_parser("bench", help="work-precision benchmarks",
                        description="Speed against error, side by side in one run.")

@@ -106,3 +106,65 @@ def describe_models() -> list[ModelInfo]:
         except ModelLoadError as exc:
             rows.append(ModelInfo(name, target, error=str(exc)))
     return rows
+
+
+# =========================================================================== studies
+STUDY_GROUP = "gearuq.studies"
+#: The study ``gearuq demo`` runs.
+DEFAULT_STUDY = "helical_pair_reliability"
+
+
+@dataclass(frozen=True)
+class StudyInfo:
+    """One row of :func:`describe_studies`."""
+
+    name: str
+    target: str
+    description: str = ""
+    error: str = ""
+
+
+def list_studies() -> list[str]:
+    """Names of the studies registered under the ``gearuq.studies`` entry-point group.
+
+    A study is a packaged function ``run(out, **settings) -> int`` (exit code) that writes
+    its netCDF and PNG files into the folder ``out`` and prints its summary. Like models,
+    studies are found through entry points, so a plugin distribution can ship its own; the
+    scripts in the repository's ``studies/`` folder call them or the public API.
+    """
+    return sorted(ep.name for ep in entry_points(group=STUDY_GROUP))
+
+
+def get_study(name: str) -> Callable[..., int]:
+    """The run function of study ``name``.
+
+    Raises
+    ------
+    ValueError
+        Unknown name (the message lists the registered studies).
+    ModelLoadError
+        The study's module failed to import (the message names it and the cause).
+    """
+    eps = {ep.name: ep for ep in entry_points(group=STUDY_GROUP)}
+    if name not in eps:
+        raise ValueError(f"unknown study {name!r}; registered: "
+                         f"{', '.join(sorted(eps)) or 'none'}")
+    try:
+        return eps[name].load()
+    except Exception as exc:  # noqa: BLE001 - report which study is broken and why
+        raise ModelLoadError(f"study {name!r} ({eps[name].value}) failed to import: "
+                             f"{type(exc).__name__}: {exc}") from exc
+
+
+def describe_studies() -> list[StudyInfo]:
+    """Import every registered study and return its first docstring line, or the error."""
+    eps = {ep.name: ep for ep in entry_points(group=STUDY_GROUP)}
+    rows = []
+    for name in list_studies():
+        try:
+            fn = get_study(name)
+            doc = (fn.__doc__ or "").strip().splitlines()
+            rows.append(StudyInfo(name, eps[name].value, doc[0] if doc else ""))
+        except ModelLoadError as exc:
+            rows.append(StudyInfo(name, eps[name].value, error=str(exc)))
+    return rows

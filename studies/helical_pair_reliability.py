@@ -1,7 +1,8 @@
 """Seed 000 Table 3 analog: Monte Carlo vibration reliability of the helical pair.
 
-This is the study that ``gearuq demo`` runs (the code lives in :mod:`gearuq.demo` so the
-installed command finds it). Run: ``python studies/helical_pair_reliability.py [--out DIR]``.
+This is the study that ``gearuq demo`` runs; its code is packaged (registered as
+``helical_pair_reliability`` under the ``gearuq.studies`` entry points) so the installed
+command finds it. Run: ``python studies/helical_pair_reliability.py [--out DIR]``.
 """
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gearuq.demo import run_demo
+import gearuq
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -18,5 +19,8 @@ if __name__ == "__main__":
     parser.add_argument("--n-samples", type=int, default=10_000)
     parser.add_argument("--seed", type=int, default=20240607)
     parser.add_argument("--executor", default=None)
+    parser.add_argument("--keep-chunks", action=argparse.BooleanOptionalAction, default=False)
     args = parser.parse_args()
-    raise SystemExit(run_demo(args.out, args.n_samples, args.seed, args.executor))
+    run = gearuq.registry.get_study("helical_pair_reliability")
+    raise SystemExit(run(args.out, args.n_samples, args.seed, args.executor,
+                         keep_chunks=args.keep_chunks))

@@ -8,7 +8,10 @@ from scipy.stats import norm
 
 import gearuq
 from gearuq import bench
-from gearuq.demo import SEED_TABLE3, run_demo, seed_beta_explanation
+from gearuq.registry import DEFAULT_STUDY, get_study
+from gearuq_plugins.studies.helical_pair_reliability import SEED_TABLE3, seed_beta_explanation
+
+run_demo = get_study(DEFAULT_STUDY)
 
 
 def test_seed_table3_betas_do_not_follow_from_its_pf():
@@ -38,20 +41,31 @@ def test_demo_small_run_writes_consistent_results(tmp_path, capsys):
     system = rel.sel(mode="system").isel(time=-1)
     single = [r["pf"] for r in rows]
     assert float(system["pf"]) >= max(single) - 1e-12  # series system >= each mode
-    # resuming the same call recomputes nothing and gives the same samples
+    assert "chunks computed; removed" in out  # the store goes once the result is written
+    assert not list(tmp_path.glob("chunks-*"))
+    # with --keep-chunks a rerun of the same settings reuses every chunk and says so
     again = tmp_path / "again"
-    again.mkdir()
-    for f in (tmp_path / "chunks").iterdir():
-        (again / "chunks").mkdir(exist_ok=True)
-        (again / "chunks" / f.name).write_bytes(f.read_bytes())
-    run_demo(again, n_samples=300, seed=5, progress=False)
+    assert run_demo(again, n_samples=300, seed=5, progress=False, keep_chunks=True) == 0
+    capsys.readouterr()
+    assert run_demo(again, n_samples=300, seed=5, progress=False, keep_chunks=True) == 0
+    out = capsys.readouterr().out
+    assert "reused 1 of 1 chunks" in out and "kept" in out
     ds2 = gearuq.load(again / "helical_pair_mc.nc")
     np.testing.assert_array_equal(ds2["v1"].values, ds["v1"].values)
+    # another setting gets another store, never a mismatch error
+    assert run_demo(again, n_samples=200, seed=5, progress=False, keep_chunks=True) == 0
+    assert len(list(again.glob("chunks-*"))) == 2
 
 
-def test_integrator_benchmark_ratios_and_accuracy():
-    """Measured side by side: event location beats stepping across kinks at equal rtol, and
-    the compiled batched integrator beats the per-sample scipy loop (ratios, not seconds)."""
+def test_studies_are_listed_and_run_through_the_registry():
+    assert DEFAULT_STUDY in gearuq.registry.list_studies()
+    with pytest.raises(ValueError, match="unknown study 'nope'.*helical_pair_reliability"):
+        get_study("nope")
+
+
+def test_integrator_benchmark_accuracy():
+    """Event location beats stepping across kinks at equal rtol; the reference agrees with
+    scipy's DOP853 (accuracy only: timings belong to `-m bench`)."""
     res = bench.integrator_table(n_samples=2, n_scipy=1, rtols=(1e-4, 1e-6))
     rows = {(r["method"], r["rtol"]): r for r in res["rows"]}
     assert res["reference_vs_scipy_dop853"] < 1e-6
@@ -59,6 +73,13 @@ def test_integrator_benchmark_ratios_and_accuracy():
     plain = rows[("gearuq DOPRI5 no events", 1e-6)]
     assert ev["error"] < plain["error"] / 10
     assert ev["error"] < rows[("gearuq DOPRI5 + events (frozen sides)", 1e-4)]["error"]
-    scipy = rows[("scipy RK45 loop", 1e-4)]
-    assert scipy["time_per_sample"] / ev["time_per_sample"] > 10
     assert "gearuq DOPRI5 + events (frozen sides)" in bench.render_markdown(res)
+
+
+@pytest.mark.bench
+def test_integrator_benchmark_speed_ratio():
+    """Side by side in one run: the compiled batched integrator beats the scipy loop."""
+    res = bench.integrator_table(n_samples=2, n_scipy=1, rtols=(1e-4,))
+    rows = {(r["method"], r["rtol"]): r for r in res["rows"]}
+    ev = rows[("gearuq DOPRI5 + events (frozen sides)", 1e-4)]
+    assert rows[("scipy RK45 loop", 1e-4)]["time_per_sample"] / ev["time_per_sample"] > 10
