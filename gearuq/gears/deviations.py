@@ -21,12 +21,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 
 from gearuq.gears.contact import MeshKinematics
 from gearuq.gears.geometry import HelicalGearPair
 
 __all__ = [
+    "AMPLITUDE_READINGS",
     "FlankDeviations",
+    "cumulative_pitch_from_germ",
+    "pitch_deviation_germ",
     "iso1328_pitch_tolerances",
     "pitch_deviations_from_cumulative",
     "random_cumulative_pitch_deviations",
@@ -63,6 +67,88 @@ def iso1328_pitch_tolerances(d: float, mn: float, accuracy_grade: int) -> tuple[
     ) * f * 1e-6
 
 
+#: Readings of the seed's "amplitude of the random cumulative pitch deviations".
+AMPLITUDE_READINGS = ("sine", "largest")
+
+
+def cumulative_pitch_from_germ(
+    phase: float,
+    normals: np.ndarray,
+    *,
+    amplitude: float,
+    sigma: float,
+    amplitude_reading: str = "sine",
+) -> np.ndarray:
+    """Cumulative pitch deviations from their random germ (seed 002, Sec. 3) [m].
+
+    ``F_p,k = A sin(2 pi k / z + phase) + sigma (n_k - n_0)`` with ``n_k`` standard normal.
+    The germ ``(phase, normals)`` is the realisation; ``amplitude`` and ``sigma`` only scale
+    it, so a realisation keeps its shape when the scatter changes.
+
+    Parameters
+    ----------
+    phase : float
+        Sine phase [rad].
+    normals : ndarray, (z,)
+        Standard-normal germ of the scatter.
+    amplitude : float
+        The seed's "amplitude" [m], read as ``amplitude_reading`` says.
+    sigma : float
+        Standard deviation of the scatter [m] (seed: 3 um).
+    amplitude_reading : {"sine", "largest"}
+        ``"sine"``: ``A = amplitude`` (the sine amplitude; the realised largest deviation is
+        then larger). ``"largest"``: ``A >= 0`` is chosen so that ``max_k |F_p,k| =
+        amplitude`` (the largest cumulative deviation); if the scatter alone already exceeds
+        ``amplitude``, ``A = 0`` and the largest deviation is the scatter's.
+
+    Returns
+    -------
+    ndarray, (z,)
+    """
+    if amplitude_reading not in AMPLITUDE_READINGS:
+        raise ValueError(f"amplitude_reading={amplitude_reading!r} is outside its valid set "
+                         f"{AMPLITUDE_READINGS}")
+    if not (math.isfinite(amplitude) and amplitude >= 0):
+        raise ValueError(f"amplitude={amplitude!r} is outside its valid range [0, inf) m")
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma={sigma!r} is outside its valid range [0, inf) m")
+    normals = np.asarray(normals, dtype=float)
+    z = normals.size
+    wave = np.sin(2.0 * math.pi * np.arange(z) / z + phase)
+    e = sigma * normals
+    scatter = e - e[0]  # written as in version 1, so earlier realisations stay bit-identical
+    if amplitude_reading == "sine":
+        return amplitude * wave + scatter
+
+    def largest(a: float) -> float:
+        return float(np.max(np.abs(a * wave + scatter))) - amplitude
+
+    if largest(0.0) >= 0.0:
+        return scatter
+    # max|a wave + scatter| is convex in a and below the target at 0: one crossing in (0, hi]
+    hi = amplitude / max(float(np.max(np.abs(wave))), 1e-300) + float(np.max(np.abs(scatter)))
+    a = brentq(largest, 0.0, hi, xtol=1e-15 * max(amplitude, 1e-300), rtol=4 * np.finfo(float).eps)
+    return a * wave + scatter
+
+
+def pitch_deviation_germ(
+    z1: int, z2: int, seed: int | np.random.Generator | None
+) -> tuple[float, np.ndarray, float, np.ndarray]:
+    """The random germ ``(phase1, normals1, phase2, normals2)`` of a pinion/wheel realisation.
+
+    Drawn in this order from ``numpy.random.default_rng(seed)``: pinion phase (uniform in
+    [0, 2 pi)), ``z1`` standard normals, wheel phase, ``z2`` standard normals. This is the
+    order in which two calls of :func:`random_cumulative_pitch_deviations` on one generator
+    draw, so both give the same realisation for the same seed.
+    """
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    phase1 = float(rng.uniform(0.0, 2.0 * math.pi))
+    normals1 = rng.standard_normal(int(z1))
+    phase2 = float(rng.uniform(0.0, 2.0 * math.pi))
+    normals2 = rng.standard_normal(int(z2))
+    return phase1, normals1, phase2, normals2
+
+
 def random_cumulative_pitch_deviations(
     z: int,
     *,
@@ -73,29 +159,35 @@ def random_cumulative_pitch_deviations(
     accuracy_grade: int | None = None,
     d: float | None = None,
     mn: float | None = None,
+    amplitude_reading: str = "sine",
 ) -> np.ndarray:
     """Return random cumulative pitch deviations ``F_p,k``, k = 0..z-1 [m] (seed 002, Sec. 3).
 
-    ``F_p,k = amplitude sin(2 pi k / z + phase) + e_k - e_0``, ``e_k ~ N(0, sigma^2)`` i.i.d.:
+    ``F_p,k = A sin(2 pi k / z + phase) + e_k - e_0``, ``e_k ~ N(0, sigma^2)`` i.i.d.:
     a once-per-revolution sine (run-out-like) plus normal scatter; tooth 0 is the reference
-    (``F_p,0 = amplitude sin(phase)``, the scatter is referenced to it).
+    (``F_p,0 = A sin(phase)``, the scatter is referenced to it). ``A`` follows from
+    ``amplitude`` by ``amplitude_reading`` (:func:`cumulative_pitch_from_germ`).
 
     Parameters
     ----------
     z : int
         Number of teeth (>= 5).
     amplitude, sigma : float, optional
-        Sine amplitude and scatter standard deviation [m] (seed 002: 15 um, 3 um).
+        The seed's amplitude and the scatter standard deviation [m] (seed 002: 15 um, 3 um).
     phase : float or None, optional
         Sine phase [rad]; ``None`` draws it uniformly from the generator.
     seed : int, Generator or None, optional
-        Reproducibility: same seed, same deviations.
+        Reproducibility: same seed, same deviations. The generator draws the phase (when
+        not given) and then ``z`` standard normals, whatever ``sigma`` is.
     accuracy_grade : int or None, optional
-        ISO 1328-1:2013 class: overrides ``amplitude = F_pT / 2`` (the sine spans the total
-        cumulative tolerance) and ``sigma = f_pT / (3 sqrt(2))`` (single pitch deviations,
-        the differences of two scatters, stay within ``f_pT`` at 3 sigma). Needs ``d``, ``mn``.
+        ISO 1328-1:2013 flank tolerance class 1-11: overrides ``amplitude = F_pT / 2`` (the
+        sine spans the total cumulative tolerance) and ``sigma = f_pT / (3 sqrt(2))`` (single
+        pitch deviations, the differences of two scatters, stay within ``f_pT`` at 3 sigma).
+        Needs ``d``, ``mn``.
     d, mn : float or None, optional
         Reference diameter and normal module [m] for ``accuracy_grade``.
+    amplitude_reading : {"sine", "largest"}, optional
+        How ``amplitude`` is read (docs/theory/ltca.md, Sec. 5).
 
     Returns
     -------
@@ -115,9 +207,9 @@ def random_cumulative_pitch_deviations(
         raise ValueError(f"sigma={sigma!r} is outside its valid range [0, inf) m")
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     ph = rng.uniform(0.0, 2.0 * math.pi) if phase is None else float(phase)
-    e = rng.normal(0.0, sigma, int(z)) if sigma > 0 else np.zeros(int(z))
-    k = np.arange(int(z))
-    return amplitude * np.sin(2.0 * math.pi * k / z + ph) + e - e[0]
+    normals = rng.standard_normal(int(z))
+    return cumulative_pitch_from_germ(ph, normals, amplitude=amplitude, sigma=sigma,
+                                      amplitude_reading=amplitude_reading)
 
 
 def _relief(u: np.ndarray, amount: float, length: float) -> np.ndarray:
@@ -165,6 +257,17 @@ class FlankDeviations:
     def symmetric_tip_relief(cls, amount: float, length: float, **kw: object) -> FlankDeviations:
         """Seed 002 Eq. 12: the same parabolic tip relief on pinion and wheel."""
         return cls(tip_relief1=(amount, length), tip_relief2=(amount, length), **kw)
+
+    @property
+    def has_errors(self) -> bool:
+        """Whether any tooth differs from the others (pitch deviations or a user map)."""
+        return self.Fp1 is not None or self.Fp2 is not None or self.user is not None
+
+    def design_only(self) -> FlankDeviations:
+        """The designed modifications alone (reliefs, crowning): the same on every tooth."""
+        return FlankDeviations(tip_relief1=self.tip_relief1, tip_relief2=self.tip_relief2,
+                               root_relief1=self.root_relief1, root_relief2=self.root_relief2,
+                               crowning=self.crowning)
 
     def validate(self, pair: HelicalGearPair) -> None:
         """Raise ValueError naming the field when an array has the wrong length or a value

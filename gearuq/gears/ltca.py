@@ -9,37 +9,51 @@ For each mesh position the contact problem of seed 002, Eq. 3, is solved exactly
 contact approach (:mod:`gearuq.gears.compliance`), ``xi`` the initial normal clearances
 (:mod:`gearuq.gears.deviations`), ``STE`` the static transmission error as the rigid-body
 approach of the flanks along the normal line of action, and ``P`` the normal mesh force.
-The linear complementarity problem with the Hertz compliance frozen at its secant value is
-solved by an active-set method (equality-constrained solves, drop the most negative force,
-add the most penetrating gap; warm-started from the previous position); the secant is then
-updated from the new forces until the forces stop changing (fixed point; the two loops of
-seed 002, ref. [26]). Everything is in SI units (N, m); the Dataset reports micrometres
-where the attrs say so.
+The solver (:mod:`gearuq.gears.ltca_kernel`) is an exact block active-set method inside a
+Newton loop on the contact law. Everything is in SI units (N, m) inside; the Dataset reports
+micrometres where the attrs say so.
 
-Main entry points: :func:`ltca`, :func:`force_deflection`, :func:`tip_relief_map`.
+The geometry of a line of contact depends only on its phase ``tau - k`` (position minus tooth
+pair counter), so the influence blocks are computed once per distinct phase
+(:func:`ltca_setup`, about ``positions_per_cycle x ceil(eps_gamma)`` of them) and reused for
+every position of the long period, every load and every deviation.
+
+Main entry points: :func:`ltca`, :func:`ltca_setup` + :func:`ltca_solve`,
+:func:`force_deflection`, :func:`force_at_deflection`, :func:`stiffness_at_deflection`,
+:func:`tip_relief_map`.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import NamedTuple
 
-import numba as nb
 import numpy as np
 import xarray as xr
 
 from gearuq.gears.compliance import ComplianceModel
-from gearuq.gears.contact import contact_grid, long_period_cycles
+from gearuq.gears.contact import ContactGrid, contact_grid, long_period_cycles
 from gearuq.gears.deviations import FlankDeviations
 from gearuq.gears.geometry import HelicalGearPair
 
 __all__ = [
+    "LtcaSetup",
+    "LtcaSolution",
+    "PARTIAL_LOSS_THRESHOLD",
     "force_at_deflection",
-    "stiffness_at_deflection",
     "force_deflection",
     "ltca",
+    "ltca_setup",
+    "ltca_solve",
+    "mesh_summaries",
     "normal_force_from_torque",
+    "stiffness_at_deflection",
     "tip_relief_map",
 ]
+
+#: Share of the design contact length that must be unloaded to flag partial contact loss.
+PARTIAL_LOSS_THRESHOLD = 0.05
 
 
 def normal_force_from_torque(pair: HelicalGearPair, torque: float) -> float:
@@ -53,182 +67,6 @@ def _check_positive(name: str, value: float, unit: str) -> None:
         raise ValueError(f"{name}={value!r} is outside its valid range (0, inf) {unit}")
 
 
-# ------------------------------------------------------------------------------ numba core
-@nb.njit(cache=True)
-def _solve_lcp(A, xi, P, active, max_iter):
-    """Active-set solution of ``g = xi + A F - d >= 0, F >= 0, F g = 0, sum F = P``.
-
-    ``active`` (bool, in/out) is the initial guess of the loaded set. Returns (F, d, ok).
-    """
-    m = xi.shape[0]
-    F = np.zeros(m)
-    d = 0.0
-    # scale compliances to O(1) so the bordered system is well conditioned
-    sc = 0.0
-    for i in range(m):
-        sc += A[i, i]
-    sc = sc / m
-    A = A / sc
-    xi = xi / sc
-    if not active.any():
-        active[np.argmin(xi)] = True
-    for _ in range(max_iter):
-        idx = np.nonzero(active)[0]
-        na = idx.shape[0]
-        K = np.zeros((na + 1, na + 1))
-        r = np.zeros(na + 1)
-        for a in range(na):
-            for c in range(na):
-                K[a, c] = A[idx[a], idx[c]]
-            K[a, na] = -1.0
-            K[na, a] = 1.0
-            r[a] = -xi[idx[a]]
-        r[na] = P
-        sol = np.linalg.solve(K, r)
-        fa = sol[:na]
-        d = sol[na]
-        # drop the most negative force
-        jmin = np.argmin(fa)
-        if fa[jmin] < -1e-14 * P:
-            active[idx[jmin]] = False
-            continue
-        F[:] = 0.0
-        for a in range(na):
-            F[idx[a]] = max(fa[a], 0.0)
-        # add the most penetrating inactive point
-        g = xi + A @ F - d
-        worst = -1
-        gmin = -1e-13 * (abs(d) + 1e-12)
-        for i in range(m):
-            if not active[i] and g[i] < gmin:
-                gmin = g[i]
-                worst = i
-        if worst < 0:
-            return F, d * sc, True
-        active[worst] = True
-    return F, d * sc, False
-
-
-@nb.njit(cache=True)
-def _hertz(F, dL, R, h1, h2, E, nu, p_floor):
-    """Weber's approach chi(F), secant chi/F and tangent dchi/dF compliances per point.
-
-    ``w = k0 p [ln(4 h1 h2 / a^2) - c]`` with ``a^2`` proportional to ``p`` gives
-    ``dw/dp = w/p - k0``: the tangent compliance is the secant one minus ``k0 / dL``.
-    """
-    m = F.shape[0]
-    chi = np.zeros(m)
-    sec = np.zeros(m)
-    tan = np.zeros(m)
-    k0 = 2.0 * (1.0 - nu * nu) / (math.pi * E)
-    c = nu / (1.0 - nu)
-    for i in range(m):
-        p = max(F[i] / dL[i], p_floor)
-        a2 = 8.0 * p * R[i] * (1.0 - nu * nu) / (math.pi * E)
-        w_over_p = k0 * (math.log(4.0 * h1[i] * h2[i] / a2) - c)
-        sec[i] = w_over_p / dL[i]
-        tan[i] = (w_over_p - k0) / dL[i]
-        chi[i] = w_over_p * F[i] / dL[i] if F[i] > 0 else 0.0
-    return chi, sec, tan
-
-
-@nb.njit(cache=True)
-def _solve_all(Dblk, valid, pair_index, dL, xi, R, h1, h2, P, E, nu, hertz, tol, max_outer):
-    """Solve every position; arrays (n_pos, n_lines[, n_pts[, n_pts]])."""
-    n_pos, n_lines, n = xi.shape
-    Fout = np.zeros((n_pos, n_lines, n))
-    gout = np.zeros((n_pos, n_lines, n))
-    ste = np.zeros(n_pos)
-    n_iter = np.zeros(n_pos, np.int64)
-    status = np.zeros(n_pos, np.int64)
-    ktan = np.zeros(n_pos)
-    prev_active = np.zeros((n_lines, n), np.bool_)
-    prev_pairs = np.full(n_lines, -(10**12), np.int64)
-    for p in range(n_pos):
-        lines = np.nonzero(valid[p])[0]
-        nl = lines.shape[0]
-        m = nl * n
-        A0 = np.zeros((m, m))
-        xv = np.zeros(m)
-        dv = np.zeros(m)
-        Rv = np.zeros(m)
-        h1v = np.zeros(m)
-        h2v = np.zeros(m)
-        active = np.zeros(m, np.bool_)
-        for a in range(nl):
-            ln = lines[a]
-            warm = -1
-            for q in range(n_lines):
-                if prev_pairs[q] == pair_index[p, ln]:
-                    warm = q
-            for i in range(n):
-                r0 = a * n + i
-                xv[r0] = xi[p, ln, i]
-                dv[r0] = dL[p, ln]
-                Rv[r0] = R[p, ln, i]
-                h1v[r0] = h1[p, ln, i]
-                h2v[r0] = h2[p, ln, i]
-                if warm >= 0:
-                    active[r0] = prev_active[warm, i]
-                for j in range(n):
-                    A0[r0, a * n + j] = Dblk[p, ln, i, j]
-        if not active.any():
-            xmin = xv.min()
-            for i in range(m):
-                active[i] = xv[i] <= xmin + 1e-12
-        total_len = 0.0
-        for a in range(nl):
-            total_len += dv[a * n] * n
-        p_floor = 1e-3 * P / total_len
-        F = np.zeros(m)
-        A = A0.copy()
-        ok = False
-        it = 0
-        if hertz:
-            # start the secant at the uniform line load
-            for i in range(m):
-                F[i] = P / total_len * dv[i]
-        while it < max_outer:
-            it += 1
-            if hertz:
-                chi, sec, tan = _hertz(F, dv, Rv, h1v, h2v, E, nu, p_floor)
-                for i in range(m):
-                    A[i, i] = A0[i, i] + sec[i]
-            Fn, d, ok = _solve_lcp(A, xv, P, active, 20 * m + 50)
-            change = np.abs(Fn - F).max()
-            F = Fn
-            if not hertz or (ok and change <= tol * P):
-                break
-        # residual gaps with the true nonlinear law
-        g = xv + A0 @ F - d
-        tan = np.zeros(m)
-        if hertz:
-            chi, sec, tan = _hertz(F, dv, Rv, h1v, h2v, E, nu, p_floor)
-            g = g + chi
-        # tangent mesh stiffness dP/dSTE on the loaded set: 1^T (D + dchi/dF)_AA^-1 1
-        idx = np.nonzero(F > 0.0)[0]
-        Mt = np.empty((idx.shape[0], idx.shape[0]))
-        for a in range(idx.shape[0]):
-            for c in range(idx.shape[0]):
-                Mt[a, c] = A0[idx[a], idx[c]]
-            Mt[a, a] += tan[idx[a]]
-        ktan[p] = np.linalg.solve(Mt, np.ones(idx.shape[0])).sum()
-        ste[p] = d
-        n_iter[p] = it
-        status[p] = 0 if ok else 1
-        prev_active[:, :] = False
-        prev_pairs[:] = -(10**12)
-        for a in range(nl):
-            ln = lines[a]
-            prev_pairs[a] = pair_index[p, ln]
-            for i in range(n):
-                Fout[p, ln, i] = F[a * n + i]
-                gout[p, ln, i] = g[a * n + i]
-                prev_active[a, i] = F[a * n + i] > 0.0
-    return Fout, gout, ste, ktan, n_iter, status
-
-
-# ------------------------------------------------------------------------------ public API
 def _positions(pair: HelicalGearPair, positions_per_cycle: int, n_cycles: int | None):
     if int(positions_per_cycle) != positions_per_cycle or positions_per_cycle < 1:
         raise ValueError(
@@ -241,6 +79,246 @@ def _positions(pair: HelicalGearPair, positions_per_cycle: int, n_cycles: int | 
     return np.arange(int(nc) * int(positions_per_cycle)) / positions_per_cycle
 
 
+# ------------------------------------------------------------------------------ setup
+@dataclass(frozen=True)
+class LtcaSetup:
+    """Load- and deviation-independent part of an LTCA: contact grid and influence blocks.
+
+    Build it with :func:`ltca_setup`; reuse it for any load and deviations
+    (:func:`ltca_solve`). Arrays over ``phase`` hold one entry per distinct line geometry.
+
+    Attributes
+    ----------
+    pair : HelicalGearPair
+    compliance : ComplianceModel
+    grid : ContactGrid
+        Points of every line at every position (``(n_pos, n_lines, n_pts)``).
+    phase : ndarray of int, (n_pos, n_lines)
+        Index of the line geometry, -1 where no line is in contact.
+    D : ndarray, (n_phase, n_pts, n_pts)
+        Influence blocks [m/N].
+    dL : ndarray, (n_phase,)
+        Segment length along the line of contact [m].
+    R, h1, h2 : ndarray, (n_phase, n_pts)
+        Equivalent normal radius and half tooth thicknesses for Weber's approach [m].
+    """
+
+    pair: HelicalGearPair
+    compliance: ComplianceModel
+    grid: ContactGrid
+    phase: np.ndarray
+    D: np.ndarray
+    dL: np.ndarray
+    R: np.ndarray
+    h1: np.ndarray
+    h2: np.ndarray
+
+    @property
+    def n_pts(self) -> int:
+        """Points per line of contact."""
+        return int(self.grid.s.shape[2])
+
+    def clearance(self, deviations: FlankDeviations | None) -> np.ndarray:
+        """Initial normal clearances ``xi`` [m] of ``deviations`` at every grid point."""
+        dev = deviations or FlankDeviations()
+        dev.validate(self.pair)
+        g = self.grid
+        k1 = np.mod(g.pair_index, self.pair.z1)
+        k2 = np.mod(g.pair_index, self.pair.z2)
+        xi = dev.clearance(self.pair, g.kin, g.s, g.y, k1[..., None], k2[..., None])
+        return np.ascontiguousarray(np.where(g.valid[..., None], xi, 0.0))
+
+
+def ltca_setup(
+    pair: HelicalGearPair,
+    *,
+    compliance: ComplianceModel | None = None,
+    positions_per_cycle: int = 24,
+    n_cycles: int | None = None,
+    tau: np.ndarray | None = None,
+    n_pts: int = 20,
+) -> LtcaSetup:
+    """Discretise the lines of contact and compute the influence blocks once.
+
+    Parameters
+    ----------
+    pair : HelicalGearPair
+        The gear pair (pinion drives).
+    compliance : ComplianceModel or None
+        ``None``: the potential-energy model with Weber contact, default parameters.
+    positions_per_cycle, n_cycles : int
+        Uniform positions over ``n_cycles`` mesh cycles (``None``: the long period
+        ``lcm(z1, z2)``); used unless ``tau`` is given.
+    tau : array_like or None
+        Explicit mesh positions in mesh cycles.
+    n_pts : int
+        Points per line of contact (>= 1).
+
+    Returns
+    -------
+    LtcaSetup
+    """
+    if int(n_pts) != n_pts or n_pts < 1:
+        raise ValueError(f"n_pts={n_pts!r} is outside its valid range: integers >= 1")
+    taus = _positions(pair, positions_per_cycle, n_cycles) if tau is None else np.atleast_1d(
+        np.asarray(tau, dtype=float))
+    if taus.ndim != 1 or not np.all(np.isfinite(taus)):
+        raise ValueError("tau must be a 1-D array of finite mesh positions [mesh cycles]")
+    comp = compliance or ComplianceModel(pair)
+    if comp.pair != pair:
+        raise ValueError("compliance was built for a different pair")
+    grid = contact_grid(pair, taus, int(n_pts))
+    # distinct line geometries: phase tau - k rounded far below any physical scale
+    key = np.round((grid.tau[:, None] - grid.pair_index) * 2.0**32)
+    _, first, inverse = np.unique(np.where(grid.valid, key, -np.inf), return_index=True,
+                                  return_inverse=True)
+    inverse = inverse.reshape(grid.valid.shape)
+    rows, cols = np.unravel_index(first, grid.valid.shape)
+    keep = grid.valid[rows, cols]  # drop the entry of the invalid lines
+    rows, cols = rows[keep], cols[keep]
+    remap = np.cumsum(keep) - 1
+    phase = np.where(grid.valid, remap[inverse], -1).astype(np.int64)
+    s, y = grid.s[rows, cols], grid.y[rows, cols]
+    D = comp.matrices(s, y, grid.y_lo[rows, cols], grid.dy[rows, cols], grid.kin)
+    R, h1, h2 = comp.hertz_params(s, grid.kin)
+    return LtcaSetup(pair=pair, compliance=comp, grid=grid, phase=phase,
+                     D=np.ascontiguousarray(D), dL=np.ascontiguousarray(grid.dL[rows, cols]),
+                     R=np.ascontiguousarray(R), h1=np.ascontiguousarray(h1),
+                     h2=np.ascontiguousarray(h2))
+
+
+# ------------------------------------------------------------------------------ solve
+class LtcaSolution(NamedTuple):
+    """Raw solution of :func:`ltca_solve` (SI units).
+
+    ``force``, ``gap`` (n_pos, n_lines, n_pts) [N], [m]; ``ste`` (n_pos,) [m]; ``lpms_tangent``
+    (n_pos,) [N/m]; ``n_iterations``, ``status`` (n_pos,) (0 ok, 1 not converged);
+    ``xi`` the clearances used [m]; ``normal_force`` [N].
+    """
+
+    force: np.ndarray
+    gap: np.ndarray
+    ste: np.ndarray
+    lpms_tangent: np.ndarray
+    n_iterations: np.ndarray
+    status: np.ndarray
+    xi: np.ndarray
+    normal_force: float
+
+
+def ltca_solve(
+    setup: LtcaSetup,
+    normal_force: float,
+    xi: np.ndarray,
+    *,
+    tol: float = 1e-13,
+    max_newton: int = 40,
+) -> LtcaSolution:
+    """Solve the contact problem at every position of ``setup`` for one load and clearance.
+
+    Parameters
+    ----------
+    setup : LtcaSetup
+        Grid and influence blocks (:func:`ltca_setup`).
+    normal_force : float
+        Normal mesh force ``P`` [N], > 0.
+    xi : ndarray, (n_pos, n_lines, n_pts)
+        Initial normal clearances [m] (:meth:`LtcaSetup.clearance`).
+    tol : float
+        Newton tolerance on ``max |dF| / P``.
+    max_newton : int
+        Newton iteration limit per position.
+
+    Returns
+    -------
+    LtcaSolution
+    """
+    from gearuq.gears.ltca_kernel import solve_positions
+
+    _check_positive("normal_force", normal_force, "N")
+    xi = np.ascontiguousarray(xi, dtype=float)
+    if xi.shape != setup.grid.s.shape:
+        raise ValueError(f"xi has shape {xi.shape}, valid: {setup.grid.s.shape}")
+    shape = xi.shape
+    F, gap = np.zeros(shape), np.zeros(shape)
+    n_pos = shape[0]
+    ste, k_t = np.zeros(n_pos), np.zeros(n_pos)
+    n_iter, status = np.zeros(n_pos, np.int64), np.zeros(n_pos, np.int64)
+    comp = setup.compliance
+    solve_positions(setup.D, setup.phase, setup.grid.pair_index, xi, setup.dL, setup.R,
+                    setup.h1, setup.h2, float(normal_force), comp.E, comp.nu, bool(comp.hertz),
+                    float(tol), int(max_newton), F, gap, ste, k_t, n_iter, status)
+    return LtcaSolution(F, gap, ste, k_t, n_iter, status, xi, float(normal_force))
+
+
+def _design_reference(setup: LtcaSetup, deviations: FlankDeviations, P: float,
+                      **solve_kw: object) -> np.ndarray:
+    """Contact pattern of the same modified flank without errors, mapped onto ``setup``.
+
+    Without pitch deviations (and user maps) every tooth pair meets the same flank, so the
+    pattern depends only on ``frac(tau)``; it is solved at the distinct ``frac(tau)`` (one
+    mesh cycle) and line slot ``j`` at ``tau`` maps to slot ``j`` at ``frac(tau)`` (same
+    phase ``tau - k``). Returns the boolean pattern ``(n_pos, n_lines, n_pts)``.
+    """
+    frac = np.mod(setup.grid.tau, 1.0)
+    key = np.round(frac * 2.0**32)
+    uniq, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    ref = ltca_setup(setup.pair, compliance=setup.compliance, tau=frac[first],
+                     n_pts=setup.n_pts)
+    design = deviations.design_only()
+    sol = ltca_solve(ref, P, ref.clearance(design), **solve_kw)
+    return (sol.force > 0.0)[inverse.ravel()]
+
+
+# ------------------------------------------------------------------------------ summaries
+def mesh_summaries(
+    setup: LtcaSetup, sol: LtcaSolution, reference_pattern: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
+    """Per-position mesh quantities of a solution (SI units).
+
+    Returns a dict of arrays over positions: ``lpms`` (secant, seed Eq. 4) and
+    ``lpms_tangent`` [N/m], ``cms`` (seed Eq. 5) [m], ``ste`` [m], ``kinematic_te`` [m],
+    ``contact_length``, ``loaded_length`` [m], ``contact_loss_fraction`` (unloaded share of
+    the design pattern ``reference_pattern``; of the geometric length when it is None),
+    ``geometric_loss_fraction``, ``n_teeth_in_contact`` and ``complementarity_residual``.
+    """
+    grid = setup.grid
+    F, g, xi, P = sol.force, sol.gap, sol.xi, sol.normal_force
+    valid = np.broadcast_to(grid.valid[..., None], F.shape)
+    loaded = F > 0.0
+    defl = sol.ste[:, None, None] - xi  # total deformation at loaded points, = D F + chi
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k_i = np.where(loaded, F / np.where(loaded, defl, 1.0), 0.0)
+    km = k_i.sum(axis=(1, 2))
+    em = (k_i * xi).sum(axis=(1, 2)) / km
+    seg = np.broadcast_to(grid.dL[..., None], F.shape)
+    geo_len = grid.length
+    loaded_len = np.where(loaded & valid, seg, 0.0).sum(axis=(1, 2))
+    geo_loss = np.clip(1.0 - loaded_len / geo_len, 0.0, 1.0)
+    if reference_pattern is None:
+        loss = geo_loss
+    else:
+        ref_len = np.where(reference_pattern & valid, seg, 0.0).sum(axis=(1, 2))
+        lost = np.where(reference_pattern & valid & ~loaded, seg, 0.0).sum(axis=(1, 2))
+        loss = lost / np.where(ref_len > 0.0, ref_len, 1.0)
+    loss = np.where(loss < 1e-12, 0.0, loss)
+    dscale = P / km  # residuals relative to the elastic deflection scale
+    resid = np.maximum.reduce([
+        np.abs(np.where(valid, F * g, 0.0)).sum(axis=(1, 2)) / (P * dscale),
+        np.maximum(-np.where(valid, g, 0.0).min(axis=(1, 2)), 0.0) / dscale,
+        np.abs(F.sum(axis=(1, 2)) - P) / P,
+    ])
+    return {
+        "ste": sol.ste, "lpms": km, "lpms_tangent": sol.lpms_tangent, "cms": em,
+        "kinematic_te": np.where(valid, xi, np.inf).min(axis=(1, 2)),
+        "contact_length": geo_len, "loaded_length": loaded_len,
+        "contact_loss_fraction": loss, "geometric_loss_fraction": geo_loss,
+        "n_teeth_in_contact": ((F.sum(axis=2) > 0.0) & grid.valid).sum(axis=1),
+        "complementarity_residual": resid,
+    }
+
+
+# ------------------------------------------------------------------------------ front end
 def ltca(
     pair: HelicalGearPair,
     *,
@@ -253,8 +331,9 @@ def ltca(
     tau: np.ndarray | None = None,
     n_pts: int = 20,
     tol: float = 1e-13,
-    max_outer: int = 60,
+    max_newton: int = 40,
     keep_points: bool = True,
+    setup: LtcaSetup | None = None,
 ) -> xr.Dataset:
     """Run the LTCA at one load over the long period (or at the given positions).
 
@@ -277,23 +356,29 @@ def ltca(
     n_pts : int
         Points per line of contact.
     tol : float
-        Fixed-point tolerance of the Hertz loop on ``max |dF| / P``.
-    max_outer : int
-        Maximum Hertz iterations.
+        Newton tolerance of the contact-law loop on ``max |dF| / P``.
+    max_newton : int
+        Newton iteration limit per position.
     keep_points : bool
         Keep the per-point variables (dims ``position, line, point``).
+    setup : LtcaSetup or None
+        A prepared grid (:func:`ltca_setup`); then ``compliance``, ``positions_per_cycle``,
+        ``n_cycles``, ``tau`` and ``n_pts`` are taken from it.
 
     Returns
     -------
     xarray.Dataset
         Over ``position`` (coordinate ``tau`` in mesh cycles, ``mesh_cycle``): ``ste``,
-        ``ste_transverse`` (um), ``lpms`` (N/um), ``cms`` (um), ``n_teeth_in_contact``,
-        ``contact_length``, ``loaded_length`` (mm), ``contact_loss_fraction``,
-        ``partial_contact_loss``, ``kinematic_te`` (um), ``status``,
-        ``complementarity_residual``; over ``(position, line, point)``: ``force`` (N),
-        ``line_load`` (N/mm), ``in_contact`` (contact pattern), ``gap`` and ``xi`` (um),
-        ``s``, ``y`` (mm); over ``(position, line)``: ``valid``, ``pinion_tooth``,
-        ``wheel_tooth``.
+        ``ste_transverse`` (um), ``lpms`` and ``lpms_tangent`` (N/um), ``cms`` (um),
+        ``n_teeth_in_contact``, ``contact_length``, ``loaded_length`` (mm),
+        ``contact_loss_fraction`` (unloaded share of the design pattern: the same modified
+        flank without pitch deviations at the same load), ``geometric_loss_fraction``,
+        ``partial_contact_loss`` (loss > :data:`PARTIAL_LOSS_THRESHOLD`), ``kinematic_te``
+        (um), ``status``, ``n_iterations``, ``complementarity_residual``; over
+        ``(position, line, point)``: ``force`` (N), ``line_load`` (N/mm), ``in_contact``
+        (contact pattern), ``design_contact`` (pattern of the error-free modified flank),
+        ``gap`` and ``xi`` (um), ``s``, ``y`` (mm); over ``(position, line)``: ``valid``,
+        ``pinion_tooth``, ``wheel_tooth``.
     """
     if (torque is None) == (normal_force is None):
         raise ValueError("give exactly one of torque [N m] or normal_force [N]")
@@ -302,112 +387,98 @@ def ltca(
     else:
         _check_positive("normal_force", normal_force, "N")
         P = float(normal_force)
-    if int(n_pts) != n_pts or n_pts < 1:
-        raise ValueError(f"n_pts={n_pts!r} is outside its valid range: integers >= 1")
-    taus = _positions(pair, positions_per_cycle, n_cycles) if tau is None else np.atleast_1d(
-        np.asarray(tau, dtype=float)
-    )
+    if setup is None:
+        setup = ltca_setup(pair, compliance=compliance, positions_per_cycle=positions_per_cycle,
+                           n_cycles=n_cycles, tau=tau, n_pts=n_pts)
+    elif setup.pair != pair:
+        raise ValueError("setup was built for a different pair")
     dev = deviations or FlankDeviations()
-    dev.validate(pair)
-    comp = compliance or ComplianceModel(pair)
-    if comp.pair != pair:
-        raise ValueError("compliance was built for a different pair")
-    grid = contact_grid(pair, taus, n_pts)
-    kin = grid.kin
-    k1 = np.mod(grid.pair_index, pair.z1)
-    k2 = np.mod(grid.pair_index, pair.z2)
-    xi = dev.clearance(pair, kin, grid.s, grid.y, k1[..., None], k2[..., None])
-    xi = np.where(grid.valid[..., None], xi, 0.0)
-    D = comp.matrices(grid.s, grid.y, grid.y_lo, grid.dy, kin)
-    R, h1, h2 = comp.hertz_params(grid.s, kin)
-    dL = np.where(grid.valid, grid.dL, 1.0)
-    F, g, ste, ktan, n_iter, status = _solve_all(
-        np.ascontiguousarray(D), grid.valid, grid.pair_index, dL, np.ascontiguousarray(xi),
-        R, h1, h2, P, comp.E, comp.nu, bool(comp.hertz), tol, max_outer,
-    )
-    return _dataset(pair, grid, F, g, xi, ste, ktan, n_iter, status, P, comp, n_pts, keep_points)
+    xi = setup.clearance(dev)
+    sol = ltca_solve(setup, P, xi, tol=tol, max_newton=max_newton)
+    ref = _design_reference(setup, dev, P, tol=tol, max_newton=max_newton) \
+        if dev.has_errors else sol.force > 0.0
+    return _dataset(setup, sol, ref, keep_points)
 
 
-def _dataset(pair, grid, F, g, xi, ste, ktan, n_iter, status, P, comp, n_pts, keep_points):
+def _dataset(setup: LtcaSetup, sol: LtcaSolution, ref: np.ndarray, keep_points: bool):
+    """Label a solution as a Dataset (um, N/um, mm)."""
+    pair, grid, comp = setup.pair, setup.grid, setup.compliance
     kin = grid.kin
-    valid = grid.valid[..., None] & np.ones(n_pts, bool)
-    loaded = F > 0.0
-    defl = ste[:, None, None] - xi  # total deformation at loaded points, = D F + chi
-    with np.errstate(divide="ignore", invalid="ignore"):
-        k_i = np.where(loaded, F / np.where(loaded, defl, 1.0), 0.0)
-    km = k_i.sum(axis=(1, 2))
-    em = (k_i * xi).sum(axis=(1, 2)) / km
-    geo_len = grid.length
-    seg = np.broadcast_to(grid.dL[..., None], F.shape)
-    loaded_len = np.where(loaded & valid, seg, 0.0).sum(axis=(1, 2))
-    loss = np.clip(1.0 - loaded_len / geo_len, 0.0, 1.0)
-    loss[loss < 1e-12] = 0.0
-    xi_min = np.where(valid, xi, np.inf).min(axis=(1, 2))
-    n_teeth = ((F.sum(axis=2) > 0.0) & grid.valid).sum(axis=1)
-    # complementarity residual relative to the elastic deflection scale P / k_m
-    dscale = P / km
-    resid = np.maximum.reduce([
-        np.abs(np.where(valid, F * g, 0.0)).sum(axis=(1, 2)) / (P * dscale),
-        np.maximum(-np.where(valid, g, 0.0).min(axis=(1, 2)), 0.0) / dscale,
-        np.abs(F.sum(axis=(1, 2)) - P) / P,
-    ])
-    tau = grid.tau
+    summ = mesh_summaries(setup, sol, ref)
     um = 1e6
+    pos = "position"
     data = {
-        "ste": ("position", ste * um, {"units": "um", "long_name": "static transmission error "
-                                       "(normal approach of the flanks)"}),
-        "ste_transverse": ("position", ste / kin.cos_bb * um,
+        "ste": (pos, summ["ste"] * um, {"units": "um", "long_name": "static transmission error "
+                                        "(normal approach of the flanks)"}),
+        "ste_transverse": (pos, summ["ste"] / kin.cos_bb * um,
                            {"units": "um", "long_name": "STE along the transverse line of "
                             "action (base-circle arc of the pinion)"}),
-        "lpms": ("position", km * 1e-6, {"units": "N/um", "long_name": "long-period mesh "
-                                         "stiffness sum F_i/(STE - xi_i) (seed Eq. 4)"}),
-        "lpms_tangent": ("position", ktan * 1e-6, {
+        "lpms": (pos, summ["lpms"] * 1e-6, {"units": "N/um", "long_name": "long-period mesh "
+                                            "stiffness sum F_i/(STE - xi_i) (seed Eq. 4, "
+                                            "secant)"}),
+        "lpms_tangent": (pos, summ["lpms_tangent"] * 1e-6, {
             "units": "N/um", "long_name": "tangent mesh stiffness dP/dSTE (linearised "
             "dynamics); seed Eq. 4 gives the secant lpms"}),
-        "cms": ("position", em * um, {"units": "um", "long_name": "composite mesh error "
-                                      "sum k_i xi_i / k_m (seed Eq. 5)"}),
-        "kinematic_te": ("position", xi_min * um,
+        "cms": (pos, summ["cms"] * um, {"units": "um", "long_name": "composite mesh error "
+                                        "sum k_i xi_i / k_m (seed Eq. 5)"}),
+        "kinematic_te": (pos, summ["kinematic_te"] * um,
                          {"units": "um", "long_name": "no-load kinematic TE min(xi)"}),
-        "n_teeth_in_contact": ("position", n_teeth, {"units": "1"}),
-        "contact_length": ("position", geo_len * 1e3, {"units": "mm",
-                                                        "long_name": "geometric contact length"}),
-        "loaded_length": ("position", loaded_len * 1e3, {"units": "mm"}),
-        "contact_loss_fraction": ("position", loss, {"units": "1",
-                                                     "long_name": "unloaded share of the "
-                                                     "geometric contact length"}),
-        "partial_contact_loss": ("position", loss > 0.05,
-                                 {"long_name": "more than 5 % of the contact length unloaded"}),
-        "complementarity_residual": ("position", resid, {"units": "1"}),
-        "n_iterations": ("position", n_iter, {"units": "1"}),
-        "status": ("position", status, {"long_name": "0 ok, 1 active set did not converge"}),
+        "n_teeth_in_contact": (pos, summ["n_teeth_in_contact"], {"units": "1"}),
+        "contact_length": (pos, summ["contact_length"] * 1e3,
+                           {"units": "mm", "long_name": "geometric contact length"}),
+        "loaded_length": (pos, summ["loaded_length"] * 1e3, {"units": "mm"}),
+        "contact_loss_fraction": (pos, summ["contact_loss_fraction"], {
+            "units": "1", "long_name": "unloaded share of the design contact pattern (same "
+            "modified flank without pitch deviations, same load)"}),
+        "geometric_loss_fraction": (pos, summ["geometric_loss_fraction"], {
+            "units": "1", "long_name": "unloaded share of the geometric contact length "
+            "(counts zones a relief unloads by design)"}),
+        "partial_contact_loss": (pos, summ["contact_loss_fraction"] > PARTIAL_LOSS_THRESHOLD,
+                                 {"long_name": "more than 5 % of the design contact length "
+                                  "unloaded"}),
+        "complementarity_residual": (pos, summ["complementarity_residual"], {"units": "1"}),
+        "n_iterations": (pos, sol.n_iterations, {"units": "1",
+                                                 "long_name": "Newton iterations"}),
+        "status": (pos, sol.status, {"long_name": "0 ok, 1 solver did not converge"}),
     }
     if keep_points:
-        pdims = ("position", "line", "point")
-        data.update({
-            "force": (pdims, F, {"units": "N", "long_name": "normal force at the contact point"}),
-            "in_contact": (pdims, loaded & valid, {"long_name": "contact pattern (F > 0)"}),
-            "line_load": (pdims, F / np.where(valid, seg, 1.0) * 1e-3, {"units": "N/mm"}),
-            "gap": (pdims, np.where(valid, g, np.nan) * um, {"units": "um"}),
-            "xi": (pdims, np.where(valid, xi, np.nan) * um, {"units": "um"}),
-            "s": (pdims, np.where(valid, grid.s, np.nan) * 1e3, {"units": "mm",
-                  "long_name": "POA coordinate from T1"}),
-            "y": (pdims, np.where(valid, grid.y, np.nan) * 1e3, {"units": "mm"}),
-            "valid": (("position", "line"), grid.valid, {}),
-            "pinion_tooth": (("position", "line"), np.mod(grid.pair_index, pair.z1), {}),
-            "wheel_tooth": (("position", "line"), np.mod(grid.pair_index, pair.z2), {}),
-        })
+        data.update(_point_variables(setup, sol, ref))
     ds = xr.Dataset(
         data,
-        coords={"tau": ("position", tau, {"units": "mesh cycles"}),
-                "mesh_cycle": ("position", np.floor(tau).astype(int), {})},
+        coords={"tau": (pos, grid.tau, {"units": "mesh cycles"}),
+                "mesh_cycle": (pos, np.floor(grid.tau).astype(int), {})},
     )
     ds.attrs.update({
-        "model": "gearuq.gears.ltca", "normal_force_N": P,
-        "torque_Nm": P * 0.5 * pair.db1 * kin.cos_bb, "compliance": comp.kind,
+        "model": "gearuq.gears.ltca", "normal_force_N": sol.normal_force,
+        "torque_Nm": sol.normal_force * 0.5 * pair.db1 * kin.cos_bb, "compliance": comp.kind,
         "coupling_length_m": float(comp.coupling_length), "hertz": int(comp.hertz),
-        "n_pts": n_pts, "s_A_m": kin.s_A, "s_E_m": kin.s_E, "face_width_m": kin.b,
+        "n_pts": setup.n_pts, "s_A_m": kin.s_A, "s_E_m": kin.s_E, "face_width_m": kin.b,
     })
     return ds
+
+
+def _point_variables(setup: LtcaSetup, sol: LtcaSolution, ref: np.ndarray) -> dict:
+    grid, pair = setup.grid, setup.pair
+    F = sol.force
+    valid = np.broadcast_to(grid.valid[..., None], F.shape)
+    seg = np.broadcast_to(grid.dL[..., None], F.shape)
+    pdims = ("position", "line", "point")
+    um = 1e6
+    return {
+        "force": (pdims, F, {"units": "N", "long_name": "normal force at the contact point"}),
+        "in_contact": (pdims, (F > 0.0) & valid, {"long_name": "contact pattern (F > 0)"}),
+        "design_contact": (pdims, ref & valid, {"long_name": "contact pattern of the same "
+                                                "modified flank without pitch deviations"}),
+        "line_load": (pdims, F / np.where(valid, seg, 1.0) * 1e-3, {"units": "N/mm"}),
+        "gap": (pdims, np.where(valid, sol.gap, np.nan) * um, {"units": "um"}),
+        "xi": (pdims, np.where(valid, sol.xi, np.nan) * um, {"units": "um"}),
+        "s": (pdims, np.where(valid, grid.s, np.nan) * 1e3, {"units": "mm",
+              "long_name": "POA coordinate from T1"}),
+        "y": (pdims, np.where(valid, grid.y, np.nan) * 1e3, {"units": "mm"}),
+        "valid": (("position", "line"), grid.valid, {}),
+        "pinion_tooth": (("position", "line"), np.mod(grid.pair_index, pair.z1), {}),
+        "wheel_tooth": (("position", "line"), np.mod(grid.pair_index, pair.z2), {}),
+    }
 
 
 def force_deflection(
@@ -427,12 +498,19 @@ def force_deflection(
     Returns
     -------
     xarray.Dataset
-        ``ste`` (um) and ``lpms`` over ``(load, position)``; use :func:`force_at_deflection`.
+        ``ste`` (um), ``lpms`` (secant) and ``lpms_tangent`` (N/um), ``cms`` (um) over
+        ``(load, position)`` and ``ste_at_zero_load`` (the no-load TE); use
+        :func:`force_at_deflection` and :func:`stiffness_at_deflection`.
     """
     loads = np.asarray(loads, dtype=float)
     if loads.ndim != 1 or loads.size < 2 or np.any(np.diff(loads) <= 0) or loads[0] <= 0:
         raise ValueError(f"loads={loads!r} must be a strictly increasing 1-D array of > 0 N")
-    kw = {**kw, "keep_points": False}
+    setup = kw.pop("setup", None)
+    if setup is None:
+        grid_kw = {k: kw.pop(k) for k in ("compliance", "positions_per_cycle", "n_cycles",
+                                          "tau", "n_pts") if k in kw}
+        setup = ltca_setup(pair, **grid_kw)
+    kw = {**kw, "keep_points": False, "setup": setup}
     runs = [ltca(pair, normal_force=float(p), **kw) for p in loads]
     ds = xr.concat([r[["ste", "lpms", "lpms_tangent", "cms"]] for r in runs], dim="load")
     ds = ds.assign_coords(load=("load", loads, {"units": "N"}))
@@ -566,7 +644,9 @@ def tip_relief_map(
     """
     amounts = np.asarray(amounts, dtype=float)
     lengths = np.asarray(lengths, dtype=float)
-    comp = kw.pop("compliance", None) or ComplianceModel(pair)
+    setup = kw.pop("setup", None) or ltca_setup(
+        pair, compliance=kw.pop("compliance", None), positions_per_cycle=positions_per_cycle,
+        n_cycles=n_cycles, n_pts=kw.pop("n_pts", 20))
     ptp = np.empty((amounts.size, lengths.size))
     base_kw = {} if base is None else {
         k: getattr(base, k) for k in ("Fp1", "Fp2", "root_relief1", "root_relief2",
@@ -575,8 +655,7 @@ def tip_relief_map(
         for j, la in enumerate(lengths):
             dev = FlankDeviations.symmetric_tip_relief(float(ca), float(la), **base_kw)
             r = ltca(pair, torque=torque, normal_force=normal_force, deviations=dev,
-                     compliance=comp, positions_per_cycle=positions_per_cycle,
-                     n_cycles=n_cycles, keep_points=False, **kw)
+                     setup=setup, keep_points=False, **kw)
             ste = r["ste"].values
             ptp[i, j] = ste.max() - ste.min()
     i, j = np.unravel_index(np.argmin(ptp), ptp.shape)

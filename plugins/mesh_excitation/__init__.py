@@ -1,0 +1,186 @@
+"""``mesh_excitation``: LTCA mesh excitations of a helical pair with random pitch deviations.
+
+The loaded tooth contact analysis of ``gearuq.gears`` (seed 002, Sec. 2.1) run as a model:
+each sample is one long period (``lcm(z1, z2)`` mesh cycles) at one torque, with the
+sample's tip/root relief, lead crowning and one realisation of the random cumulative pitch
+deviations (sine + normal scatter, seed 002 Sec. 3, or ISO 1328 tolerances). Outputs are the
+static transmission error, the long-period mesh stiffness (secant, seed Eq. 4, and tangent),
+the composite mesh error (seed Eq. 5), their mean and peak-to-peak values, the partial
+contact loss and the mesh-order spectrum with its shaft-order sidebands.
+
+The model's "time" is the mesh position in mesh cycles (``tau``; the pinion has turned
+``tau`` base pitches); instants beyond the long period wrap around it. Theory, units and
+choices: docs/theory/mesh_excitation.md and docs/theory/ltca.md.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+from gearuq.model import Model, Option, Output, Parameter
+
+__all__ = ["MeshExcitation"]
+
+_S, _ST, _SO = ("sample",), ("sample", "time"), ("sample", "order")
+_OUTPUTS = (
+    Output("ste", "um", _ST, "static transmission error (normal approach of the flanks)"),
+    Output("lpms", "N/um", _ST, "long-period mesh stiffness, secant (seed Eq. 4)"),
+    Output("lpms_tangent", "N/um", _ST, "long-period mesh stiffness, tangent dP/dSTE"),
+    Output("cms", "um", _ST, "composite mesh error (seed Eq. 5)"),
+    Output("ste_mean", "um", _S, "mean STE over the long period"),
+    Output("ste_ptp", "um", _S, "peak-to-peak STE over the long period"),
+    Output("lpms_mean", "N/um", _S, "mean secant LPMS over the long period"),
+    Output("lpms_ptp", "N/um", _S, "peak-to-peak secant LPMS over the long period"),
+    Output("lpms_tangent_mean", "N/um", _S, "mean tangent LPMS over the long period"),
+    Output("lpms_tangent_ptp", "N/um", _S, "peak-to-peak tangent LPMS over the long period"),
+    Output("cms_mean", "um", _S, "mean CMS over the long period"),
+    Output("cms_ptp", "um", _S, "peak-to-peak CMS over the long period"),
+    Output("contact_loss_fraction", "1", _S,
+           "share of the long-period positions with partial contact loss (more than 5 % of "
+           "the design contact pattern unloaded)"),
+    Output("unloaded_share_max", "1", _S,
+           "largest unloaded share of the design contact pattern over the long period"),
+    Output("ste_spectrum", "um", _SO,
+           "amplitude of the STE at shaft orders, mesh orders and their sidebands"),
+    Output("lpms_tangent_spectrum", "N/um", _SO,
+           "amplitude of the tangent LPMS at the same orders"),
+)
+
+_OPTIONS = (
+    Option("positions_per_cycle", 24, "mesh positions per mesh cycle", kind=int, lower=4,
+           upper=1000),
+    Option("n_pts", 20, "points per line of contact", kind=int, lower=2, upper=400),
+    Option("n_mesh_orders", 3, "mesh orders in the spectra (< positions_per_cycle / 2)",
+           kind=int, lower=1, upper=100),
+    Option("n_sidebands", 3, "sidebands +-i shaft orders around each mesh order", kind=int,
+           lower=0, upper=50),
+    Option("sideband_shaft", "pinion", "shaft whose orders label the sidebands",
+           choices=("pinion", "wheel")),
+    Option("amplitude_reading", "sine",
+           "seed 002's '15 um amplitude': sine amplitude or largest cumulative deviation",
+           choices=("sine", "largest")),
+    Option("threads", None, "threads over samples (None: all cores of this process)",
+           kind=int, lower=1, upper=1024, allow_none=True),
+)
+
+
+class MeshExcitation(Model):
+    """LTCA mesh excitations (STE, LPMS, CMS, spectra) of a helical pair per random sample.
+
+    Parameters
+    ----------
+    pair : HelicalGearPair or None
+        The gear pair; ``None``: the seed-002 pair (30/30, m_n 6 mm, 18 deg, b 40 mm).
+    coupling_length : float or None
+        Face-width coupling length of the compliance [m]; ``None``: the cantilever-plate
+        calibration (:func:`gearuq.gears.face_coupling.plate_coupling_length`).
+    bore_ratio : float
+        Bore over root radius of the fillet foundation (0.5 assumed; seed gives no bore).
+    hertz : bool
+        Include Weber's nonlinear contact approach (default True).
+    """
+
+    name = "mesh_excitation"
+    description = "LTCA mesh excitations (STE, LPMS, CMS, spectra) with random pitch errors"
+    version = "1.0"
+    time_units = "mesh cycles"
+    time_long_name = "mesh position tau (pinion turned by tau base pitches)"
+    internally_parallel = True  # samples run in threads; the compiled LTCA drops the GIL
+    outputs = _OUTPUTS
+    options = _OPTIONS
+
+    def __init__(
+        self,
+        pair: Any = None,
+        *,
+        coupling_length: float | None = None,
+        bore_ratio: float = 0.5,
+        hertz: bool = True,
+    ) -> None:
+        from gearuq.gears.compliance import ComplianceModel
+        from gearuq.gears.geometry import HelicalGearPair, seed002_pair
+
+        if pair is None:
+            pair = seed002_pair()
+        if not isinstance(pair, HelicalGearPair):
+            raise ValueError(f"pair={pair!r} must be a gearuq.gears.HelicalGearPair")
+        self.pair = pair
+        # validates coupling_length and bore_ratio with clear messages
+        self.compliance = ComplianceModel(pair, coupling_length=coupling_length,
+                                          bore_ratio=bore_ratio, hertz=bool(hertz))
+        self.parameters = _parameters(pair)
+        self._cache: dict[Any, Any] = {}
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["_cache"] = {}  # prepared grids are rebuilt in each worker, not shipped
+        return state
+
+    def settings(self) -> dict[str, Any]:
+        """Construction options (recorded as provenance)."""
+        p = self.pair
+        return {
+            "pair": {"mn": p.mn, "z1": p.z1, "z2": p.z2, "alpha_n": p.alpha_n, "beta": p.beta,
+                     "b1": p.b1, "b2": p.b2, "x1": p.x1, "x2": p.x2, "ha_star": p.ha_star,
+                     "hf_star": p.hf_star, "rho_f_star": p.rho_f_star, "a": p.a, "b": p.b},
+            "coupling_length_m": float(self.compliance.coupling_length),
+            "bore_ratio": self.compliance.bore_ratio,
+            "hertz": bool(self.compliance.hertz),
+        }
+
+    def default_space(self) -> Any:
+        """Seed 002's random input: torque 200-1000 N m and the pitch-deviation realisation.
+
+        ``torque`` uniform on the seed's load range; ``pitch_seed`` uniform on [0, 2^32)
+        (its integer part selects the realisation of the random cumulative pitch deviations,
+        amplitude 15 um and sigma 3 um at their nominal values).
+        """
+        from gearuq.space import ParameterSpace
+
+        return ParameterSpace({
+            "torque": {"dist": "uniform", "lower": 200.0, "upper": 1000.0},
+            "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 2.0**32 - 1.0},
+        })
+
+    def _evaluate(self, params, t, outputs, **options):
+        from gearuq_plugins.mesh_excitation.physics import evaluate
+
+        if options["threads"] is None:
+            options = {**options, "threads": len(os.sched_getaffinity(0))
+                       if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)}
+        return evaluate(self, params, t, outputs, **options)
+
+
+def _parameters(pair: Any) -> tuple[Parameter, ...]:
+    """Parameters whose relief-length range is the pair's path of contact."""
+    g_alpha_mm = pair.g_alpha * 1e3
+    length = math.floor(g_alpha_mm * 1000.0) / 1000.0  # path of contact, rounded down
+    _P = Parameter
+    return (
+        _P("torque", "N m", 600.0, 1.0, 5000.0, "pinion torque (seed 002: 200-1000 N m)"),
+        _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
+           "parabolic tip relief amount e_max on pinion and wheel (seed Eq. 12), measured "
+           "along the line of action in the transverse plane"),
+        _P("tip_relief_length", "mm", 0.0, 0.0, length,
+           f"tip relief length L along the path of contact (at most the active profile, "
+           f"g_alpha = {g_alpha_mm:.3f} mm)"),
+        _P("root_relief_amount", "um", 0.0, 0.0, 200.0,
+           "parabolic root relief amount on pinion and wheel"),
+        _P("root_relief_length", "mm", 0.0, 0.0, length,
+           "root relief length along the path of contact (at most the active profile)"),
+        _P("crowning", "um", 0.0, 0.0, 100.0, "lead crowning C_b (sum of both gears)"),
+        _P("pitch_amplitude", "um", 15.0, 0.0, 200.0,
+           "amplitude of the random cumulative pitch deviations (seed 002: 15 um; read as "
+           "the option amplitude_reading says); unused when iso_grade > 0"),
+        _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
+           "standard deviation of the pitch scatter (seed 002: 3 um); unused when "
+           "iso_grade > 0"),
+        _P("iso_grade", "1", 0, 0, 11,
+           "ISO 1328-1:2013 flank tolerance class 1-11 setting amplitude F_pT/2 and sigma "
+           "f_pT/(3 sqrt 2) per gear; 0: use pitch_amplitude and pitch_sigma", integer=True),
+        _P("pitch_seed", "1", 2020.0, 0.0, 2.0**32 - 1.0,
+           "realisation of the random pitch deviations: its integer part seeds "
+           "numpy.random.default_rng (2020: the realisation of the LTCA study)"),
+    )
