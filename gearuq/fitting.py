@@ -473,70 +473,110 @@ def fit_distributions(
     loc = _loc_policy(floc)
     if isinstance(bootstrap, bool) or int(bootstrap) != bootstrap or bootstrap < 0:
         raise ValueError(f"bootstrap must be a non-negative integer, got {bootstrap!r}")
-    n_boot = int(bootstrap)
     if not 0.0 < float(confidence) < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
     band = _threshold_band(threshold, tail)
     gen = np.random.default_rng(rng)
-    n = x.size
-    log_n = math.log(n)
-    alpha = 1.0 - float(confidence)
-
-    rows: list[dict[str, Any]] = []
-    for name in names:
-        fam = FAMILIES[name]
-        fixed = fam.positive and loc is not None
-        row: dict[str, Any] = {"candidate": name, "scipy_name": fam.scipy_name,
-                               "loc_fixed": int(fixed), "n_params": _n_free(fam, loc)}
-        try:
-            params = _fit(fam, x, loc)
-        except _Skip as exc:
-            row["fit_status"] = str(exc)
-            rows.append(row)
-            continue
-        dist = fam.dist(*params)
-        k = row["n_params"]
-        ll = _loglik(dist, x)
-        row.update({
-            "fit_status": "ok",
-            "shape": params[0] if fam.shape else math.nan,
-            "loc": params[-2], "scale": params[-1],
-            "loglik": ll, "aic": 2 * k - 2 * ll, "bic": k * log_n - 2 * ll,
-            "ks_statistic": ks_statistic(x, dist),
-            "ad_statistic": ad_statistic(x, dist),
+    rows = [_fit_candidate(FAMILIES[name], x, loc, band, int(bootstrap), gen,
+                           1.0 - float(confidence)) for name in names]
+    order = _rank(rows)
+    out = _fit_dataset(order, units, int(bootstrap), band)
+    if band is not None:
+        _add_empirical(out, band, x, float(confidence))
+    loc_text = ("free (fitted) for every family" if loc is None else
+                f"fixed at {loc:g} for positive-support families; fitted for real-line families")
+    out.attrs.update({
+        "description": "maximum-likelihood distribution fits ranked by AIC",
+        "variable": var_name,
+        "units": units,
+        "best": order[0]["candidate"],
+        "n": int(x.size),
+        "n_invalid": int(n_invalid),
+        "loc_policy": loc_text,
+        "bootstrap": int(bootstrap),
+        "confidence": float(confidence),
+        "pvalue_method": (
+            f"parametric bootstrap with B={int(bootstrap)} refits (accounts for estimated "
+            "parameters)" if bootstrap else
+            "none; ks_pvalue_naive ignores the estimated parameters (too lenient)"),
+    })
+    if band is not None:
+        out.attrs.update({
+            "threshold_lower": float(band.lower),
+            "threshold_upper": float(band.upper),
+            "threshold_absolute": int(band.absolute),
+            "failure_definition": band.describe().replace("samples", "x") + " is safe",
         })
-        row["ks_pvalue_naive"] = float(stats.kstwo.sf(row["ks_statistic"], n))
-        if band is not None:
-            row["pf_fit"] = band.pf_from_distribution(dist)
-        if n_boot:
-            ks_b, ad_b, par_b, pf_b = [], [], [], []
-            for _ in range(n_boot):
-                xb = dist.rvs(size=n, random_state=gen)
-                try:
-                    pb = _fit(fam, xb, loc)
-                except _Skip:
-                    continue
-                db = fam.dist(*pb)
-                ks_b.append(ks_statistic(xb, db))
-                ad_b.append(ad_statistic(xb, db))
-                par_b.append(pb)
-                if band is not None:
-                    pf_b.append(band.pf_from_distribution(db))
-            nb = len(ks_b)
-            row["n_bootstrap_ok"] = nb
-            if nb:
-                row["ks_pvalue"] = (1 + np.sum(np.asarray(ks_b) >= row["ks_statistic"])) / (nb + 1)
-                row["ad_pvalue"] = (1 + np.sum(np.asarray(ad_b) >= row["ad_statistic"])) / (nb + 1)
-                pa = np.asarray(par_b)
-                sd = pa.std(axis=0, ddof=1) if nb > 1 else np.full(pa.shape[1], math.nan)
-                row["shape_se"] = float(sd[0]) if fam.shape else math.nan
-                row["loc_se"] = math.nan if fixed else float(sd[-2])
-                row["scale_se"] = float(sd[-1])
-                if band is not None:
-                    row["pf_fit_lower"] = float(np.quantile(pf_b, alpha / 2))
-                    row["pf_fit_upper"] = float(np.quantile(pf_b, 1 - alpha / 2))
-        rows.append(row)
+    return FitResult(out)
 
+
+def _fit_candidate(fam: Family, x: np.ndarray, loc: float | None, band: Band | None,
+                   n_boot: int, gen: np.random.Generator, alpha: float) -> dict[str, Any]:
+    """Fit one family: parameters, likelihood criteria, GoF statistics, tail pf, bootstrap."""
+    n = x.size
+    fixed = fam.positive and loc is not None
+    row: dict[str, Any] = {"candidate": fam.name, "scipy_name": fam.scipy_name,
+                           "loc_fixed": int(fixed), "n_params": _n_free(fam, loc)}
+    try:
+        params = _fit(fam, x, loc)
+    except _Skip as exc:
+        row["fit_status"] = str(exc)
+        return row
+    dist = fam.dist(*params)
+    k = row["n_params"]
+    ll = _loglik(dist, x)
+    row.update({
+        "fit_status": "ok",
+        "shape": params[0] if fam.shape else math.nan,
+        "loc": params[-2], "scale": params[-1],
+        "loglik": ll, "aic": 2 * k - 2 * ll, "bic": k * math.log(n) - 2 * ll,
+        "ks_statistic": ks_statistic(x, dist),
+        "ad_statistic": ad_statistic(x, dist),
+    })
+    row["ks_pvalue_naive"] = float(stats.kstwo.sf(row["ks_statistic"], n))
+    if band is not None:
+        row["pf_fit"] = band.pf_from_distribution(dist)
+    if n_boot:
+        row.update(_bootstrap(fam, dist, n, loc, band, n_boot, gen, alpha, row))
+    return row
+
+
+def _bootstrap(fam: Family, dist: Any, n: int, loc: float | None, band: Band | None,
+               n_boot: int, gen: np.random.Generator, alpha: float,
+               row: dict[str, Any]) -> dict[str, Any]:
+    """Parametric bootstrap: p-values, parameter standard errors, pf_fit interval."""
+    ks_b, ad_b, par_b, pf_b = [], [], [], []
+    for _ in range(n_boot):
+        xb = dist.rvs(size=n, random_state=gen)
+        try:
+            pb = _fit(fam, xb, loc)
+        except _Skip:
+            continue
+        db = fam.dist(*pb)
+        ks_b.append(ks_statistic(xb, db))
+        ad_b.append(ad_statistic(xb, db))
+        par_b.append(pb)
+        if band is not None:
+            pf_b.append(band.pf_from_distribution(db))
+    nb = len(ks_b)
+    out: dict[str, Any] = {"n_bootstrap_ok": nb}
+    if not nb:
+        return out
+    out["ks_pvalue"] = (1 + np.sum(np.asarray(ks_b) >= row["ks_statistic"])) / (nb + 1)
+    out["ad_pvalue"] = (1 + np.sum(np.asarray(ad_b) >= row["ad_statistic"])) / (nb + 1)
+    pa = np.asarray(par_b)
+    sd = pa.std(axis=0, ddof=1) if nb > 1 else np.full(pa.shape[1], math.nan)
+    out["shape_se"] = float(sd[0]) if fam.shape else math.nan
+    out["loc_se"] = math.nan if row["loc_fixed"] else float(sd[-2])
+    out["scale_se"] = float(sd[-1])
+    if band is not None:
+        out["pf_fit_lower"] = float(np.quantile(pf_b, alpha / 2))
+        out["pf_fit_upper"] = float(np.quantile(pf_b, 1 - alpha / 2))
+    return out
+
+
+def _rank(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Fitted candidates by AIC (with ranks, dAIC, Akaike weights), then the skipped ones."""
     fitted = [r for r in rows if r["fit_status"] == "ok"]
     if not fitted:
         raise ValueError(
@@ -545,7 +585,6 @@ def fit_distributions(
         )
     fitted.sort(key=lambda r: (r["aic"], r["candidate"]))
     skipped = [r for r in rows if r["fit_status"] != "ok"]
-    order = fitted + skipped
     aic_min = fitted[0]["aic"]
     finite = [r for r in fitted if math.isfinite(r["aic"])]
     wsum = sum(math.exp(-0.5 * (r["aic"] - aic_min)) for r in finite) if finite else 1.0
@@ -560,35 +599,42 @@ def fit_distributions(
     for r in skipped:
         r["aic_rank"] = -1
         r["bic_rank"] = -1
+    return fitted + skipped
+
+
+_VAR_DOC = {
+    "shape": "shape parameter (lognormal s, Weibull c, gamma a, GEV c; NaN if none)",
+    "loc": "location parameter",
+    "scale": "scale parameter",
+    "loglik": "maximised log-likelihood",
+    "aic": "Akaike information criterion 2k - 2 lnL",
+    "bic": "Bayesian information criterion k ln(n) - 2 lnL",
+    "delta_aic": "AIC minus the lowest AIC",
+    "aic_weight": "Akaike weight exp(-dAIC/2) / sum",
+    "ks_statistic": "Kolmogorov-Smirnov statistic D against the fitted distribution",
+    "ks_pvalue_naive": (
+        "classical KS p-value for a fully specified distribution; does NOT account for the "
+        "estimated parameters (too lenient)"),
+    "ad_statistic": "Anderson-Darling statistic A^2 against the fitted distribution",
+    "ks_pvalue": "parametric-bootstrap KS p-value (accounts for estimated parameters)",
+    "ad_pvalue": "parametric-bootstrap AD p-value (accounts for estimated parameters)",
+    "shape_se": "bootstrap standard error of shape",
+    "loc_se": "bootstrap standard error of loc (NaN if fixed)",
+    "scale_se": "bootstrap standard error of scale",
+    "pf_fit": "failure probability from the fitted distribution",
+    "pf_fit_lower": "lower bootstrap percentile bound of pf_fit",
+    "pf_fit_upper": "upper bootstrap percentile bound of pf_fit",
+}
+
+
+def _fit_dataset(order: list[dict[str, Any]], units: str, n_boot: int,
+                 band: Band | None) -> xr.Dataset:
+    """The ranked rows as a Dataset over ``candidate``."""
 
     def col(key: str, dtype: Any = float, fill: Any = math.nan) -> np.ndarray:
         return np.array([r.get(key, fill) for r in order], dtype=dtype)
 
-    var_doc = {
-        "shape": "shape parameter (lognormal s, Weibull c, gamma a, GEV c; NaN if none)",
-        "loc": "location parameter",
-        "scale": "scale parameter",
-        "loglik": "maximised log-likelihood",
-        "aic": "Akaike information criterion 2k - 2 lnL",
-        "bic": "Bayesian information criterion k ln(n) - 2 lnL",
-        "delta_aic": "AIC minus the lowest AIC",
-        "aic_weight": "Akaike weight exp(-dAIC/2) / sum",
-        "ks_statistic": "Kolmogorov-Smirnov statistic D against the fitted distribution",
-        "ks_pvalue_naive": (
-            "classical KS p-value for a fully specified distribution; does NOT account for the "
-            "estimated parameters (too lenient)"),
-        "ad_statistic": "Anderson-Darling statistic A^2 against the fitted distribution",
-        "ks_pvalue": "parametric-bootstrap KS p-value (accounts for estimated parameters)",
-        "ad_pvalue": "parametric-bootstrap AD p-value (accounts for estimated parameters)",
-        "shape_se": "bootstrap standard error of shape",
-        "loc_se": "bootstrap standard error of loc (NaN if fixed)",
-        "scale_se": "bootstrap standard error of scale",
-        "pf_fit": "failure probability from the fitted distribution",
-        "pf_fit_lower": "lower bootstrap percentile bound of pf_fit",
-        "pf_fit_upper": "upper bootstrap percentile bound of pf_fit",
-    }
-    out = xr.Dataset(coords={"candidate": ("candidate", np.array([r["candidate"] for r in order],
-                                                                   dtype=str))})
+    out = xr.Dataset(coords={"candidate": ("candidate", col("candidate", str, ""))})
     out["scipy_name"] = ("candidate", col("scipy_name", str, ""),
                          {"long_name": "scipy.stats distribution"})
     out["fit_status"] = ("candidate", col("fit_status", str, ""),
@@ -603,54 +649,30 @@ def fit_distributions(
         keys += ["pf_fit"] + (["pf_fit_lower", "pf_fit_upper"] if n_boot else [])
     for key in keys:
         out[key] = ("candidate", col(key), {"units": par_units.get(key, "1"),
-                                            "long_name": var_doc[key]})
+                                            "long_name": _VAR_DOC[key]})
     if band is not None:
         with np.errstate(divide="ignore"):
             out["beta_fit"] = ("candidate", stats.norm.isf(col("pf_fit")), {
                 "units": "1", "long_name": "generalised index -Phi^-1(pf_fit)"})
-    out["loc_fixed"] = ("candidate", col("loc_fixed", np.int8, 0),
-                        {"units": "1", "long_name": "1 if loc was fixed, not estimated"})
-    out["n_params"] = ("candidate", col("n_params", np.int32, 0),
-                       {"units": "1", "long_name": "number of estimated parameters k"})
-    out["aic_rank"] = ("candidate", col("aic_rank", np.int32, -1),
-                       {"units": "1", "long_name": "rank by AIC (1 = best; -1 = not fitted)"})
-    out["bic_rank"] = ("candidate", col("bic_rank", np.int32, -1),
-                       {"units": "1", "long_name": "rank by BIC (1 = best; -1 = not fitted)"})
+    ints = (("loc_fixed", np.int8, 0, "1 if loc was fixed, not estimated"),
+            ("n_params", np.int32, 0, "number of estimated parameters k"),
+            ("aic_rank", np.int32, -1, "rank by AIC (1 = best; -1 = not fitted)"),
+            ("bic_rank", np.int32, -1, "rank by BIC (1 = best; -1 = not fitted)"))
+    for key, dtype, fill, doc in ints:
+        out[key] = ("candidate", col(key, dtype, fill), {"units": "1", "long_name": doc})
     if n_boot:
         out["n_bootstrap_ok"] = ("candidate", col("n_bootstrap_ok", np.int32, 0),
                                  {"units": "1", "long_name": "bootstrap refits that succeeded"})
-    if band is not None:
-        fails = band.fails(x)
-        k_exc = int(fails.sum())
-        lo, up = wilson_interval(k_exc, n, confidence)
-        out["n_exceed"] = ((), np.int32(k_exc), {"units": "1",
-                                                  "long_name": "samples outside the band"})
-        out["pf_empirical"] = ((), k_exc / n, {"units": "1",
-                                               "long_name": "empirical failure probability"})
-        out["pf_empirical_lower"] = ((), float(lo), {"units": "1", "long_name": "Wilson lower"})
-        out["pf_empirical_upper"] = ((), float(up), {"units": "1", "long_name": "Wilson upper"})
-    loc_text = ("free (fitted) for every family" if loc is None else
-                f"fixed at {loc:g} for positive-support families; fitted for real-line families")
-    out.attrs.update({
-        "description": "maximum-likelihood distribution fits ranked by AIC",
-        "variable": var_name,
-        "units": units,
-        "best": fitted[0]["candidate"],
-        "n": int(n),
-        "n_invalid": int(n_invalid),
-        "loc_policy": loc_text,
-        "bootstrap": int(n_boot),
-        "confidence": float(confidence),
-        "pvalue_method": (
-            f"parametric bootstrap with B={n_boot} refits (accounts for estimated parameters)"
-            if n_boot else
-            "none; ks_pvalue_naive ignores the estimated parameters (too lenient)"),
-    })
-    if band is not None:
-        out.attrs.update({
-            "threshold_lower": float(band.lower),
-            "threshold_upper": float(band.upper),
-            "threshold_absolute": int(band.absolute),
-            "failure_definition": band.describe().replace("samples", "x") + " is safe",
-        })
-    return FitResult(out)
+    return out
+
+
+def _add_empirical(out: xr.Dataset, band: Band, x: np.ndarray, confidence: float) -> None:
+    """Empirical failure probability of the same band, with its Wilson interval."""
+    k_exc = int(band.fails(x).sum())
+    lo, up = wilson_interval(k_exc, x.size, confidence)
+    out["n_exceed"] = ((), np.int32(k_exc), {"units": "1",
+                                              "long_name": "samples outside the band"})
+    out["pf_empirical"] = ((), k_exc / x.size, {"units": "1",
+                                                "long_name": "empirical failure probability"})
+    out["pf_empirical_lower"] = ((), float(lo), {"units": "1", "long_name": "Wilson lower"})
+    out["pf_empirical_upper"] = ((), float(up), {"units": "1", "long_name": "Wilson upper"})
