@@ -108,6 +108,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
+    if args.what == "memory":
+        from gearuq.bench_memory import run as run_memory
+
+        run_memory(args.out, quick=args.quick)
+        return 0
     if args.what == "surrogate":
         from gearuq.bench_surrogate import run
 
@@ -169,9 +174,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="work-precision benchmarks",
                        description="Speed against error, side by side in one run.")
-    p.add_argument("what", choices=["integrator", "surrogate"],
+    p.add_argument("what", choices=["integrator", "surrogate", "memory"],
                    help="integrator: work-precision of the batched ODE solver on helical_pair; "
-                        "surrogate: PCE / Sobol-MC speed against error on analytic benchmarks")
+                        "surrogate: PCE / Sobol-MC speed against error on analytic benchmarks; "
+                        "memory: peak RSS and wall time of Monte Carlo against sample count")
     p.add_argument("--out", default="gearuq_bench", help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer samples and tolerances")
     p.set_defaults(func=_cmd_bench)

@@ -46,6 +46,17 @@ CHECKSUM = "checksum"
 _HASHABLE = "biufcUSO"
 
 
+def _canonical(attrs: dict[str, Any]) -> str:
+    """Attributes as text that survives the netCDF round trip (a 1-element array attribute
+    comes back as a scalar, ints come back as int64)."""
+    out = {}
+    for k, v in sorted(attrs.items()):
+        if k == CHECKSUM:
+            continue
+        out[k] = v if isinstance(v, str) else repr(np.atleast_1d(np.asarray(v)).tolist())
+    return json.dumps(out)
+
+
 def _digest_variable(var: xr.Variable, attrs: dict[str, Any]) -> str:
     """BLAKE2b digest of a variable's dtype, shape, values and attributes.
 
@@ -55,7 +66,7 @@ def _digest_variable(var: xr.Variable, attrs: dict[str, Any]) -> str:
     """
     h = hashlib.blake2b(digest_size=16)
     h.update(f"{var.dtype.str}|{var.shape}".encode())
-    h.update(json.dumps({k: str(v) for k, v in sorted(attrs.items()) if k != CHECKSUM}).encode())
+    h.update(_canonical(attrs).encode())
     if var.ndim == 0:
         blocks = [np.asarray(var.values)]
     else:
@@ -72,7 +83,7 @@ def _digest_variable(var: xr.Variable, attrs: dict[str, Any]) -> str:
 
 def _global_digest(attrs: dict[str, Any]) -> str:
     h = hashlib.blake2b(digest_size=16)
-    h.update(json.dumps({k: str(v) for k, v in sorted(attrs.items()) if k != CHECKSUM}).encode())
+    h.update(_canonical(attrs).encode())
     return "blake2b:" + h.hexdigest()
 
 
