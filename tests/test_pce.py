@@ -1,4 +1,5 @@
-"""Polynomial chaos: exactness, analytic moments and Sobol' indices, reliability, bad input."""
+"""Polynomial chaos: exactness, analytic moments and Sobol' indices, sparse selection against
+independent oracles, fit on labelled data, storage round trip, reliability, bad input."""
 
 from __future__ import annotations
 
@@ -10,21 +11,23 @@ from scipy import integrate, stats
 
 import gearuq
 from gearuq.engines.pce import PolynomialChaos, multi_indices, polynomial_chaos
-from gearuq.reliability import Band
-
-PI = math.pi
-ISHIGAMI_S1 = np.array([0.313905, 0.442411, 0.0])
-ISHIGAMI_ST = np.array([0.557589, 0.442411, 0.243684])
-
-
-def ishigami_model():
-    return gearuq.FunctionModel(
-        lambda x1, x2, x3: np.sin(x1) + 7 * np.sin(x2) ** 2 + 0.1 * x3**4 * np.sin(x1),
-        ["x1", "x2", "x3"], ["y"], name="ishigami")
-
-
-def ishigami_space():
-    return gearuq.ParameterSpace.uniform(x1=(-PI, PI), x2=(-PI, PI), x3=(-PI, PI))
+from gearuq.engines.pce.basis import basis_matrix
+from gearuq.engines.pce.regression import greedy_path
+from gearuq.model import Option
+from gearuq.probability import Band
+from gearuq.testing.problems import (
+    FOUR_BRANCH_PF,
+    ISHIGAMI_MEAN,
+    ISHIGAMI_S1,
+    ISHIGAMI_ST,
+    ISHIGAMI_VARIANCE,
+    four_branch_model,
+    ishigami_model,
+    ishigami_space,
+    linear_limit_state_model,
+    linear_limit_state_pf,
+    standard_normal_space,
+)
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")
@@ -38,12 +41,87 @@ def test_ishigami_sobol_analytic(method, kw):
     s = pce.sobol()
     np.testing.assert_allclose(s["S1"].values, ISHIGAMI_S1, atol=0.005)
     np.testing.assert_allclose(s["ST"].values, ISHIGAMI_ST, atol=0.005)
-    # mean a/2 = 3.5, variance a^2/8 + b pi^4/5 + b^2 pi^8/18 + 1/2
-    var = 49 / 8 + 0.1 * PI**4 / 5 + 0.01 * PI**8 / 18 + 0.5
-    assert float(pce.mean()) == pytest.approx(3.5, abs=2e-3)
-    assert float(pce.variance()) == pytest.approx(var, rel=2e-3)
+    assert float(pce.mean()) == pytest.approx(ISHIGAMI_MEAN, abs=2e-3)
+    assert float(pce.variance()) == pytest.approx(ISHIGAMI_VARIANCE, rel=2e-3)
     assert pce.loo_error["y"] < 1e-4
     assert pce.n_evaluations == (15**3 if method == "quadrature" else kw["n_samples"])
+
+
+def test_sparse_ishigami_auto_degree_reaches_the_issue_target():
+    """Auto degree <= 14, N = 512: hold-out error <= 1e-9 (issue 8 item 6; measured 1.6e-11).
+
+    The hold-out set is independent of the design (random draws, another seed) and the
+    error is computed here from the exact function, not by the engine.
+    """
+    model, space = ishigami_model(), ishigami_space()
+    pce = polynomial_chaos(model, space, order="auto", max_order=14, method="sparse",
+                           n_samples=512, rng=1)
+    x = space.sample(4000, "random", 99)
+    exact = model.fn(**x)
+    holdout = np.mean((pce.predict(x) - exact) ** 2) / np.var(exact)
+    assert holdout <= 1e-9
+    assert pce.order >= 12 and pce.n_terms < 150  # sparse: a few dozen of 680 candidates
+    np.testing.assert_allclose(pce.sobol()["S1"].values, ISHIGAMI_S1, atol=1e-6)
+    np.testing.assert_allclose(pce.sobol()["ST"].values, ISHIGAMI_ST, atol=1e-6)
+    # the corrected LOO is larger than the plain one, and both are below 1e-9 here; the
+    # hold-out error is larger than either (selection bias; docs/pce_sensitivity.md)
+    assert pce.loo_error["y"] <= pce.corrected_loo_error["y"] <= 1e-9
+    assert pce.fit_info["n_design"] == 512 and pce.fit_info["orders_tried"][-1] == pce.order
+
+
+def _design(n=120, p=6, seed=0):
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(-1, 1, (n, 2))
+    idx = multi_indices(2, p)
+    psi = basis_matrix(z, idx, ["uniform", "uniform"])
+    y = np.exp(0.7 * z[:, 0]) * np.cos(2 * z[:, 1]) + 0.05 * rng.standard_normal(n)
+    return psi, y
+
+
+def test_lar_order_matches_scikit_learn():
+    """Independent implementation: sklearn's lars_path (method='lar') on the same
+    standardised columns activates the same columns in the same order."""
+    linear_model = pytest.importorskip("sklearn.linear_model")
+    psi, y = _design()
+    path = greedy_path(psi, y, "lars", patience=10**6)
+    x = psi[:, 1:] - psi[:, 1:].mean(axis=0)
+    x /= np.linalg.norm(x, axis=0)
+    _, active, _ = linear_model.lars_path(x, y - y.mean(), method="lar", max_iter=20)
+    np.testing.assert_array_equal(np.asarray(path.order[1:21]) - 1, np.asarray(active)[:20])
+
+
+@pytest.mark.parametrize("solver", ["lars", "omp"])
+def test_incremental_loo_equals_explicit_hat_matrix(solver):
+    """Every prefix's LOO (Gram-Schmidt updates) equals the brute-force leave-one-out refit
+    for a few prefixes, and the corrected LOO the explicit Chapelle factor."""
+    psi, y = _design(n=60, p=4)
+    path = greedy_path(psi, y, solver, patience=10**6)
+    var = np.var(y, ddof=1)
+    for k in (2, 5, 9):
+        cols = path.order[:k]
+        a = psi[:, cols]
+        loo = []
+        for i in range(a.shape[0]):  # drop sample i, refit, predict it
+            keep = np.arange(a.shape[0]) != i
+            c = np.linalg.lstsq(a[keep], y[keep], rcond=None)[0]
+            loo.append(y[i] - a[i] @ c)
+        direct = np.mean(np.square(loo)) / var
+        assert path.loo[k - 2] == pytest.approx(direct, rel=1e-9)
+        n, p = a.shape
+        factor = n / (n - p) * (1 + np.trace(np.linalg.inv(a.T @ a)))
+        assert path.corrected[k - 2] == pytest.approx(direct * factor, rel=1e-8)
+
+
+def test_omp_picks_the_column_most_correlated_with_the_residual():
+    psi, y = _design(n=80, p=5, seed=3)
+    path = greedy_path(psi, y, "omp", patience=10**6)
+    for k in (1, 4, 7):
+        a = psi[:, path.order[:k]]
+        res = y - a @ np.linalg.lstsq(a, y, rcond=None)[0]
+        x = psi[:, 1:] - psi[:, 1:].mean(axis=0)
+        score = np.abs(x.T @ res) / np.linalg.norm(x, axis=0)
+        score[np.asarray(path.order[1:k], dtype=int) - 1] = -1
+        assert path.order[k] == int(np.argmax(score)) + 1
 
 
 def _poly_model():
@@ -138,6 +216,66 @@ def test_time_series_one_fit_compressed_and_schema():
     assert s.to_netcdf() is not None and pce.to_dataset().to_netcdf() is not None
 
 
+def test_fit_on_a_monte_carlo_result_equals_the_pipeline():
+    """The same design evaluated by monte_carlo and fitted by PolynomialChaos.fit gives the
+    coefficients of polynomial_chaos (design -> evaluate -> fit are the same three steps)."""
+    model, space = ishigami_model(), ishigami_space()
+    pce = polynomial_chaos(model, space, order=6, method="sparse", n_samples=256, rng=4)
+    ds = gearuq.monte_carlo(model, space, n_samples=256, rule="sobol", rng=4,
+                            executor="serial", progress=False)
+    refit = PolynomialChaos(space, order=6, method="sparse").fit(ds)
+    np.testing.assert_array_equal(refit.indices, pce.indices)
+    np.testing.assert_allclose(refit.coefficients["y"], pce.coefficients["y"], rtol=1e-12,
+                               atol=1e-14)
+    assert refit.source_model == "ishigami" and refit.n_evaluations == 256
+    # plain arrays work too, failed samples (status != 0) are excluded and counted
+    x = {k: ds[k].values for k in space.names}
+    status = np.zeros(256, dtype=int)
+    status[:10] = 3
+    y = np.where(status == 0, ds["y"].values, np.nan)
+    arr = PolynomialChaos(space, order=6, method="sparse").fit(x, {"y": y}, status=status)
+    assert arr.n_failed == 10 and arr.n_evaluations == 256
+    assert float(arr.mean()) == pytest.approx(float(pce.mean()), abs=0.05)
+
+
+def test_saved_surrogate_rebuilds_identically(tmp_path):
+    model = gearuq.get_model("linear_oscillator")
+    space = gearuq.ParameterSpace.normal(force=(10.0, 1.0), k=(1.0e4, 300.0))
+    t = np.linspace(0.0, 0.1, 11)
+    pce = polynomial_chaos(model, space, t, order=4, method="sparse",
+                           outputs=["displacement", "steady_amplitude"], n_samples=64, rng=2)
+    gearuq.save(pce.to_dataset(), tmp_path / "pce.nc")
+    back = PolynomialChaos.from_dataset(gearuq.load(tmp_path / "pce.nc"))
+    x = space.sample(50, rng=8)
+    for o in ("displacement", "steady_amplitude"):
+        np.testing.assert_array_equal(back.predict(x, o), pce.predict(x, o))
+        assert back.loo_error[o] == pce.loo_error[o]
+        assert back.corrected_loo_error[o] == pce.corrected_loo_error[o]
+    np.testing.assert_array_equal(back.sobol("displacement")["ST"],
+                                  pce.sobol("displacement")["ST"])
+    assert back.order == pce.order and back.n_terms == pce.n_terms
+    assert back.germ_kinds == pce.germ_kinds and back.name == pce.name
+    assert back.response(x)["k"].attrs["units"] == "N m-1"
+    with pytest.raises(ValueError, match="not a saved polynomial chaos"):
+        PolynomialChaos.from_dataset(gearuq.load(tmp_path / "pce.nc").drop_vars("multi_index"))
+
+
+def test_repr_and_summary_say_what_the_surrogate_is():
+    space = ishigami_space()
+    unfitted = PolynomialChaos(space, order=5, method="sparse")
+    assert "not fitted" in repr(unfitted)
+    with pytest.raises(ValueError, match="not fitted"):
+        unfitted.response({"x1": [0.0], "x2": [0.0], "x3": [0.0]})
+    pce = polynomial_chaos(ishigami_model(), space, order=5, method="sparse", n_samples=128,
+                           rng=1, n_holdout=64)
+    text = repr(pce)
+    assert "sparse" in text and f"{pce.n_terms} terms" in text and "ishigami" in text
+    summary = pce.summary()
+    for needle in ("LOO", "corrected LOO", "hold-out", "Legendre", "optimistic",
+                   f"{pce.n_evaluations} model runs"):
+        assert needle in summary
+
+
 def test_failed_samples_excluded_and_counted():
     def f(a, b):
         y = 1.0 + a + 2.0 * b
@@ -151,14 +289,25 @@ def test_failed_samples_excluded_and_counted():
     assert float(pce.variance()) == pytest.approx(5.0, rel=1e-12)
 
 
-def test_correlated_space_through_nataf():
+def test_correlated_space_indices_are_labelled_nataf_innovations():
+    """y = a + 2 b with corr(a, b) = rho: the germ of a carries the full index of a,
+    Var(E[y|a]) / V = (s_a + 2 rho s_b)^2 / V, the germ of b only the part of b independent
+    of a, 4 s_b^2 (1 - rho^2) / V (closed forms of the linear Gaussian case)."""
     model = gearuq.FunctionModel(lambda a, b: a + 2 * b, ["a", "b"], ["y"], name="lin")
-    space = gearuq.ParameterSpace.normal(correlation=[[1, 0.5], [0.5, 1]],
-                                         a=(1.0, 1.0), b=(0.0, 2.0))
+    rho, sa, sb = 0.5, 1.0, 2.0
+    space = gearuq.ParameterSpace.normal(correlation=[[1, rho], [rho, 1]],
+                                         a=(1.0, sa), b=(0.0, sb))
     pce = polynomial_chaos(model, space, order=1, n_samples=16, rng=1)
+    var = sa**2 + 4 * sb**2 + 4 * rho * sa * sb
     assert float(pce.mean()) == pytest.approx(1.0, rel=1e-12)
-    assert float(pce.variance()) == pytest.approx(1 + 16 + 2 * 0.5 * 1 * 2 * 2, rel=1e-12)
-    assert "germ" in pce.sobol().attrs["note"]
+    assert float(pce.variance()) == pytest.approx(var, rel=1e-12)
+    with pytest.warns(UserWarning, match="depend on the order"):
+        s = pce.sobol()
+    assert float(s["S1"].sel(parameter="a")) == pytest.approx((sa + 2 * rho * sb) ** 2 / var,
+                                                              rel=1e-10)
+    assert float(s["S1"].sel(parameter="b")) == pytest.approx(4 * sb**2 * (1 - rho**2) / var,
+                                                              rel=1e-10)
+    assert list(s["germ_variable"].values) == ["a", "b | a"] and "order" in s.attrs["note"]
 
 
 def test_order_auto_picks_the_true_degree():
@@ -169,49 +318,92 @@ def test_order_auto_picks_the_true_degree():
 
 
 def test_linear_limit_state_pf_equals_phi_minus_beta():
-    beta = 3.0
-    model = gearuq.FunctionModel(lambda x1, x2: beta - (x1 + x2) / math.sqrt(2),
-                                 ["x1", "x2"], ["g"], name="linear_ls")
-    space = gearuq.ParameterSpace.normal(x1=(0.0, 1.0), x2=(0.0, 1.0))
-    pce = polynomial_chaos(model, space, order=1, n_samples=8, rng=0)
+    pce = polynomial_chaos(linear_limit_state_model(), standard_normal_space(2), order=1,
+                           n_samples=8, rng=0)
     rel = pce.reliability(Band("g", lower=0.0), n_samples=10**6, rng=11)
     pf = float(rel["pf"].sel(mode="g"))
-    exact = stats.norm.cdf(-beta)
+    exact = linear_limit_state_pf()
     assert float(rel["pf_lower"].sel(mode="g")) <= exact <= float(rel["pf_upper"].sel(mode="g"))
     assert pf == pytest.approx(exact, rel=0.1)
-    assert rel.attrs["n_model_evaluations"] == 8
+    assert rel.attrs["n_model_evaluations"] == 8 and rel.attrs["seed"] == 11
 
 
-K_FOUR_BRANCH = 6 / math.sqrt(2)
+def _shifted(x1, x2, shift=0.0):
+    return 3.0 - shift - (x1 + x2) / math.sqrt(2.0)
 
 
-def four_branch(x1, x2, k=K_FOUR_BRANCH):
-    return np.minimum.reduce([
-        3 + 0.1 * (x1 - x2) ** 2 - (x1 + x2) / math.sqrt(2),
-        3 + 0.1 * (x1 - x2) ** 2 + (x1 + x2) / math.sqrt(2),
-        (x1 - x2) + k,
-        (x2 - x1) + k,
-    ])
+def test_compare_mc_surrogate_uses_the_model_options_on_both_sides():
+    """Regression test of the issue-8 bug: ``shift=5`` reached the PCE fit but not the Monte
+    Carlo reference (Pf 0.0225 against 0.9987). With g = 3 - shift - (x1 + x2)/sqrt(2),
+    shift = 5 gives Pf = Phi(2) on both sides."""
+    from gearuq.engines.pce import compare_mc_surrogate
+
+    model = gearuq.FunctionModel(_shifted, ["x1", "x2"], ["g"], name="shifted_linear",
+                                 options=[Option("shift", 0.0, "offset of the limit state")])
+    space = standard_normal_space(2)
+    cmp = compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=20_000, order=1,
+                               n_samples=8, n_surrogate=20_000, rng=3, shift=5.0)
+    exact = stats.norm.cdf(2.0)
+    for approach in ("monte_carlo", "pce"):
+        row = cmp.sel(approach=approach, mode="g")
+        assert float(row["pf_lower"]) <= exact <= float(row["pf_upper"]), approach
+    assert '"shift": 5.0' in cmp.attrs["options"]
+    # a reference made with other options is refused, and so is an unknown option
+    mc = gearuq.monte_carlo(model, space, n_samples=100, rng=1, executor="serial",
+                            progress=False)
+    with pytest.raises(ValueError, match="computed with model options"):
+        compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=100, mc=mc, shift=5.0)
+    with pytest.raises(ValueError, match="unknown option"):
+        compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=100, shfit=5.0)
 
 
 def test_four_branch_mc_and_surrogate():
     from gearuq.engines.pce import compare_mc_surrogate
 
-    model = gearuq.FunctionModel(four_branch, ["x1", "x2"], ["g"], name="four_branch")
-    space = gearuq.ParameterSpace.normal(x1=(0.0, 1.0), x2=(0.0, 1.0))
-    cmp = compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=400_000, order=10,
-                               n_samples=1000, method="sparse", rule="lhs",
-                               n_surrogate=400_000, rng=3)
+    cmp = compare_mc_surrogate(four_branch_model(), standard_normal_space(2),
+                               Band("g", lower=0.0), n_mc=400_000, order=10, n_samples=1000,
+                               method="sparse", rule="lhs", n_surrogate=400_000, rng=3)
     mc = cmp.sel(approach="monte_carlo", mode="g")
-    assert float(mc["pf_lower"]) <= 4.4573e-3 <= float(mc["pf_upper"])
+    assert float(mc["pf_lower"]) <= FOUR_BRANCH_PF <= float(mc["pf_upper"])
     pce_pf = float(cmp["pf"].sel(approach="pce", mode="g"))
-    # a global PCE of a min() of branches smooths the kinks: it is biased, not exact.
-    # Measured over 5 designs (sparse degree 10, 1000 runs): 4.0e-3 .. 6.9e-3, i.e. up to
-    # ~55 % off; full least squares of degree >= 8 overfits and its LOO error says so
-    # (docs/pce_sensitivity.md). The assertion states how far, it does not hide it.
-    assert 0.5 * 4.4573e-3 < pce_pf < 2.0 * 4.4573e-3
+    # a global PCE of a min() of branches smooths the kinks: it is biased, not exact
+    # (docs/pce_sensitivity.md gives the spread over designs); the assertion states how
+    # far, it does not hide it
+    assert 0.5 * FOUR_BRANCH_PF < pce_pf < 2.0 * FOUR_BRANCH_PF
     assert float(cmp["pce_loo_error"]) < 0.2
     assert int(cmp["n_model_evaluations"].sel(approach="pce")) == 1000
+
+
+_CALLS: list[int] = []
+
+
+def _counted(x1, x2):
+    _CALLS.append(x1.size)  # a module global: the store fingerprint hashes closures, not these
+    return np.exp(0.3 * x1) + x2**2
+
+
+def test_store_resumes_without_running_the_model_again(tmp_path):
+    model = gearuq.FunctionModel(_counted, ["x1", "x2"], ["y"], name="counted")
+    space = standard_normal_space(2)
+    _CALLS.clear()
+    kw = {"order": 4, "method": "sparse", "n_samples": 64, "rng": 7, "n_holdout": 32,
+          "store": tmp_path / "run", "chunk_size": 16}
+    first = polynomial_chaos(model, space, **kw)
+    n_calls = len(_CALLS)
+    assert sum(_CALLS) == 64 + 32
+    again = polynomial_chaos(model, space, **kw)
+    assert len(_CALLS) == n_calls  # every chunk came from the store
+    np.testing.assert_array_equal(again.coefficients["y"], first.coefficients["y"])
+    assert again.holdout_error == first.holdout_error
+    assert (tmp_path / "run" / "design").is_dir() and (tmp_path / "run" / "holdout").is_dir()
+
+
+def test_rng_none_records_a_seed_that_reproduces_the_fit():
+    model, space = ishigami_model(), ishigami_space()
+    a = polynomial_chaos(model, space, order=3, n_samples=64, rule="lhs")
+    b = polynomial_chaos(model, space, order=3, n_samples=64, rule="lhs",
+                         rng=a.fit_info["seed"])
+    np.testing.assert_array_equal(a.coefficients["y"], b.coefficients["y"])
 
 
 def test_bad_input_messages():
@@ -224,19 +416,29 @@ def test_bad_input_messages():
         polynomial_chaos(model, space, order=3, n_samples=10)
     with pytest.raises(ValueError, match="method.*'nope'"):
         polynomial_chaos(model, space, order=2, method="nope")
+    with pytest.raises(ValueError, match="solver.*'lasso'"):
+        polynomial_chaos(model, space, order=2, method="sparse", solver="lasso")
+    with pytest.raises(ValueError, match="compress"):
+        PolynomialChaos(space, compress=0)
     other = gearuq.ParameterSpace.normal(zz=(0.0, 1.0))
     with pytest.raises(ValueError, match="'zz' not in model"):
         polynomial_chaos(model, other, order=2)
     with pytest.raises(ValueError, match="truncation"):
         polynomial_chaos(model, space, order=2, truncation=0.0)
+    with pytest.raises(ValueError, match="unknown option"):
+        polynomial_chaos(model, space, order=2, rtol=1e-3)
     pce = polynomial_chaos(model, space, order=2, n_samples=40, rule="lhs", rng=0)
     with pytest.raises(ValueError, match="unknown parameter"):
         pce.response({"nope": [1.0]})
     with pytest.raises(ValueError, match="not fitted"):
         pce.sobol("nope")
+    with pytest.raises(ValueError, match="no variable.*x9"):
+        PolynomialChaos(gearuq.ParameterSpace.normal(x9=(0.0, 1.0))).fit(
+            gearuq.monte_carlo(model, space, n_samples=8, rng=1, executor="serial"))
 
 
 def test_bench_surrogate_quick(tmp_path):
+    """The one run of the surrogate benchmark in the default suite (its numbers asserted)."""
     from gearuq import bench_surrogate
 
     res = bench_surrogate.run(tmp_path, quick=True)
@@ -244,9 +446,17 @@ def test_bench_surrogate_quick(tmp_path):
     assert (tmp_path / "surrogate_bench.png").stat().st_size > 0
     rows = res["rows"]
     assert {r["benchmark"] for r in rows} == {"ishigami", "g_function", "linear", "four_branch"}
-    quad = [r for r in rows if r["benchmark"] == "ishigami" and r["method"] == "PCE quadrature"]
-    assert quad[0]["error"] < 1e-5
-    lin = [r for r in rows if r["benchmark"] == "linear" and r["method"] == "PCE LS"]
-    assert lin[0]["loo"] < 1e-20 and lin[0]["error"] < 0.1
-    fb = [r for r in rows if r["benchmark"] == "four_branch" and r["method"] == "MC"][-1]
-    assert fb["pf_lower"] <= bench_surrogate.FOUR_BRANCH_PF <= fb["pf_upper"]
+
+    def row(bench, method):
+        return [r for r in rows if r["benchmark"] == bench and r["method"] == method]
+
+    assert row("ishigami", "PCE quadrature")[0]["error"] < 1e-5
+    sparse = row("ishigami", "PCE sparse auto")[0]
+    assert sparse["holdout"] <= 1e-9 and sparse["error"] < 1e-6 and sparse["n_eval"] == 512
+    lin = row("linear", "PCE LS")[0]
+    assert lin["loo"] < 1e-20 and lin["error"] < 0.1
+    fb = row("four_branch", "MC")[-1]
+    assert fb["pf_lower"] <= FOUR_BRANCH_PF <= fb["pf_upper"]
+    # Sobol' MC error shrinks with N (N = 2^8 -> 2^12: expected 4x, allow 2x)
+    mc = row("ishigami", "Sobol MC (saltelli)")
+    assert mc[-1]["error"] < 0.5 * mc[0]["error"]

@@ -815,17 +815,18 @@ def _fit_quadrature(z: np.ndarray, data: _TrainingData, settings: ChaosSettings,
         warnings.warn(f"{int((~data.valid).sum())} quadrature node(s) failed; coefficients by "
                       "least squares on the valid nodes", RuntimeWarning, stacklevel=3)
     coefs, loo, loo_t, corr = {}, {}, {}, {}
-    for o, y in data.y.items():
-        coefs[o] = (psi.T @ (w[:, None] * y) if full
-                    else np.linalg.lstsq(psi, y, rcond=None)[0])
-        loo[o], loo_t[o], corr[o] = math.nan, np.full(y.shape[1], math.nan), math.nan
-        if psi.shape[0] > psi.shape[1]:  # LOO of a least-squares refit on the nodes
-            try:
-                c_ls, h, trace = least_squares(psi, y)
-                loo[o], loo_t[o] = relative_error(loo_residuals(psi, y, c_ls, h), y)
-                corr[o] = corrected_loo(loo[o], psi.shape[0], psi.shape[1], trace)
-            except np.linalg.LinAlgError:
-                pass
+    with few_blas_threads(psi.size):
+        for o, y in data.y.items():
+            coefs[o] = (psi.T @ (w[:, None] * y) if full
+                        else np.linalg.lstsq(psi, y, rcond=None)[0])
+            loo[o], loo_t[o], corr[o] = math.nan, np.full(y.shape[1], math.nan), math.nan
+            if psi.shape[0] > psi.shape[1]:  # LOO of a least-squares refit on the nodes
+                try:
+                    c_ls, h, trace = least_squares(psi, y)
+                    loo[o], loo_t[o] = relative_error(loo_residuals(psi, y, c_ls, h), y)
+                    corr[o] = corrected_loo(loo[o], psi.shape[0], psi.shape[1], trace)
+                except np.linalg.LinAlgError:
+                    pass
     fit = _new_fit(data, indices=idx, coefficients=_shaped(coefs, data), order=int(
         settings.order), loo_error=loo, loo_error_t=loo_t, corrected_loo_error=corr)
     fit.info.update({"n_terms_candidate": int(idx.shape[0])})
