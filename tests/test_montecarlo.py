@@ -219,7 +219,7 @@ def test_user_executor_and_progress_bar(capsys):
     assert "30/30" in capsys.readouterr().err
 
 
-def test_bit_identical_on_dask_local_cluster():
+def test_bit_identical_on_dask_local_cluster(tmp_path):
     distributed = pytest.importorskip("distributed")
     n = 60
     kw = {"n_samples": n, "rng": 99, "rule": "lhs", "progress": False}
@@ -231,9 +231,14 @@ def test_bit_identical_on_dask_local_cluster():
                                      chunk_size=7, **kw)
         via_address = monte_carlo(osc_model(), osc_space(), T,
                                   executor=cluster.scheduler_address, chunk_size=16, **kw)
+        # with a store the workers write their own chunks; the result streams from them
+        stored = monte_carlo(osc_model(), osc_space(), T, executor=cluster.scheduler_address,
+                             chunk_size=16, store=tmp_path / "s", **kw)
     assert via_client.attrs["executor"] == via_address.attrs["executor"] == "dask"
     xr.testing.assert_identical(_data(ref), _data(via_client))
     xr.testing.assert_identical(_data(ref), _data(via_address))
+    assert len(list((tmp_path / "s").glob("chunk_*.nc.sha256"))) == 4
+    xr.testing.assert_identical(_data(ref), _data(stored.load()))
 
 
 def test_default_chunking_and_executor_resolution():

@@ -193,9 +193,10 @@ def estimate_mean(
         raise ValueError(f"variable {var!r} has no 'sample' dimension")
     if ok_only and "status" in ds:
         x = x.where(ds["status"] == 0)
-    n = x.count("sample")
-    mean = x.mean("sample")
-    std = x.std("sample", ddof=1)
+    # one pass over a lazily loaded (stored) result: the three reductions share its reads
+    red = xr.Dataset({"n": x.count("sample"), "mean": x.mean("sample"),
+                      "std": x.std("sample", ddof=1)}).compute()
+    n, mean, std = red["n"], red["mean"], red["std"]
     sem = std / np.sqrt(n)
     q = xr.apply_ufunc(lambda k: stats.t.ppf(0.5 + confidence / 2, np.maximum(k - 1, 1)), n)
     out = xr.Dataset({
