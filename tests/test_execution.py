@@ -384,3 +384,30 @@ def test_engines_consume_a_stored_result_chunk_by_chunk(tmp_path):
                                                                               "lognormal"])
     assert fit_lazy.best == fit_eager.best
     np.testing.assert_array_equal(fit_lazy.dataset["aic"], fit_eager.dataset["aic"])
+
+
+HELICAL_STREAM = """
+import resource, sys
+import numpy as np
+import gearuq
+
+if __name__ == "__main__":
+    model = gearuq.get_model("helical_pair")
+    tau = np.linspace(0.0, 200.0, 21)
+    model.response({}, tau[:2], outputs=["p1"])  # compile outside the measurement
+    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    ds = gearuq.monte_carlo(model, model.default_space(), tau, n_samples=200_000, rng=1,
+                            store=sys.argv[1], progress=False)
+    rel = gearuq.reliability(ds, {"p1": (-300.0, 300.0)})
+    print("RESULT", ds.nbytes, base, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+"""
+
+
+@pytest.mark.slow
+def test_helical_pair_2e5_samples_all_outputs_with_store_stays_under_1_gb(tmp_path):
+    """The issue's check: 2 x 10^5 helical_pair samples, every output, with a store."""
+    out = _run_script(tmp_path, "h.py", HELICAL_STREAM, str(tmp_path / "s"), timeout=3600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    nbytes, base, peak = map(int, out.stdout.split("RESULT")[1].split())
+    assert nbytes > 2 * 2**30  # the result is larger than the bound below ...
+    assert peak - base < 2**30, (peak, base)  # ... and the run never held it
