@@ -404,6 +404,35 @@ def test_around_nominal_errors():
         ParameterSpace.around_nominal(_model(), {"k": -0.1})
     with pytest.raises(ValueError, match="outside: unknown"):
         ParameterSpace.around_nominal(_model(), {"k": 0.1}, outside="clip")
+    # a space never looks a model up by name (no registry access from gearuq.space)
+    with pytest.raises(ValueError, match="does not look models up by name"):
+        ParameterSpace.around_nominal("linear_oscillator", {"k": 0.1})
+
+
+def test_space_package_is_split_and_keeps_its_public_names():
+    """gearuq.space is a package; the names callers use stay importable from it, and the
+    space modules import neither the registry nor any model."""
+    import ast
+    import pathlib
+
+    import gearuq.space as space_pkg
+    from gearuq.space import CORRELATION_TYPES, KINDS, RULES, Marginal, as_generator
+    from gearuq.space.adapters import from_salib, to_chaospy, to_salib
+
+    assert RULES == ("random", "lhs", "sobol", "halton") and "gumbel" in KINDS
+    assert CORRELATION_TYPES[0] == "normal" and Marginal.__name__ == "Marginal"
+    assert isinstance(as_generator(1), np.random.Generator)
+    sp = ParameterSpace.normal(a=(0.0, 1.0), b=(2.0, 0.5))
+    assert to_salib(sp) == sp.to_salib()
+    assert repr(to_chaospy(sp)) == repr(sp.to_chaospy())
+    x = np.array([[0.1, 2.0], [0.2, 2.1]])
+    np.testing.assert_array_equal(from_salib(sp, x)["b"], x[:, 1])
+    for path in pathlib.Path(space_pkg.__file__).parent.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        imported = {getattr(n, "module", None) or a.name for n in ast.walk(tree)
+                    if isinstance(n, (ast.Import, ast.ImportFrom)) for a in n.names}
+        assert not {m for m in imported if m and ("registry" in m or "gearuq_plugins" in m)
+                    or m in ("gearuq.model", "gearuq.engines")}, path.name
 
 
 # ------------------------------------------------------------------------------- bad inputs
