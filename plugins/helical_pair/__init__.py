@@ -7,6 +7,11 @@ stiffness (seed cosine form or Fourier series), static transmission error excita
 half-backlash dead zone; supports are spring-dampers with bearing-clearance dead zones.
 Equations, nondimensionalisation, parameter sources and every deviation from the seed are in
 docs/theory/helical_pair.md.
+
+Modules, in the order data flows through them: ``physics`` (set-up: geometry, coefficients,
+static states; and the NumPy twin of the equations), ``simulate`` (integration through
+``gearuq.ode``), ``outputs`` (declarations and values of the outputs); ``kernel`` holds the
+compiled right-hand side and ``layout`` the coefficient layout they share.
 """
 
 from __future__ import annotations
@@ -16,25 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from gearuq.model import Model, Option, Output, Parameter
+from gearuq.model import Model, Option, Parameter
+from gearuq_plugins.helical_pair.outputs import DOFS, OUTPUTS, STATUS_MEANINGS
 
 __all__ = ["HelicalPair", "DOFS", "SEED_TABLE2"]
-
-#: DOF names in state order: (symbol, SI unit, meaning)
-DOFS = (
-    ("x_p", "m", "pinion radial displacement (along the line of centres)"),
-    ("y_p", "m", "pinion tangential displacement"),
-    ("z_p", "m", "pinion axial displacement"),
-    ("theta_py", "rad", "pinion swing (rocking about the tangential axis)"),
-    ("theta_pz", "rad", "pinion torsional vibration angle"),
-    ("x_g", "m", "gear radial displacement"),
-    ("y_g", "m", "gear tangential displacement"),
-    ("z_g", "m", "gear axial displacement"),
-    ("theta_gy", "rad", "gear swing (rocking about the tangential axis)"),
-    ("theta_gz", "rad", "gear torsional vibration angle (positive in the driven sense)"),
-)
-_ROT = {3, 4, 8, 9}
-_PINION_ROT = {3, 4}
 
 #: Seed 000 Table 2: (mean, standard deviation) of the normal random parameters.
 SEED_TABLE2 = {
@@ -78,6 +68,19 @@ _PARAMETERS = (
 )
 
 
+def _check_length_scale(value: Any) -> float | str:
+    """Valid values of the option ``length_scale``: a length > 0 in m, or "b5"."""
+    if isinstance(value, str):
+        if value != "b5":
+            raise ValueError("a string must be 'b5' (each sample's half backlash)")
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError("expected a length in m or 'b5'")
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError("a length must be finite and > 0 m")
+    return float(value)
+
+
 _O = Option
 _OPTIONS = (
     _O("time", "tau", "unit of t: nondimensional tau = omega_n t (as the seed) or seconds",
@@ -85,7 +88,8 @@ _OPTIONS = (
     _O("method", "dop853", "Runge-Kutta method of the batched integrator",
        choices=("dopri5", "dop853", "rk4")),
     _O("rtol", 1e-6, "relative tolerance of the step control", lower=1e-13, upper=0.1),
-    _O("atol", 1e-8, "absolute tolerance (nondimensional states)", lower=0.0, upper=1.0),
+    _O("atol", 1e-8, "absolute tolerance of the states in units of 10 um (1e-8: 0.1 pm)",
+       lower=0.0, upper=1.0),
     _O("max_step", math.inf, "largest step in tau (inf: no bound)", lower=1e-9),
     _O("max_steps", 2_000_000, "step attempts per sample before status step_limit_reached",
        lower=1),
@@ -96,43 +100,16 @@ _OPTIONS = (
     _O("initial", "static", "initial state: static equilibrium or rest at zero",
        choices=("static", "zero")),
     _O("parallel", True, "run sample blocks in threads (bit-identical to serial)"),
+    _O("mesh_damping", "always",
+       "'always': c_m delta' acts also across the open backlash (seed); 'in_contact': no mesh "
+       "force in the gap, flank force clipped to compression", choices=("always", "in_contact")),
+    _O("length_scale", 1e-5,
+       "unit L of p, dp, v: a length in m, or 'b5' (each sample's half backlash, as the seed; "
+       "b5 = 0 is flagged)", kind="any", units="m", check=_check_length_scale),
 )
 
-
-def _outputs() -> tuple[Output, ...]:
-    outs = []
-    for i, (_, _, meaning) in enumerate(DOFS):
-        outs.append(Output(f"p{i + 1}", "1", ("sample", "time"),
-                           f"nondimensional {meaning} (seed p{i + 1})"))
-    for i in range(len(DOFS)):
-        outs.append(Output(f"dp{i + 1}", "1", ("sample", "time"),
-                           f"nondimensional velocity d p{i + 1} / d tau"))
-    for name, unit, meaning in DOFS:
-        outs.append(Output(name, unit, ("sample", "time"), meaning))
-    for name, unit, meaning in DOFS:
-        outs.append(Output(f"{name}_dot", f"{unit} s-1", ("sample", "time"), f"rate of {meaning}"))
-    outs += [
-        Output("mesh_force", "N", ("sample", "time"),
-               "dynamic mesh force along the normal line of action (k f(delta) + c delta')"),
-        Output("dte", "m", ("sample", "time"),
-               "dynamic transmission error: relative normal displacement of the contact points"),
-        Output("mesh_deflection", "m", ("sample", "time"),
-               "mesh deflection delta = dte - e(t) (contact when |delta| > b5)"),
-        Output("omega_n", "rad s-1", ("sample",), "time scale sqrt(k_m / m_e)"),
-        Output("mesh_frequency", "Hz", ("sample",), "mesh frequency z1 n / 60"),
-        Output("k_mesh", "N m-1", ("sample",), "mean mesh stiffness (ISO 6336-1 method B)"),
-        Output("contact_ratio", "1", ("sample",), "transverse contact ratio epsilon_alpha"),
-        Output("m_p", "kg", ("sample",), "pinion mass (solid cylinder blank)"),
-        Output("m_g", "kg", ("sample",), "gear mass (solid cylinder blank)"),
-    ]
-    return tuple(outs)
-
-
-_STATE_OUTPUTS = {f"p{i + 1}": i for i in range(10)} | {f"dp{i + 1}": 10 + i for i in range(10)}
-for _i, (_name, _, _) in enumerate(DOFS):
-    _STATE_OUTPUTS[_name] = _i
-    _STATE_OUTPUTS[f"{_name}_dot"] = 10 + _i
-_MESH_OUTPUTS = ("mesh_force", "dte", "mesh_deflection")
+_SOLVER_OPTIONS = ("method", "rtol", "atol", "max_step", "max_steps", "fixed_step", "events",
+                   "freeze_sides", "initial", "parallel")
 
 
 class HelicalPair(Model):
@@ -140,39 +117,34 @@ class HelicalPair(Model):
 
     Parameters
     ----------
-    length_scale : float
-        Length L [m] of the nondimensional displacements p_i = u_i / L (default 1e-5 m, the
-        order of the half backlash; fixed so that p is comparable across samples and b5 = 0
-        is allowed).
     stiffness_harmonics : sequence of (a_n, b_n), optional
         Fourier coefficients of k(t)/k_m (seed Eq. 6); when given they replace the seed's
         ``1 + s cos(omega tau)`` and ``s`` is ignored.
     use_virtual_teeth : bool
         ISO 6336 q' with virtual numbers of teeth (standard, default) or with z as the seed
         prints it.
+
+    Notes
+    -----
+    The unit of the nondimensional outputs is the option ``length_scale`` (per call), not a
+    constructor setting: it changes what p, dp and v are measured in, not the physics or the
+    integration (which always runs in units of 10 um), so one model instance answers both
+    scalings and the execution layer fingerprints it with the other options.
     """
 
     name = "helical_pair"
     description = "lumped 10-DOF helical gear pair with backlash, clearances, TVMS (seed 000)"
-    version = "1.0"
+    version = "1.1"
     time_units = "1"
     time_long_name = "nondimensional time tau = omega_n t"
     internally_parallel = True  # the batched integrator runs sample blocks in threads
     parameters = _PARAMETERS
-    outputs = _outputs()
+    outputs = OUTPUTS
     options = _OPTIONS
 
-    def __init__(
-        self,
-        length_scale: float = 1e-5,
-        stiffness_harmonics: Any = None,
-        use_virtual_teeth: bool = True,
-    ) -> None:
+    def __init__(self, stiffness_harmonics: Any = None, use_virtual_teeth: bool = True) -> None:
         from gearuq_plugins.helical_pair.layout import MAX_HARMONICS
 
-        if not (length_scale > 0 and math.isfinite(length_scale)):
-            raise ValueError(f"length_scale: must be a positive length in m, got {length_scale}")
-        self.length_scale = float(length_scale)
         harm = np.zeros((0, 2)) if stiffness_harmonics is None else np.asarray(
             stiffness_harmonics, dtype=float).reshape(-1, 2)
         if harm.shape[0] > MAX_HARMONICS:
@@ -189,7 +161,6 @@ class HelicalPair(Model):
     def settings(self) -> dict[str, Any]:
         """Construction options (recorded as provenance)."""
         return {
-            "length_scale": self.length_scale,
             "stiffness_harmonics": self.stiffness_harmonics.tolist(),
             "use_virtual_teeth": self.use_virtual_teeth,
         }
@@ -204,26 +175,44 @@ class HelicalPair(Model):
         return ParameterSpace({k: cp.Normal(mu, sd) for k, (mu, sd) in SEED_TABLE2.items()})
 
     # ------------------------------------------------------------------ physics set-up
+    def system(self, params: dict[str, np.ndarray], *, mesh_damping: str = "always"):
+        """Set-up of validated parameter samples: a ``physics.PairSystem``."""
+        from gearuq_plugins.helical_pair.physics import build_system
+
+        if mesh_damping not in ("always", "in_contact"):
+            raise ValueError(f"mesh_damping: {mesh_damping!r} is not 'always' or 'in_contact'")
+        return build_system(params, harmonics=self.stiffness_harmonics,
+                            use_virtual_teeth=self.use_virtual_teeth,
+                            gated=mesh_damping == "in_contact")
+
     def gear_data(self, params: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Geometry, masses, inertias and ISO 6336 mesh stiffness per sample (SI)."""
         from gearuq_plugins.helical_pair.physics import gear_data
 
         return gear_data(params, use_virtual_teeth=self.use_virtual_teeth)
 
-    def coefficients(self, params: dict[str, np.ndarray]) -> tuple[np.ndarray, dict]:
+    def coefficients(self, params: dict[str, np.ndarray], *,
+                     mesh_damping: str = "always") -> tuple[np.ndarray, dict]:
         """Per-sample nondimensional coefficient vectors of the kernel and the SI data."""
-        from gearuq_plugins.helical_pair.physics import coefficients
+        system = self.system(params, mesh_damping=mesh_damping)
+        return system.coef, system.gear
 
-        gd = self.gear_data(params)
-        return coefficients(params, gd, self.length_scale, self.stiffness_harmonics), gd
-
-    def initial_state(self, coef: np.ndarray, kind: str = "static") -> np.ndarray:
+    @staticmethod
+    def initial_state(coef: np.ndarray, kind: str = "static") -> np.ndarray:
         """Initial states: static equilibrium at tau = 0 ("static") or rest at zero ("zero")."""
         from gearuq_plugins.helical_pair.physics import initial_state
 
         return initial_state(coef, kind)
 
-    def ode_problem(self, params: dict | None = None, *, initial: str = "static") -> dict:
+    @staticmethod
+    def static_state(coef: np.ndarray) -> np.ndarray:
+        """Each sample's static equilibrium q (n, 10): mean stiffness, constant error e_0."""
+        from gearuq_plugins.helical_pair.physics import static_state
+
+        return static_state(coef)
+
+    def ode_problem(self, params: dict | None = None, *, initial: str = "static",
+                    mesh_damping: str = "always") -> dict:
         """The raw first-order problem, for benchmarks and external solvers.
 
         Returns
@@ -233,16 +222,17 @@ class HelicalPair(Model):
             ``rhs_numpy`` (the same equations in plain NumPy, ``f(tau, y, p) -> dy``),
             ``rhs_sides`` (the rhs for ``solve_batch(..., freeze_sides=True)``),
             ``y0`` (n, 20) initial states, ``coef`` (n, N_COEF) per-sample coefficients and
-            ``state_names`` (p1..p10, dp1..dp10). Time is nondimensional tau.
+            ``state_names`` (p1..p10, dp1..dp10). Time is nondimensional tau, lengths in
+            units of 10 um.
         """
         from gearuq_plugins.helical_pair import kernel
-        from gearuq_plugins.helical_pair.layout import N_SWITCH
+        from gearuq_plugins.helical_pair.layout import N_SWITCH, N_SWITCH_GATED
         from gearuq_plugins.helical_pair.physics import rhs_numpy
 
-        coef, _ = self.coefficients(self.validate_params(params))
+        coef, _ = self.coefficients(self.validate_params(params), mesh_damping=mesh_damping)
         return {
-            "rhs": kernel.rhs, "switch": kernel.switch, "n_switch": N_SWITCH,
-            "rhs_sides": kernel.rhs_sides,
+            "rhs": kernel.rhs, "switch": kernel.switch, "rhs_sides": kernel.rhs_sides,
+            "n_switch": N_SWITCH_GATED if mesh_damping == "in_contact" else N_SWITCH,
             "rhs_numpy": rhs_numpy,
             "y0": self.initial_state(coef, initial), "coef": coef,
             "state_names": [f"p{i + 1}" for i in range(10)] + [f"dp{i + 1}" for i in range(10)],
@@ -254,6 +244,27 @@ class HelicalPair(Model):
         return {"units": "1", "long_name": self.time_long_name}
 
     def _evaluate(self, params, t, outputs, **options):
-        from gearuq_plugins.helical_pair.physics import simulate
+        """Set-up -> integration (only if a state is needed) -> outputs."""
+        from gearuq.model import Evaluation
+        from gearuq_plugins.helical_pair.outputs import assemble, describe_scale, needed_states
+        from gearuq_plugins.helical_pair.simulate import integrate
 
-        return simulate(self, params, t, outputs, **options)
+        system = self.system(params, mesh_damping=options["mesh_damping"])
+        n = system.n_samples
+        save = needed_states(outputs)
+        attrs = {"time_axis": options["time"], "initial_state": options["initial"],
+                 "mesh_damping": options["mesh_damping"], **describe_scale(
+                     options["length_scale"])}
+        tau, states, extra = None, None, {}
+        status = np.zeros(n, dtype=np.int8)
+        if save.size:
+            if t[0] < 0:
+                raise ValueError(f"t: instants must be >= 0 (start of the run), got {t[0]}")
+            tau = t[None, :] * system.gear["omega_n"][:, None] if options["time"] == "s" else t
+            traj = integrate(system, tau, save, **{k: options[k] for k in _SOLVER_OPTIONS})
+            states, status, extra = traj.states, traj.status, traj.extra
+            attrs.update(traj.attrs)
+        data, status = assemble(system, outputs, states=states, save=save, tau=tau,
+                                length_scale=options["length_scale"], status=status)
+        return Evaluation(data=data, status=status, status_meanings=dict(STATUS_MEANINGS),
+                          attrs=attrs, extra=extra)

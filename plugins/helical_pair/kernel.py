@@ -2,8 +2,14 @@
 
 State ``y = [q_0..q_9, q_0'..q_9']`` with DOF order
 ``x_p, y_p, z_p, swing_p, torsion_p, x_g, y_g, z_g, swing_g, torsion_g`` (all as lengths over
-the length scale L; rotations as pitch-radius arc lengths). Per-sample coefficient vector
-``p`` (layout below) is built in ``__init__._coefficients``. See docs/theory/helical_pair.md.
+the length scale L; rotations as pitch-radius arc lengths). The per-sample coefficient vector
+``p`` (layout in ``layout.py``) is built by ``physics.coefficients``. See
+docs/theory/helical_pair.md.
+
+Three functions reach the integrator: ``rhs`` (branches decided by the state), ``rhs_sides``
+(branches taken from the sides the integrator freezes at the step start) and ``switch`` (the
+switching functions). The small helpers are inlined (``inline="always"``) into each of them:
+one copy per call site, which numba types once per function.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from gearuq_plugins.helical_pair.layout import (
     I_EPSA,
     I_ETA,
     I_G,
+    I_GATE,
     I_HARM,
     I_MU,
     I_NHARM,
@@ -31,6 +38,11 @@ from gearuq_plugins.helical_pair.layout import (
     I_ZETA,
     N_COEF,
     N_DOF,
+    S_CLIP_HI,
+    S_CLIP_LO,
+    S_MESH_HI,
+    S_MESH_LO,
+    S_SUPPORT,
 )
 
 
@@ -81,6 +93,77 @@ def mesh_deflection(y: np.ndarray, p: np.ndarray, eps: float, deps: float) -> tu
 
 
 @njit(cache=True, inline="always")
+def branch(x: float, b: float, side_hi: float, side_lo: float) -> int:
+    """Branch of a dead zone: +1 (x > b), -1 (x < -b), 0 (inside), from frozen sides.
+
+    The sides of ``x - b`` and ``x + b`` come from the integrator (``freeze_sides=True``):
+    they are constant within a step, so every Runge-Kutta stage uses one smooth branch even if
+    a stage overshoots the kink. A side of 0 (unknown, g exactly 0) falls back to the state.
+    """
+    if side_hi > 0.0:
+        return 1
+    if side_lo < 0.0:
+        return -1
+    if side_hi < 0.0 and side_lo > 0.0:
+        return 0
+    if x > b:
+        return 1
+    if x < -b:
+        return -1
+    return 0
+
+
+@njit(cache=True, inline="always")
+def dead_zone_on(x: float, b: float, side: int) -> float:
+    """Dead-zone value on a given branch (see :func:`branch`)."""
+    if side > 0:
+        return x - b
+    if side < 0:
+        return x + b
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def clipped(force: float, flank: int, clip_side: float) -> float:
+    """Flank force limited to compression: >= 0 on the drive flank, <= 0 on the back flank.
+
+    ``clip_side`` is the frozen side of the force itself (0: unknown, decide from the value).
+    """
+    if flank > 0:
+        if clip_side > 0.0:
+            return force
+        if clip_side < 0.0:
+            return 0.0
+        return max(force, 0.0)
+    if flank < 0:
+        if clip_side < 0.0:
+            return force
+        if clip_side > 0.0:
+            return 0.0
+        return min(force, 0.0)
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def mesh_force(kappa: float, d: float, dd: float, p: np.ndarray) -> float:
+    """Nondimensional mesh force with its branch decided by the state.
+
+    Default (``p[I_GATE] == 0``): kappa f(d) + 2 zeta d', the damping acting at all times as
+    in the seed. Gated: no force inside the backlash, and in contact the flank force is
+    clipped to compression (the teeth can push, not pull).
+    """
+    b5 = p[I_B5]
+    damping = 2.0 * p[I_ZETA] * dd
+    if p[I_GATE] == 0.0:
+        return kappa * dead_zone(d, b5) + damping
+    if d > b5:
+        return max(kappa * (d - b5) + damping, 0.0)
+    if d < -b5:
+        return min(kappa * (d + b5) + damping, 0.0)
+    return 0.0
+
+
+@njit(cache=True, inline="always")
 def set_rates(i: int, y: np.ndarray, p: np.ndarray, fm: float, fz: float,
               dydt: np.ndarray) -> None:
     """Equation of motion of DOF i: q' = dq, dq' = g - eta f(q) - xi dq - v mu F_mesh.
@@ -94,64 +177,71 @@ def set_rates(i: int, y: np.ndarray, p: np.ndarray, fm: float, fz: float,
                        - p[I_V + i] * p[I_MU + i] * fm)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
-    """dy/dtau of the nondimensional equations of motion."""
+    """dy/dtau of the nondimensional equations of motion (branches from the state)."""
     kappa, eps, deps = excitation(tau, p)
     d, dd = mesh_deflection(y, p, eps, deps)
-    fm = kappa * dead_zone(d, p[I_B5]) + 2.0 * p[I_ZETA] * dd
+    fm = mesh_force(kappa, d, dd, p)
     for i in range(N_DOF):
         set_rates(i, y, p, fm, dead_zone(y[i], p[I_BETA + i]), dydt)
 
 
-@njit(cache=True, inline="always")
-def dead_zone_sided(x: float, b: float, side_hi: float, side_lo: float) -> float:
-    """Dead zone evaluated on the branch given by the frozen sides of x - b and x + b.
-
-    The sides come from the integrator (``freeze_sides=True``): they are constant within a
-    step, so every Runge-Kutta stage uses one smooth branch even if a stage overshoots the
-    kink. A side of 0 (unknown, g exactly 0) falls back to the state.
-    """
-    if side_hi > 0.0:
-        return x - b
-    if side_lo < 0.0:
-        return x + b
-    if side_hi < 0.0 and side_lo > 0.0:
-        return 0.0
-    return dead_zone(x, b)
-
-
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs_sides(tau: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
     """dy/dtau like :func:`rhs`, branches taken from the frozen sides ``p[N_COEF + k]``."""
     kappa, eps, deps = excitation(tau, p)
     d, dd = mesh_deflection(y, p, eps, deps)
     s = N_COEF
-    fm = kappa * dead_zone_sided(d, p[I_B5], p[s], p[s + 1]) + 2.0 * p[I_ZETA] * dd
+    b5 = p[I_B5]
+    flank = branch(d, b5, p[s + S_MESH_HI], p[s + S_MESH_LO])
+    if p[I_GATE] == 0.0:
+        fm = kappa * dead_zone_on(d, b5, flank) + 2.0 * p[I_ZETA] * dd
+    else:
+        clip_side = p[s + S_CLIP_HI] if flank > 0 else p[s + S_CLIP_LO]
+        fm = clipped(kappa * dead_zone_on(d, b5, flank) + 2.0 * p[I_ZETA] * dd, flank,
+                     clip_side)
     for i in range(N_DOF):
-        fz = dead_zone_sided(y[i], p[I_BETA + i], p[s + 2 + 2 * i], p[s + 3 + 2 * i])
+        b = p[I_BETA + i]
+        k = s + S_SUPPORT + 2 * i
+        fz = dead_zone_on(y[i], b, branch(y[i], b, p[k], p[k + 1]))
         set_rates(i, y, p, fm, fz, dydt)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def switch(tau: float, y: np.ndarray, p: np.ndarray, g: np.ndarray) -> None:
-    """Switching functions: kinks of the mesh and support dead zones (1.0 where inactive)."""
-    # only d is needed here: one sin instead of the rhs's sin/cos pair
-    d = -(p[I_EPS0] + p[I_EPSA] * np.sin(p[I_OMEGA] * tau + p[I_PHI]))
-    for i in range(N_DOF):
-        d += p[I_V + i] * y[i]
+    """Switching functions: kinks of the mesh and support dead zones (1.0 where inactive).
+
+    With the gated mesh (``p[I_GATE] != 0``) two more: the drive- and back-flank forces,
+    whose sign changes are the kinks of the clipping to compression; ``g`` then holds
+    ``N_SWITCH_GATED`` values, else ``N_SWITCH``.
+    """
     b5 = p[I_B5]
-    if b5 > 0.0:
-        g[0] = d - b5
-        g[1] = d + b5
+    gated = p[I_GATE] != 0.0
+    if gated:
+        kappa, eps, deps = excitation(tau, p)
+        d, dd = mesh_deflection(y, p, eps, deps)
+        damping = 2.0 * p[I_ZETA] * dd
+        g[S_CLIP_HI] = kappa * (d - b5) + damping
+        g[S_CLIP_LO] = kappa * (d + b5) + damping
+    else:
+        # only d is needed here: one sin instead of the rhs's sin/cos pair
+        d = -(p[I_EPS0] + p[I_EPSA] * np.sin(p[I_OMEGA] * tau + p[I_PHI]))
+        for i in range(N_DOF):
+            d += p[I_V + i] * y[i]
+    if b5 > 0.0 or gated:
+        # (gated: contact at d = 0 switches the damping on even without backlash)
+        g[S_MESH_HI] = d - b5
+        g[S_MESH_LO] = d + b5
     else:  # zero backlash: f(d) = d is linear, no kink
-        g[0] = 1.0
-        g[1] = 1.0
+        g[S_MESH_HI] = 1.0
+        g[S_MESH_LO] = 1.0
     for i in range(N_DOF):
         b = p[I_BETA + i]
+        k = S_SUPPORT + 2 * i
         if b > 0.0 and p[I_ETA + i] != 0.0:
-            g[2 + 2 * i] = y[i] - b
-            g[3 + 2 * i] = y[i] + b
+            g[k] = y[i] - b
+            g[k + 1] = y[i] + b
         else:
-            g[2 + 2 * i] = 1.0
-            g[3 + 2 * i] = 1.0
+            g[k] = 1.0
+            g[k + 1] = 1.0

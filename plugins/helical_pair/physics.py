@@ -1,17 +1,20 @@
-"""Set-up of the helical-pair equations: geometry, inertia, coefficients, solve, outputs.
+"""Set-up of the helical-pair equations: geometry, inertia, coefficients, static states.
 
-Everything here is vectorised over samples; the per-sample coefficient vectors feed the
-compiled kernel (kernel.py) through the generic batched integrator ``gearuq.ode``.
+Everything here is vectorised over samples and free of numba. Data flows one way:
+``gear_data(params)`` (SI) -> ``coefficients(params, gear)`` (the kernel's per-sample vectors
+and the derived scales, as new arrays) -> ``equilibrium`` / ``initial_state`` /
+``static_state``. The second half is the plain-NumPy twin of the compiled equations
+(``rhs_numpy``), an independent implementation used by the tests, the benchmark baseline and
+the mesh-force outputs.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
-from gearuq.model import Evaluation
 from gearuq_plugins.helical_pair.layout import (
     I_B5,
     I_BETA,
@@ -20,6 +23,7 @@ from gearuq_plugins.helical_pair.layout import (
     I_EPSA,
     I_ETA,
     I_G,
+    I_GATE,
     I_HARM,
     I_MU,
     I_NHARM,
@@ -30,13 +34,15 @@ from gearuq_plugins.helical_pair.layout import (
     I_V,
     I_XI,
     I_ZETA,
+    INTERNAL_LENGTH,
     N_COEF,
     N_DOF,
     N_STATE,
-    N_SWITCH,
 )
 
 _GEOMETRY_KEYS = ("z1", "z2", "m_n", "beta", "alpha_n", "x_shift_p", "x_shift_g", "C_R")
+#: Generalised-coordinate indices of the rotations (arc lengths on the pitch radius).
+ROTATIONS = (3, 4, 8, 9)
 
 
 def _iso_per_width(row: tuple[float, ...], use_virtual_teeth: bool) -> tuple[float, float]:
@@ -90,42 +96,101 @@ def gear_data(params: dict[str, np.ndarray], *, use_virtual_teeth: bool = True) 
     }
 
 
-def coefficients(
-    params: dict[str, np.ndarray], gd: dict, length_scale: float, harmonics: np.ndarray
-) -> np.ndarray:
-    """Per-sample coefficient vectors (n, N_COEF) of the nondimensional equations."""
-    n = gd["r_p"].shape[0]
-    L = length_scale
-    r_p, r_g = gd["r_p"], gd["r_g"]
-    # generalised (length-coordinate) masses: rotations as pitch-radius arc lengths
-    M = np.stack([
-        gd["m_p"], gd["m_p"], gd["m_p"], gd["J_py"] / r_p**2, gd["J_pz"] / r_p**2,
-        gd["m_g"], gd["m_g"], gd["m_g"], gd["J_gy"] / r_g**2, gd["J_gz"] / r_g**2,
+@dataclass(frozen=True)
+class PairSystem:
+    """Everything the integration and the outputs need about a batch of samples.
+
+    Attributes
+    ----------
+    coef : ndarray, shape (n, N_COEF)
+        Per-sample coefficient vectors of the nondimensional equations (``layout.py``).
+    gear : dict of ndarray
+        SI data per sample: geometry and masses (:func:`gear_data`) and the derived scales
+        ``omega_n`` [rad/s], ``m_e`` [kg], ``M`` (n, 10) generalised masses, ``mesh_frequency``
+        [Hz].
+    """
+
+    coef: np.ndarray
+    gear: dict[str, np.ndarray]
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return self.coef.shape[0]
+
+
+def build_system(
+    params: dict[str, np.ndarray],
+    *,
+    harmonics: np.ndarray,
+    use_virtual_teeth: bool = True,
+    gated: bool = False,
+) -> PairSystem:
+    """Gear data and coefficients of every sample (the whole set-up in one call)."""
+    gear = gear_data(params, use_virtual_teeth=use_virtual_teeth)
+    coef, derived = coefficients(params, gear, harmonics, gated=gated)
+    return PairSystem(coef=coef, gear={**gear, **derived})
+
+
+def generalised_masses(gear: dict[str, np.ndarray]) -> np.ndarray:
+    """Masses (n, 10) of the length coordinates; rotations as pitch-radius arc lengths."""
+    r_p, r_g = gear["r_p"], gear["r_g"]
+    return np.stack([
+        gear["m_p"], gear["m_p"], gear["m_p"], gear["J_py"] / r_p**2, gear["J_pz"] / r_p**2,
+        gear["m_g"], gear["m_g"], gear["m_g"], gear["J_gy"] / r_g**2, gear["J_gz"] / r_g**2,
     ], axis=1)
-    m_e = 1.0 / (1.0 / M[:, 4] + 1.0 / M[:, 9])  # = J_p J_g / (J_p r_g^2 + J_g r_p^2)
-    k_m = gd["k_mesh"]
-    omega_n = np.sqrt(k_m / m_e)
-    # unit normal of the mesh force on the gear at the pitch point (radial, tangential, axial)
-    nx = np.sin(gd["alpha_n"])
-    ny = np.cos(gd["alpha_n"]) * np.cos(gd["beta"])
-    nz = np.cos(gd["alpha_n"]) * np.sin(gd["beta"])
-    v = np.stack([nx, ny, nz, -nz, ny, -nx, -ny, -nz, -nz, -ny], axis=1)
-    # supports: two bearings at +-span share k_r; swing stiffness k_r span^2 (moment/rad)
+
+
+def mesh_direction(gear: dict[str, np.ndarray]) -> np.ndarray:
+    """v (n, 10) = d delta / d u: the mesh deflection per unit of each length coordinate.
+
+    The unit normal of the mesh force on the gear at the pitch point has the components
+    (sin a_n, cos a_n cos b, cos a_n sin b) along (radial, tangential, axial).
+    """
+    nx = np.sin(gear["alpha_n"])
+    ny = np.cos(gear["alpha_n"]) * np.cos(gear["beta"])
+    nz = np.cos(gear["alpha_n"]) * np.sin(gear["beta"])
+    return np.stack([nx, ny, nz, -nz, ny, -nx, -ny, -nz, -nz, -ny], axis=1)
+
+
+def support_stiffness(params: dict[str, np.ndarray], gear: dict[str, np.ndarray]) -> np.ndarray:
+    """Support stiffness (n, 10) of each length coordinate [N/m]; torsion has none.
+
+    Two bearings at +-span share k_r, so the swing stiffness is k_r span^2 (moment per
+    radian), divided by r^2 for the arc-length coordinate.
+    """
     k_sw = params["k_r"] * params["span"] ** 2
-    k = np.stack([
-        params["k_r"], params["k_r"], params["k_a"], k_sw / r_p**2, np.zeros(n),
-        params["k_r"], params["k_r"], params["k_a"], k_sw / r_g**2, np.zeros(n),
+    zero = np.zeros_like(k_sw)
+    return np.stack([
+        params["k_r"], params["k_r"], params["k_a"], k_sw / gear["r_p"] ** 2, zero,
+        params["k_r"], params["k_r"], params["k_a"], k_sw / gear["r_g"] ** 2, zero,
     ], axis=1)
-    eta = k / (M * omega_n[:, None] ** 2)
-    xi = 2.0 * params["zeta_s"][:, None] * np.sqrt(eta)  # c = 2 zeta sqrt(k M)
+
+
+def coefficients(
+    params: dict[str, np.ndarray],
+    gear: dict[str, np.ndarray],
+    harmonics: np.ndarray,
+    *,
+    gated: bool = False,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Per-sample coefficient vectors (n, N_COEF) of the nondimensional equations.
+
+    Returns the vectors and a new dict of derived scales (``omega_n``, ``m_e``, ``M``,
+    ``mesh_frequency``); ``gear`` is not modified.
+    """
+    n = gear["r_p"].shape[0]
+    L = INTERNAL_LENGTH
+    M = generalised_masses(gear)
+    m_e = 1.0 / (1.0 / M[:, 4] + 1.0 / M[:, 9])  # = J_p J_g / (J_p r_g^2 + J_g r_p^2)
+    omega_n = np.sqrt(gear["k_mesh"] / m_e)
+    eta = support_stiffness(params, gear) / (M * omega_n[:, None] ** 2)
     zero = np.zeros(n)
     clear = np.stack([params["b1"], params["b1"], params["b3"], zero, zero,
                       params["b2"], params["b2"], params["b4"], zero, zero], axis=1) / L
-    g = np.zeros((n, N_DOF))
-    force_scale = L * omega_n**2
     # balanced torques: T_g = T r_g / r_p, so both equal the tangential force T / r_p
-    g[:, 4] = (params["T"] / r_p) / (M[:, 4] * force_scale)
-    g[:, 9] = -(params["T"] / r_p) / (M[:, 9] * force_scale)
+    force_scale = L * omega_n**2
+    tangential = params["T"] / gear["r_p"]
 
     coef = np.zeros((n, N_COEF))
     coef[:, I_OMEGA] = 2 * np.pi * params["n"] * params["z1"] / 60.0 / omega_n
@@ -136,19 +201,99 @@ def coefficients(
     coef[:, I_CPHI] = np.cos(params["phi"])
     coef[:, I_SPHI] = np.sin(params["phi"])
     coef[:, I_ZETA] = params["zeta_m"]
-    coef[:, I_V:I_V + N_DOF] = v
+    coef[:, I_V:I_V + N_DOF] = mesh_direction(gear)
     coef[:, I_MU:I_MU + N_DOF] = m_e[:, None] / M
     coef[:, I_ETA:I_ETA + N_DOF] = eta
-    coef[:, I_XI:I_XI + N_DOF] = xi
+    coef[:, I_XI:I_XI + N_DOF] = 2.0 * params["zeta_s"][:, None] * np.sqrt(eta)
     coef[:, I_BETA:I_BETA + N_DOF] = clear
     coef[:, I_B5] = params["b5"] / L
-    coef[:, I_G:I_G + N_DOF] = g
+    coef[:, I_G + 4] = tangential / (M[:, 4] * force_scale)
+    coef[:, I_G + 9] = -tangential / (M[:, 9] * force_scale)
     coef[:, I_NHARM] = harmonics.shape[0]
     coef[:, I_HARM:I_HARM + harmonics.size] = harmonics.ravel()[None, :]
-    gd.update({"omega_n": omega_n, "m_e": m_e, "M": M, "L": L,
-               "mesh_frequency": params["n"] * params["z1"] / 60.0})
-    return coef
+    coef[:, I_GATE] = 1.0 if gated else 0.0
+    derived = {"omega_n": omega_n, "m_e": m_e, "M": M,
+               "mesh_frequency": params["n"] * params["z1"] / 60.0}
+    return coef, derived
 
+
+# --------------------------------------------------------------------------------------------
+# Static states (closed form)
+# --------------------------------------------------------------------------------------------
+
+def _inverse_dead_zone(f: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Displacement whose dead-zone function equals f (0 -> 0, the centre of the gap)."""
+    return f + np.sign(f) * b
+
+
+def equilibrium(coef: np.ndarray, kappa: np.ndarray, eps: np.ndarray) -> np.ndarray:
+    """Static equilibrium q (n, 10) under the mean torque for a frozen stiffness and error.
+
+    ``kappa`` and ``eps`` (n,) are the stiffness factor and the error held constant. The mesh
+    force W follows from the pinion torque balance, the supports and the swing are deflected
+    by it (a support with no load sits at the centre of its clearance), and the torsional
+    coordinates are split so that the rigid-body rotation M_5 q_5 + M_10 q_10 is zero. With
+    no torque the mesh sits at the centre of the backlash.
+    """
+    n = coef.shape[0]
+    v = coef[:, I_V:I_V + N_DOF]
+    mu = coef[:, I_MU:I_MU + N_DOF]
+    eta = coef[:, I_ETA:I_ETA + N_DOF]
+    beta = coef[:, I_BETA:I_BETA + N_DOF]
+    ny = v[:, 4]
+    # nondimensional mesh force W from the pinion torque balance: g_4 = v_4 mu_4 W
+    w = coef[:, I_G + 4] / (ny * mu[:, 4])
+    b5 = coef[:, I_B5]
+    d0 = np.where(w > 0, w / kappa + b5, np.where(w < 0, w / kappa - b5, 0.0))
+    q = np.zeros((n, N_DOF))
+    for i in (0, 1, 2, 3, 5, 6, 7, 8):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = np.where(eta[:, i] > 0, -v[:, i] * mu[:, i] * w / eta[:, i], 0.0)
+        q[:, i] = _inverse_dead_zone(f, beta[:, i])
+    others = (v * q).sum(axis=1)
+    span = (d0 + eps - others) / ny  # required q_pz - q_gz
+    m4 = 1.0 / mu[:, 4]  # proportional to the generalised masses M_4, M_9
+    m9 = 1.0 / mu[:, 9]
+    q[:, 4] = span * m9 / (m4 + m9)
+    q[:, 9] = -span * m4 / (m4 + m9)
+    return q
+
+
+def static_state(coef: np.ndarray) -> np.ndarray:
+    """The sample's own static equilibrium q (n, 10): mean stiffness, constant error e_0.
+
+    This is the state the vibration outputs ``v_i = p_i - p_i,static`` are measured from:
+    the equilibrium of the time-invariant part of the system (the stiffness harmonics and
+    the error amplitude have zero mean).
+    """
+    n = coef.shape[0]
+    return equilibrium(coef, np.ones(n), coef[:, I_EPS0].copy())
+
+
+def initial_state(coef: np.ndarray, kind: str = "static") -> np.ndarray:
+    """Initial states (n, 20).
+
+    ``"static"``: equilibrium under the mean torque with the stiffness and error *at tau = 0*
+    (kappa(0), eps(0)), velocities zero, so the run starts close to the operating point and
+    the transient comes only from the excitation. It equals :func:`static_state` only when
+    kappa(0) = 1 and eps(0) = e_0 (s = 0 and e_a sin(phi) = 0). ``"zero"``: all displacements
+    and velocities zero (the torque is applied suddenly at tau = 0).
+    """
+    n = coef.shape[0]
+    y0 = np.zeros((n, N_STATE))
+    if kind == "zero":
+        return y0
+    if kind != "static":
+        raise ValueError(f"initial: unknown kind {kind!r}; valid: 'static', 'zero'")
+    kappa0 = stiffness_factor(np.zeros((n, 1)), coef)[:, 0]
+    eps0 = error_excitation(np.zeros((n, 1)), coef)[0][:, 0]
+    y0[:, :N_DOF] = equilibrium(coef, kappa0, eps0)
+    return y0
+
+
+# --------------------------------------------------------------------------------------------
+# Plain-NumPy twin of the compiled equations (kernel.py); shares no code with it
+# --------------------------------------------------------------------------------------------
 
 def stiffness_factor(tau: np.ndarray, coef: np.ndarray) -> np.ndarray:
     """k(tau)/k_m for each sample (rows of coef) at instants tau (n, nt) -- NumPy twin."""
@@ -178,6 +323,20 @@ def dead_zone(x: np.ndarray, b: np.ndarray | float) -> np.ndarray:
     return np.where(x > b, x - b, np.where(x < -b, x + b, 0.0))
 
 
+def mesh_force(kappa: np.ndarray, d: np.ndarray, dd: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """Nondimensional mesh force (n, nt) from kappa, d and d' (n, nt) -- NumPy twin.
+
+    Rows with ``coef[:, I_GATE] == 0``: kappa f(d) + 2 zeta d' (damping at all times). Gated
+    rows: zero inside the backlash, in contact the flank force limited to compression.
+    """
+    b5 = coef[:, I_B5][:, None]
+    damping = 2 * coef[:, I_ZETA][:, None] * dd
+    ungated = kappa * dead_zone(d, b5) + damping
+    gated = np.where(d > b5, np.maximum(kappa * (d - b5) + damping, 0.0),
+                     np.where(d < -b5, np.minimum(kappa * (d + b5) + damping, 0.0), 0.0))
+    return np.where(coef[:, I_GATE][:, None] != 0.0, gated, ungated)
+
+
 def rhs_numpy(tau: float, y: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Pure-NumPy twin of ``kernel.rhs`` (one sample): the baseline a user would write.
 
@@ -188,180 +347,9 @@ def rhs_numpy(tau: float, y: np.ndarray, p: np.ndarray) -> np.ndarray:
     v = p[I_V:I_V + N_DOF]
     tau2 = np.array([[tau]])
     eps, deps = error_excitation(tau2, p[None, :])
-    d = v @ q - eps[0, 0]
-    dd = v @ dq - deps[0, 0]
-    fm = stiffness_factor(tau2, p[None, :])[0, 0] * dead_zone(d, p[I_B5]) + 2 * p[I_ZETA] * dd
+    d = np.array([[v @ q - eps[0, 0]]])
+    dd = np.array([[v @ dq - deps[0, 0]]])
+    fm = mesh_force(stiffness_factor(tau2, p[None, :]), d, dd, p[None, :])[0, 0]
     acc = (p[I_G:I_G + N_DOF] - p[I_ETA:I_ETA + N_DOF] * dead_zone(q, p[I_BETA:I_BETA + N_DOF])
            - p[I_XI:I_XI + N_DOF] * dq - v * p[I_MU:I_MU + N_DOF] * fm)
     return np.concatenate([dq, acc])
-
-
-def _inverse_dead_zone(f: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Displacement whose dead-zone function equals f (0 -> 0, the centre of the gap)."""
-    return f + np.sign(f) * b
-
-
-def initial_state(coef: np.ndarray, kind: str = "static") -> np.ndarray:
-    """Initial states (n, 20).
-
-    ``"static"``: equilibrium under the mean torque with the stiffness and error at tau = 0,
-    the rigid-body rotation coordinate set to zero, velocities zero (so the run starts close
-    to the operating point and the transient comes only from the excitation). ``"zero"``:
-    all displacements and velocities zero (the torque is applied suddenly at tau = 0).
-    """
-    n = coef.shape[0]
-    y0 = np.zeros((n, N_STATE))
-    if kind == "zero":
-        return y0
-    if kind != "static":
-        raise ValueError(f"initial: unknown kind {kind!r}; valid: 'static', 'zero'")
-    v = coef[:, I_V:I_V + N_DOF]
-    mu = coef[:, I_MU:I_MU + N_DOF]
-    eta = coef[:, I_ETA:I_ETA + N_DOF]
-    beta = coef[:, I_BETA:I_BETA + N_DOF]
-    ny = v[:, 4]
-    # nondimensional mesh force W from the pinion torque balance: g_4 = v_4 mu_4 W
-    w = coef[:, I_G + 4] / (ny * mu[:, 4])
-    kappa0 = stiffness_factor(np.zeros((n, 1)), coef)[:, 0]
-    d0 = np.where(w > 0, w / kappa0 + coef[:, I_B5], np.where(w < 0, w / kappa0 - coef[:, I_B5],
-                                                              0.0))
-    q = np.zeros((n, N_DOF))
-    for i in (0, 1, 2, 3, 5, 6, 7, 8):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            f = np.where(eta[:, i] > 0, -v[:, i] * mu[:, i] * w / eta[:, i], 0.0)
-        q[:, i] = _inverse_dead_zone(f, beta[:, i])
-    eps0 = error_excitation(np.zeros((n, 1)), coef)[0][:, 0]
-    others = (v * q).sum(axis=1)
-    span = (d0 + eps0 - others) / ny  # required q_pz - q_gz
-    m4 = 1.0 / mu[:, 4]  # proportional to the generalised masses M_4, M_9
-    m9 = 1.0 / mu[:, 9]
-    q[:, 4] = span * m9 / (m4 + m9)
-    q[:, 9] = -span * m4 / (m4 + m9)
-    y0[:, :N_DOF] = q
-    return y0
-
-
-def _needed_states(outputs: list[str]) -> np.ndarray:
-    from gearuq_plugins.helical_pair import _MESH_OUTPUTS, _STATE_OUTPUTS
-
-    if any(o in _MESH_OUTPUTS for o in outputs):
-        return np.arange(N_STATE)
-    return np.array(sorted({_STATE_OUTPUTS[o] for o in outputs if o in _STATE_OUTPUTS}),
-                    dtype=np.int64)
-
-
-def simulate(
-    model: Any,
-    params: dict[str, np.ndarray],
-    t: np.ndarray,
-    outputs: list[str],
-    *,
-    time: str = "tau",
-    method: str = "dop853",
-    rtol: float = 1e-6,
-    atol: float = 1e-8,
-    max_step: float = np.inf,
-    max_steps: int = 2_000_000,
-    fixed_step: float | None = None,
-    events: bool = True,
-    freeze_sides: bool = True,
-    initial: str = "static",
-    parallel: bool = True,
-) -> Evaluation:
-    """Integrate the equations for every sample and build the requested outputs.
-
-    Parameters
-    ----------
-    time : {"tau", "s"}
-        Unit of ``t``: nondimensional tau = omega_n t (default, as in the seed) or seconds
-        (each sample is then integrated to its own tau = omega_n t).
-    method, rtol, atol, max_step, max_steps, fixed_step, parallel
-        Integrator settings (see :func:`gearuq.ode.solve_batch`). DOP853 with frozen
-        sides is the default: on this model it is both faster and more accurate than
-        Dormand-Prince 5(4) for every rtol <= 1e-5 (docs/benchmarks.md).
-    events : bool
-        Locate every dead-zone switching instant (default) or step across the kinks.
-    freeze_sides : bool
-        With events: evaluate every stage of a step on the branch of the dead zones that
-        holds at the step start (``kernel.rhs_sides``), so no stage straddles a kink; the
-        step is cut at the located crossing (default; keeps DOP853 at its order).
-    initial : {"static", "zero"}
-        Initial state (see :func:`initial_state`).
-    """
-    from gearuq_plugins.helical_pair import _MESH_OUTPUTS, _ROT, _STATE_OUTPUTS
-
-    if time not in ("tau", "s"):
-        raise ValueError(f"time: unknown unit {time!r}; valid: 'tau', 's'")
-    coef, gd = model.coefficients(params)
-    n = coef.shape[0]
-    L = gd["L"]
-    omega_n = gd["omega_n"]
-    data: dict[str, np.ndarray] = {}
-    status = np.zeros(n, dtype=np.int8)
-    attrs: dict[str, Any] = {"length_scale_m": L, "time_axis": time,
-                             "initial_state": initial}
-    extra: dict[str, tuple] = {}
-    save = _needed_states(outputs)
-    if save.size:
-        from gearuq.ode import solve_batch
-        from gearuq_plugins.helical_pair import kernel
-
-        if t.size == 0:
-            raise ValueError("t: give output instants for time-dependent outputs")
-        if t[0] < 0:
-            raise ValueError(f"t: instants must be >= 0 (start of the run), got {t[0]}")
-        tau = t[None, :] * omega_n[:, None] if time == "s" else t
-        y0 = initial_state(coef, initial)
-        frozen = bool(events and freeze_sides)
-        res = solve_batch(
-            kernel.rhs_sides if frozen else kernel.rhs, y0, coef, tau, t0=0.0, method=method,
-            rtol=rtol, atol=atol, max_step=max_step, max_steps=max_steps,
-            fixed_step=fixed_step, switch=kernel.switch if events else None,
-            n_switch=N_SWITCH if events else 0, save=save, parallel=parallel,
-            freeze_sides=frozen,
-        )
-        status[:] = res.status
-        attrs.update({f"solver_{k}": v for k, v in res.settings().items()})
-        attrs["solver_events"] = int(events)
-        extra["n_steps"] = ("sample", res.n_steps, {"units": "1", "long_name": "accepted steps"})
-        extra["n_events"] = ("sample", res.n_events,
-                             {"units": "1", "long_name": "located dead-zone switchings"})
-        col = {int(s): j for j, s in enumerate(save)}
-        Y = res.y
-        tau2 = np.broadcast_to(tau, (n, t.size))
-        for o in outputs:
-            if o in _STATE_OUTPUTS:
-                idx = _STATE_OUTPUTS[o]
-                q = Y[:, :, col[idx]]
-                if o.startswith("p") or o.startswith("dp"):
-                    data[o] = q
-                    continue
-                dof = idx % N_DOF
-                scale = np.full(n, L)
-                if dof in _ROT:
-                    scale = L / (gd["r_p"] if dof < 5 else gd["r_g"])
-                if idx >= N_DOF:  # velocity: d/dt = omega_n d/dtau
-                    scale = scale * omega_n
-                data[o] = q * scale[:, None]
-        if any(o in _MESH_OUTPUTS for o in outputs):
-            v = coef[:, I_V:I_V + N_DOF]
-            qs = Y[:, :, :N_DOF]
-            dqs = Y[:, :, N_DOF:]
-            rel = np.einsum("nti,ni->nt", qs, v)
-            drel = np.einsum("nti,ni->nt", dqs, v)
-            eps, deps = error_excitation(tau2, coef)
-            d = rel - eps
-            kappa = stiffness_factor(tau2, coef)
-            fm = kappa * dead_zone(d, coef[:, I_B5][:, None]) + 2 * coef[:, I_ZETA][:, None] * (
-                drel - deps)
-            data["mesh_force"] = fm * (gd["k_mesh"] * L)[:, None]
-            data["dte"] = rel * L
-            data["mesh_deflection"] = d * L
-    per_sample = {
-        "omega_n": omega_n, "mesh_frequency": gd["mesh_frequency"], "k_mesh": gd["k_mesh"],
-        "contact_ratio": gd["eps_alpha"], "m_p": gd["m_p"], "m_g": gd["m_g"],
-    }
-    for o in outputs:
-        if o in per_sample:
-            data[o] = per_sample[o]
-    return Evaluation(data=data, status=status, attrs=attrs, extra=extra)
