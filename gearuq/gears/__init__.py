@@ -11,7 +11,9 @@
   secant and tangent, CMS, force-deflection function)
 
 Submodules are imported on use so that ``import gearuq`` stays light; the main functions are
-also reachable as ``gearuq.gears.<name>`` (resolved lazily).
+also reachable as ``gearuq.gears.<name>`` (resolved lazily), e.g.
+``gearuq.gears.force_deflection``. ``gearuq.gears.ltca`` is the *module*; the solver is
+``gearuq.gears.ltca.ltca``.
 """
 
 from __future__ import annotations
@@ -32,7 +34,6 @@ _LAZY = {
     "plate_coupling_length": "face_coupling",
     "FlankDeviations": "deviations",
     "random_cumulative_pitch_deviations": "deviations",
-    "ltca": "ltca",
     "force_deflection": "ltca",
     "force_at_deflection": "ltca",
     "stiffness_at_deflection": "ltca",

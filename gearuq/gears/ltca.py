@@ -334,6 +334,7 @@ def ltca(
     max_newton: int = 40,
     keep_points: bool = True,
     setup: LtcaSetup | None = None,
+    max_outer: int | None = None,
 ) -> xr.Dataset:
     """Run the LTCA at one load over the long period (or at the given positions).
 
@@ -364,6 +365,8 @@ def ltca(
     setup : LtcaSetup or None
         A prepared grid (:func:`ltca_setup`); then ``compliance``, ``positions_per_cycle``,
         ``n_cycles``, ``tau`` and ``n_pts`` are taken from it.
+    max_outer : int or None
+        Version-1 name of ``max_newton`` (kept as an alias; it wins when given).
 
     Returns
     -------
@@ -387,6 +390,8 @@ def ltca(
     else:
         _check_positive("normal_force", normal_force, "N")
         P = float(normal_force)
+    if max_outer is not None:
+        max_newton = int(max_outer)
     if setup is None:
         setup = ltca_setup(pair, compliance=compliance, positions_per_cycle=positions_per_cycle,
                            n_cycles=n_cycles, tau=tau, n_pts=n_pts)
