@@ -255,8 +255,12 @@ def test_bad_input(pair):
         ComplianceModel(pair, coupling_length=-1.0)
     with pytest.raises(ValueError, match="z=3"):
         random_cumulative_pitch_deviations(3)
-    with pytest.raises(ValueError, match="accuracy_grade=12"):
-        iso1328_pitch_tolerances(0.1, 6e-3, 12)
+    with pytest.raises(ValueError, match="accuracy_grade=13"):
+        iso1328_pitch_tolerances(0.1, 6e-3, 13)
+    # grade 12 (ISO 1328-1:1995) follows the same sqrt(2) step from grade 11
+    f11, big11 = iso1328_pitch_tolerances(0.1, 6e-3, 11)
+    f12, big12 = iso1328_pitch_tolerances(0.1, 6e-3, 12)
+    assert f12 / f11 == pytest.approx(2**0.5) and big12 / big11 == pytest.approx(2**0.5)
     assert normal_force_from_torque(pair, 1000) == pytest.approx(
         1000 / (pair.db1 / 2 * math.cos(pair.beta_b)))
 

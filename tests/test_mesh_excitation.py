@@ -182,7 +182,7 @@ def test_bad_input(model):
     for torque in (0.0, -100.0):
         with pytest.raises(ValueError, match="torque.*outside valid range"):
             model.response({"torque": [torque]}, outputs=["ste_ptp"])
-    for grade in (12, -1):
+    for grade in (13, -1):
         with pytest.raises(ValueError, match="iso_grade.*outside valid range"):
             model.response({"iso_grade": [grade]}, outputs=["ste_ptp"])
     with pytest.raises(ValueError, match="iso_grade.*whole number"):

@@ -44,7 +44,7 @@ def pitch_deviations_from_cumulative(Fp: np.ndarray) -> np.ndarray:
 
 
 def iso1328_pitch_tolerances(d: float, mn: float, accuracy_grade: int) -> tuple[float, float]:
-    """Return ISO 1328-1:2013 tolerances ``(f_pT, F_pT)`` [m] for a gear.
+    """Return ISO 1328-1 tolerances ``(f_pT, F_pT)`` [m] for a gear.
 
     ``f_pT = (0.001 d + 0.4 mn + 5) sqrt(2)^(A-5)`` um and
     ``F_pT = (0.002 d + 0.55 sqrt(d) + 0.7 mn + 12) sqrt(2)^(A-5)`` um, ``d``, ``mn`` in mm.
@@ -54,11 +54,14 @@ def iso1328_pitch_tolerances(d: float, mn: float, accuracy_grade: int) -> tuple[
     d, mn : float
         Reference diameter and normal module [m].
     accuracy_grade : int
-        Flank tolerance class ``A`` in 1..11.
+        Flank tolerance class ``A`` in 1..12. ISO 1328-1:2013 defines classes 1-11 and the
+        1995 edition grades 0-12 with the same step factor sqrt(2) per grade; grade 12 (the
+        coarsest of the 1995 edition, still named in drawings) is accepted by the same
+        formula, grade 0 is not (the 2013 formulas are not stated below class 1).
     """
-    if int(accuracy_grade) != accuracy_grade or not 1 <= accuracy_grade <= 11:
+    if int(accuracy_grade) != accuracy_grade or not 1 <= accuracy_grade <= 12:
         raise ValueError(
-            f"accuracy_grade={accuracy_grade!r} is outside its valid range: integers 1..11"
+            f"accuracy_grade={accuracy_grade!r} is outside its valid range: integers 1..12"
         )
     dm, mm = d * 1e3, mn * 1e3
     f = math.sqrt(2.0) ** (accuracy_grade - 5)

@@ -177,8 +177,8 @@ def _parameters(pair: Any) -> tuple[Parameter, ...]:
         _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
            "standard deviation of the pitch scatter (seed 002: 3 um); unused when "
            "iso_grade > 0"),
-        _P("iso_grade", "1", 0, 0, 11,
-           "ISO 1328-1:2013 flank tolerance class 1-11 setting amplitude F_pT/2 and sigma "
+        _P("iso_grade", "1", 0, 0, 12,
+           "ISO 1328-1 flank tolerance class 1-12 setting amplitude F_pT/2 and sigma "
            "f_pT/(3 sqrt 2) per gear; 0: use pitch_amplitude and pitch_sigma", integer=True),
         _P("pitch_seed", "1", 2020.0, 0.0, 2.0**32 - 1.0,
            "realisation of the random pitch deviations: its integer part seeds "
