@@ -437,6 +437,7 @@ def sobol_indices(
     progress: bool | None = False,
     **options: Any,
 ) -> xr.Dataset:
+    # Long only by its documented keywords; the body is design -> evaluate -> analyse.
     """Sobol' first, total (and second) order indices: design -> evaluate -> analyse.
 
     Parameters

@@ -114,6 +114,7 @@ def polynomial_chaos(
     store: str | os.PathLike | None = None,
     **options: Any,
 ) -> PolynomialChaos:
+    # Long only by its documented keywords; the body is three calls: design, evaluate, fit.
     """Fit a polynomial chaos surrogate of ``model`` over ``space``: design, evaluate, fit.
 
     Parameters
