@@ -11,7 +11,7 @@ Compared, in one run:
   Wilson 95 % interval, model evaluations and wall time;
 - PCE surrogates (least squares of degree 1..4, 1..6 with ``--full``, and sparse hybrid LARS)
   fitted on ``2 x basis`` Sobol' points, then sampled 10^6 times through the same
-  ``gearuq.reliability`` (wall time = model runs + fit + surrogate sampling);
+  ``gearuq.probability.reliability`` (wall time = model runs + fit + surrogate sampling);
 - against a reference Monte Carlo run of ``--n-ref`` samples (default 2 x 10^4 so the default
   run stays near 3 minutes on 2 cores; ``--full`` uses 10^5).
 
@@ -32,7 +32,7 @@ from matplotlib.ticker import NullFormatter
 
 import gearuq
 from gearuq.engines.pce import polynomial_chaos
-from gearuq.reliability import Band
+from gearuq.probability import Band, reliability
 
 DOFS = ["x_p", "y_p", "z_p", "theta_py", "theta_pz", "x_g", "y_g", "z_g", "theta_gy",
         "theta_gz"]
@@ -74,7 +74,7 @@ def main(out: Path, n_ref: int, full: bool, seed: int = 20240607, replicates: in
         t0 = time.perf_counter()
         ds = gearuq.monte_carlo(model, space, TAU, n_samples=n, rng=s, outputs=outs,
                                 executor="serial", progress=False)
-        rel = gearuq.reliability(ds, bands)
+        rel = reliability(ds, bands)
         return rel, time.perf_counter() - t0
 
     ref, t_ref = run_mc(n_ref, seed)

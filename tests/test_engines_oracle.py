@@ -6,7 +6,7 @@ import pytest
 from scipy.stats import lognorm, norm
 
 import gearuq
-from gearuq.reliability import Band, wilson_interval
+from gearuq.probability import Band, wilson_interval
 from gearuq_plugins.linear_oscillator import closed_form
 
 M, K, C, OMEGA = 1.0, 1.0e4, 20.0, 80.0  # linear_oscillator nominal values
