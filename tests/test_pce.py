@@ -260,6 +260,20 @@ def test_saved_surrogate_rebuilds_identically(tmp_path):
         PolynomialChaos.from_dataset(gearuq.load(tmp_path / "pce.nc").drop_vars("multi_index"))
 
 
+def test_fitted_surrogate_honours_the_plugin_contract():
+    """A fitted surrogate is a Model: conformance checker (pickle and netCDF round trips
+    included), for a static and a time-dependent output."""
+    from gearuq.testing import check_model
+
+    check_model(polynomial_chaos(ishigami_model(), ishigami_space(), order=4, method="sparse",
+                                 n_samples=64, rng=1))
+    model = gearuq.get_model("linear_oscillator")
+    space = gearuq.ParameterSpace.normal(force=(10.0, 1.0), k=(1.0e4, 300.0))
+    t = np.linspace(0.0, 0.1, 11)
+    check_model(polynomial_chaos(model, space, t, order=3, outputs=["displacement"],
+                                 n_samples=32, rng=1), t)
+
+
 def test_repr_and_summary_say_what_the_surrogate_is():
     space = ishigami_space()
     unfitted = PolynomialChaos(space, order=5, method="sparse")
