@@ -1,0 +1,152 @@
+"""Frequency response by the method of multiple scales (first or second order).
+
+:func:`frequency_response` runs the compiled continuation of :mod:`.continuation` for every
+sample (blocks of samples in threads, the kernels release the GIL) and returns every branch
+at every grid frequency with its stability, the paths of upward and downward sweeps, the
+separation data and the points where contact loss starts (seed Eqs. 36-37).
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from gearuq_plugins.mesh_oscillator import continuation as ct
+from gearuq_plugins.mesh_oscillator import slowflow as sf
+
+#: Largest number of solutions kept per frequency (the theory gives one or three).
+MAX_SOLUTIONS = 5
+#: Largest number of points of a traced curve.
+MAX_POINTS = 6000
+#: Largest number of contact-loss onsets kept per sample.
+MAX_ONSETS = 8
+
+TRACE_MEANINGS = {
+    ct.TRACE_OK: "ok",
+    ct.TRACE_START_FAILED: "no steady state found at the lowest frequency",
+    ct.TRACE_STEP_UNDERFLOW: "continuation step underflow (the curve could not be followed)",
+    ct.TRACE_TOO_MANY_POINTS: "continuation point limit reached",
+    ct.TRACE_UNFORCED: "no forcing: the trivial solution",
+    ct.TRACE_GRID_MISSED: "some grid frequencies were not reached by the traced curve",
+}
+
+
+@dataclass
+class PerturbationResponse:
+    """Perturbation frequency response of ``n`` samples on ``K`` frequencies.
+
+    Attributes
+    ----------
+    amplitude, phase : ndarray, shape (n, K, MAX_SOLUTIONS)
+        Every steady state ``(a, gamma)`` (NaN where fewer exist).
+    position : ndarray, shape (n, K, MAX_SOLUTIONS)
+        Place along the traced curve (orders the branches).
+    stable : ndarray of int8, shape (n, K, MAX_SOLUTIONS)
+        1 stable, 0 unstable, -1 no solution.
+    separation : ndarray, shape (n, K, MAX_SOLUTIONS, N_SEP)
+        Separation data (``slowflow.S_*``): Delta_0, Delta_1, nu_1, Delta_2, nu_2, contact
+        margin and contact losses per period.
+    count : ndarray of int, shape (n, K)
+        Number of steady states.
+    up, down : ndarray of int, shape (n, K)
+        Index of the solution an upward / downward sweep lands on.
+    onsets : ndarray, shape (n, MAX_ONSETS, 3)
+        ``(Omega, a, gamma)`` where the contact margin changes sign along the curve, in the
+        order of the curve (NaN-padded); ``n_onsets`` counts them.
+    status : ndarray of int, shape (n,)
+        Trace status (:data:`TRACE_MEANINGS`).
+    n_points : ndarray of int, shape (n,)
+        Points of the traced curve.
+    """
+
+    amplitude: np.ndarray
+    phase: np.ndarray
+    position: np.ndarray
+    stable: np.ndarray
+    separation: np.ndarray
+    count: np.ndarray
+    up: np.ndarray
+    down: np.ndarray
+    onsets: np.ndarray
+    n_onsets: np.ndarray
+    status: np.ndarray
+    n_points: np.ndarray
+
+    def path(self, which: str, field: str = "amplitude") -> np.ndarray:
+        """Values of ``field`` along the ``"up"`` or ``"down"`` sweep path, shape (n, K)."""
+        idx = self.up if which == "up" else self.down
+        arr = getattr(self, field)
+        safe = np.maximum(idx, 0)
+        out = np.take_along_axis(arr, safe[..., None] if arr.ndim == 3 else
+                                 safe[..., None, None], axis=2)
+        out = out[..., 0] if arr.ndim == 3 else out[:, :, 0, :]
+        if out.dtype.kind == "f":
+            out = np.where((idx >= 0)[..., None] if out.ndim == 3 else idx >= 0, out, np.nan)
+        return out
+
+
+def frequency_response(coefs: np.ndarray, grids: np.ndarray, *, order: int = 2,
+                       separation: str = "closed_form", parallel: bool = True,
+                       ) -> PerturbationResponse:
+    """Multiple-scales frequency response of every sample.
+
+    Parameters
+    ----------
+    coefs : ndarray, shape (n, slowflow.N_COEF)
+        Nondimensional coefficients (layout ``slowflow.C_*``).
+    grids : ndarray, shape (n, K) or (K,)
+        Strictly increasing excitation frequencies ``Omega`` per sample.
+    order : {1, 2}
+        First order (seed Eq. 27) or reconstituted second order (seed Eq. 31).
+    separation : {"closed_form", "numerical"}
+        Harmonics of the separation function from seed Eqs. 34-35 (one contact loss per
+        period) or from the separation instants, Eqs. 32-33.
+    parallel : bool
+        Run blocks of samples in threads.
+
+    Returns
+    -------
+    PerturbationResponse
+    """
+    if order not in (1, 2):
+        raise ValueError(f"order={order!r} is outside its valid range: 1 or 2")
+    if separation not in ("closed_form", "numerical"):
+        raise ValueError(f"separation={separation!r}: valid 'closed_form', 'numerical'")
+    coefs = np.ascontiguousarray(np.atleast_2d(coefs), dtype=float)
+    n = coefs.shape[0]
+    grids = np.ascontiguousarray(np.broadcast_to(np.asarray(grids, dtype=float),
+                                                 (n, np.shape(grids)[-1])))
+    if grids.shape[1] < 1 or np.any(np.diff(grids, axis=1) <= 0) or np.any(grids <= 0):
+        raise ValueError("frequencies must be > 0 and strictly increasing")
+    k_grid = grids.shape[1]
+    mode = sf.SEP_NUMERICAL if separation == "numerical" else sf.SEP_CLOSED_FORM
+    shape = (n, k_grid, MAX_SOLUTIONS)
+    sol = (np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan),
+           np.full(shape, -1, np.int64), np.full(shape + (sf.N_SEP,), np.nan),
+           np.zeros((n, k_grid), np.int64))
+    up = np.full((n, k_grid), -1, np.int64)
+    down = np.full((n, k_grid), -1, np.int64)
+    onsets = np.full((n, MAX_ONSETS, 3), np.nan)
+    n_onsets = np.zeros(n, np.int64)
+    status = np.zeros(n, np.int64)
+    n_points = np.zeros(n, np.int64)
+
+    def run(lo: int, hi: int) -> None:
+        ct.batch_response(coefs[lo:hi], order, mode, grids[lo:hi], MAX_POINTS,
+                          tuple(x[lo:hi] for x in sol), up[lo:hi], down[lo:hi],
+                          onsets[lo:hi], n_onsets[lo:hi], status[lo:hi], n_points[lo:hi])
+
+    workers = min(os.cpu_count() or 1, n) if parallel else 1
+    if workers <= 1:
+        run(0, n)
+    else:
+        bounds = np.linspace(0, n, workers + 1).astype(int)
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(run, bounds[:-1], bounds[1:]))
+    return PerturbationResponse(
+        amplitude=sol[0], phase=sol[1], position=sol[2], stable=sol[3].astype(np.int8),
+        separation=sol[4], count=sol[5], up=up, down=down, onsets=onsets,
+        n_onsets=n_onsets, status=status, n_points=n_points)
