@@ -51,6 +51,8 @@ class Rotor:
         Number of nodes (default: one more than the largest node used).
     name : str
         Label.
+    tags : dict, optional
+        Names of important nodes (``{"pinion": 7, "bearing 1": 2, ...}``).
     """
 
     def __init__(
@@ -60,6 +62,7 @@ class Rotor:
         shafts: Sequence[ShaftLine] = (),
         n_nodes: int | None = None,
         name: str = "rotor",
+        tags: dict[str, int] | None = None,
     ) -> None:
         self.elements = list(elements)
         if not self.elements:
@@ -70,6 +73,10 @@ class Rotor:
         if self.n_nodes < used:
             raise ValueError(f"n_nodes={n_nodes} is smaller than the nodes used ({used})")
         self.name = name
+        self.tags = dict(tags or {})
+        for tag, node in self.tags.items():
+            if not 0 <= node < self.n_nodes:
+                raise ValueError(f"tag {tag!r}: node {node} is outside 0..{self.n_nodes - 1}")
         self._check_nodes_on_shafts()
 
     def _check_nodes_on_shafts(self) -> None:
@@ -183,15 +190,47 @@ class Rotor:
     # ------------------------------------------------------------------ statics
     @cached_property
     def rigid_body_modes(self) -> np.ndarray:
-        """Mass-normalised rigid-body modes ``(n_dof, n_rigid)`` of ``K`` (zero energy).
+        """Mass-normalised rigid-body modes ``(n_dof, n_rigid)`` (zero strain energy).
 
-        Found as the eigenvectors of ``(K, M)`` whose eigenvalues are below ``1e-9`` times
-        the largest: a geared drivetrain free to turn has one (the kinematic rotation).
+        A zero-energy motion moves every shaft rigidly, so the modes are sought among the
+        rigid motions of the shafts (6 per shaft): the null space of the small matrix
+        ``R^T K R`` holds only bearing and mesh energies and is found reliably even when the
+        shafts are orders of magnitude stiffer than the bearings (an eigenvalue threshold on
+        the full ``(K, M)`` problem is not: its round-off scales with the stiffest element).
+        Without shaft lines the full problem is used (eigenvalues below 1e-9 of the largest).
+        A geared drivetrain free to turn has one: the kinematic rotation.
         """
         K, M = self._matrices["K"], self._matrices["M"]
-        w2, vec = sla.eigh(K, M)
+        if not self.shafts:
+            w2, vec = sla.eigh(K, M)
+            scale = max(abs(w2[-1]), 1.0)
+            return vec[:, np.abs(w2) < 1e-9 * scale]
+        R = self._shaft_rigid_motions()
+        Mr = R.T @ M @ R
+        Kr = R.T @ K @ R
+        w2, vec = sla.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
         scale = max(abs(w2[-1]), 1.0)
-        return vec[:, np.abs(w2) < 1e-9 * scale]
+        return R @ vec[:, np.abs(w2) < 1e-9 * scale]
+
+    def _shaft_rigid_motions(self) -> np.ndarray:
+        """Rigid translations and rotations of each shaft line (columns)."""
+        cols = []
+        pos = self.node_positions()
+        for s in self.shafts:
+            nodes = range(s.first_node, s.last_node + 1)
+            for k in range(6):
+                c = np.zeros(self.n_dof)
+                for n in nodes:
+                    d = DOFS_PER_NODE * n
+                    if k < 3:
+                        c[d + k] = 1.0
+                    else:
+                        axis = np.zeros(3)
+                        axis[k - 3] = 1.0
+                        c[d:d + 3] = np.cross(axis, pos[n] - np.array([*s.axis, 0.0]))
+                        c[d + k] = 1.0
+                cols.append(c)
+        return np.column_stack(cols)
 
     def static(self, force: np.ndarray, *, stiffness: np.ndarray | None = None,
                balance_tol: float = 1e-8) -> np.ndarray:

@@ -1,0 +1,228 @@
+"""A geared rotor under a torque with a time-varying mesh: the problem the solvers share.
+
+:class:`GearedRotorProblem` ties together a rotor with one mesh element (its stiffness set to
+the mean of the excitation), the balanced input/output torques, the output channels (DTE,
+mesh approach, bearing forces and accelerations), the modal reduction chosen from the
+excitation band at each speed, and the periodic steady-state solver.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from gearuq.rotor.assembly import Rotor
+from gearuq.rotor.excitation import MeshExcitation
+from gearuq.rotor.harmonic_balance import (
+    STATUS_APERIODIC,
+    PeriodicSolution,
+    PreparedExcitation,
+    _two_sided,
+    prepare_excitation,
+    solve_periodic,
+    synthesize,
+)
+from gearuq.rotor.modal import RealModes, undamped_modes
+from gearuq.rotor.reduction import Channel, ModalModel, full_damping, reduce_rotor
+
+__all__ = ["GearedRotorProblem", "torque_load"]
+
+
+def torque_load(rotor: Rotor, torque: float, *, mesh_index: int = 0) -> np.ndarray:
+    """Balanced load: ``torque`` on the input node, the reaction ``T r_b2/r_b1`` on the output.
+
+    Both act about +z in the global frame for ``drive_sign = +1`` (the driven gear turns the
+    other way; its load torque opposes that motion).
+    """
+    mesh = rotor.meshes[mesh_index]
+    f = np.zeros(rotor.n_dof)
+    s = mesh.drive_sign
+    f[rotor.dof(rotor.tags["input"], "theta_z")] = s * torque
+    f[rotor.dof(rotor.tags["output"], "theta_z")] = (
+        s * torque * mesh.base_radius_gear / mesh.base_radius_pinion)
+    return f
+
+
+def default_channels(rotor: Rotor, *, mesh_index: int = 0) -> list[Channel]:
+    """DTE, mesh approach, and per bearing the forces and accelerations in x, y, z."""
+    chans = [
+        Channel("dte", rotor.transmission_error_vector(mesh_index), units="m"),
+        Channel("delta", rotor.mesh_vector(mesh_index), units="m"),
+    ]
+    for b in rotor.bearings:
+        K, C = b.K(), b.C()
+        for i, ax in enumerate("xyz"):
+            chans.append(Channel(f"{b.label} force {ax}", rotor.global_vector(b, K[i]),
+                                 rotor.global_vector(b, C[i]) if C[i].any() else None,
+                                 units="N"))
+            unit = np.zeros(rotor.n_dof)
+            unit[rotor.dof(b.node, ax)] = 1.0
+            chans.append(Channel(f"{b.label} acceleration {ax}", unit, derivative=2,
+                                 units="m s-2"))
+    return chans
+
+
+class GearedRotorProblem:
+    """One geared rotor, one excitation, one torque: steady states at any speed.
+
+    Parameters
+    ----------
+    rotor_factory : callable
+        ``rotor_factory(mean_mesh_stiffness) -> Rotor`` (tags ``input``, ``output``).
+    excitation : MeshExcitation
+        Mesh stiffness and error over the long period.
+    pinion_teeth : int
+        ``z1`` (mesh frequency ``z1 n / 60``).
+    damping_ratio : float
+        Modal damping ratio of every elastic mode.
+    n_harmonics : int
+        Harmonics ``H`` of the long period in the steady state.
+    cutoff_factor : float
+        Keep the modes below ``cutoff_factor * H * w0`` (``w0 = 2 pi / T``).
+    backlash : float
+        Normal backlash [m] (``inf``: no back-flank contact).
+    min_modes : int
+        Keep at least this many elastic modes.
+    """
+
+    def __init__(
+        self,
+        rotor_factory: Callable[[float], Rotor],
+        excitation: MeshExcitation,
+        pinion_teeth: int,
+        *,
+        damping_ratio: float = 0.05,
+        n_harmonics: int = 120,
+        cutoff_factor: float = 1.5,
+        backlash: float = math.inf,
+        min_modes: int = 4,
+    ) -> None:
+        self.excitation = excitation
+        self.rotor = rotor_factory(excitation.mean_stiffness)
+        self.pinion_teeth = int(pinion_teeth)
+        self.damping_ratio = float(damping_ratio)
+        self.cutoff_factor = float(cutoff_factor)
+        self.backlash = float(backlash)
+        self.min_modes = int(min_modes)
+        mesh = self.rotor.meshes[0]
+        self.torque = excitation.normal_force * mesh.base_radius_pinion * math.cos(
+            mesh.base_helix_angle)
+        self.load = torque_load(self.rotor, self.torque)
+        self.channels = default_channels(self.rotor)
+        self.modes: RealModes = undamped_modes(self.rotor)
+        self.prep: PreparedExcitation = prepare_excitation(excitation, n_harmonics)
+        self._models: dict[int, ModalModel] = {}
+        self._full: ModalModel | None = None
+
+    @property
+    def n_harmonics(self) -> int:
+        """Harmonics H of the long period."""
+        return self.prep.n_harmonics
+
+    def period(self, speed_rpm: float) -> float:
+        """Long period [s] at pinion speed ``speed_rpm``."""
+        if not (math.isfinite(speed_rpm) and speed_rpm > 0):
+            raise ValueError(f"speed={speed_rpm!r} rpm is outside its valid range (0, inf)")
+        return 60.0 * self.excitation.n_cycles / (self.pinion_teeth * speed_rpm)
+
+    def cutoff(self, speed_rpm: float) -> float:
+        """Modal cut-off [rad/s] at this speed."""
+        return self.cutoff_factor * self.n_harmonics * 2.0 * math.pi / self.period(speed_rpm)
+
+    def reduced(self, speed_rpm: float | None = None, *, cutoff: float | None = None
+                ) -> ModalModel:
+        """The reduced model for a speed (its cut-off) or an explicit cut-off [rad/s]."""
+        wc = self.cutoff(speed_rpm) if cutoff is None else cutoff
+        el = self.modes.elastic.omega
+        n = max(int(np.sum(el <= wc)), min(self.min_modes, el.size))
+        if n not in self._models:
+            self._models[n] = reduce_rotor(
+                self.rotor, self.load, self.channels, cutoff=float(el[n - 1]),
+                damping_ratio=self.damping_ratio, modes=self.modes)
+        return self._models[n]
+
+    def full_damping(self) -> np.ndarray:
+        """Damping matrix of the full model consistent with the reduced one."""
+        return full_damping(self.rotor, self.modes, damping_ratio=self.damping_ratio)
+
+    def steady_state(self, speed_rpm: float, *, initial: np.ndarray | None = None,
+                     cutoff: float | None = None, channels: Sequence[str] | None = None,
+                     **kw: object) -> PeriodicSolution:
+        """Periodic steady state at ``speed_rpm`` (see :func:`solve_periodic`)."""
+        model = self.reduced(speed_rpm, cutoff=cutoff)
+        return solve_periodic(model, self.prep, self.period(speed_rpm),
+                              2.0 * math.pi * speed_rpm / 60.0, backlash=self.backlash,
+                              initial=initial, channels=None if channels is None
+                              else list(channels), **kw)
+
+    def verify(self, sol: PeriodicSolution, speed_rpm: float, *, n_periods: int = 8,
+               tol: float = 0.1, _restarts: int = 1) -> PeriodicSolution:
+        """Check a contact-loss solution by integrating the reduced model from it.
+
+        Integrates ``n_periods`` long periods from the harmonic-balance state and compares
+        the last period, projected on the ``H`` harmonics, with the solution. The solution is
+        stable when the trajectory is periodic (last two periods agree to 1e-3 of the
+        peak-to-peak approach) and stays within ``tol`` of it (``tol`` allows for the
+        truncation of the harmonic balance; an unstable solution drifts to another response
+        at order one). If the trajectory has settled on another periodic response, Newton's
+        method restarts from it (``start = "time_integration"``); if it is not periodic, the
+        solution is returned with status 3.
+        """
+        from gearuq.rotor.time_integration import initial_state, integrate_reduced
+
+        model = self.reduced(speed_rpm)
+        T, omega = self.period(speed_rpm), 2.0 * math.pi * speed_rpm / 60.0
+        N, H = self.prep.n_time, self.n_harmonics
+        t_eval = (n_periods - 2) * T + np.arange(2 * N) * T / N
+        y0 = initial_state(model, sol, omega)[None]
+        tr = integrate_reduced(model, self.prep, [omega], [T], t_eval, y0=y0,
+                               backlash=self.backlash)
+        d = tr.delta[0]
+        last, before = d[N:], d[:N]
+        scale = max(float(np.ptp(last)), 1e-300)
+        projected = np.fft.rfft(last)[:H + 1] / N
+        sol.drift = float(np.abs(synthesize(projected - sol.delta, t_eval[N:], T)).max()
+                          / scale)
+        periodic = bool(np.abs(last - before).max() / scale < 1e-3 and tr.status[0] == 0)
+        sol.stable = bool(periodic and sol.drift < tol)
+        if sol.stable:
+            return sol
+        if periodic and _restarts > 0:
+            new = self.steady_state(speed_rpm, initial=_two_sided(projected, H))
+            if new.status == 0:
+                new.start = "time_integration"
+                return self.verify(new, speed_rpm, n_periods=n_periods, tol=tol,
+                                   _restarts=_restarts - 1)
+        if not periodic:
+            sol.status = STATUS_APERIODIC
+        return sol
+
+    def sweep(self, speeds_rpm: Sequence[float], *, continuation: bool = True,
+              verify: bool = False, **kw: object) -> list[PeriodicSolution]:
+        """Steady states along ``speeds_rpm`` in the given order.
+
+        Parameters
+        ----------
+        speeds_rpm : sequence of float
+            Speeds in sweep order (increasing for an up sweep, decreasing for a down sweep).
+        continuation : bool
+            Start each speed from the previous solution (how a sweep lands on one branch
+            and jumps where it ends).
+        verify : bool
+            Check contact-loss solutions by time integration (:meth:`verify`); unstable
+            ones are replaced by the periodic response the integration settles on.
+        **kw
+            Passed to :meth:`steady_state`.
+        """
+        out: list[PeriodicSolution] = []
+        for s in speeds_rpm:
+            init = out[-1].two_sided_delta() if (continuation and out) else None
+            sol = self.steady_state(float(s), initial=init, **kw)
+            if init is not None and sol.status != 0:  # fall back to the linear start
+                sol = self.steady_state(float(s), **kw)
+            if verify and sol.branch != "full_contact" and sol.status in (0, 1):
+                sol = self.verify(sol, float(s))
+            out.append(sol)
+        return out
