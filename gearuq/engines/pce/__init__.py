@@ -10,8 +10,13 @@ Modules, in the order data flows:
 * :mod:`~gearuq.engines.pce.basis` -- multi-indices, orthonormal polynomials, germ maps;
 * :mod:`~gearuq.engines.pce.regression` -- least squares, LOO and corrected LOO errors, the
   incremental hybrid LAR/OMP path;
+* :mod:`~gearuq.engines.pce.state` -- the fitting settings (:class:`ChaosSettings`) and the
+  fitted state (:class:`ChaosFit`);
+* :mod:`~gearuq.engines.pce.fitting` -- training data from a Dataset or arrays, least squares,
+  sparse and quadrature fits;
+* :mod:`~gearuq.engines.pce.storage` -- ``to_dataset`` / ``from_dataset``;
 * :mod:`~gearuq.engines.pce.surrogate` -- :class:`PolynomialChaos` (``fit`` on any labelled
-  result, ``from_dataset``/``to_dataset``, moments, Sobol' indices, reliability);
+  result, predictions, moments, Sobol' indices, reliability);
 * :mod:`~gearuq.engines.pce.pipeline` -- :func:`polynomial_chaos` (design -> evaluate through
   the chunked, storable path -> fit) and :func:`compare_mc_surrogate`.
 

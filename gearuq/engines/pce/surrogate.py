@@ -1,4 +1,4 @@
-"""The polynomial chaos surrogate: settings, fit on labelled data, analytic results, storage.
+"""The polynomial chaos surrogate: fit on labelled data, predict, analytic results, storage.
 
 :class:`PolynomialChaos` follows the estimator pattern: its constructor takes the space and
 the fitting settings, :meth:`PolynomialChaos.fit` takes data (a labelled Monte Carlo
@@ -11,199 +11,32 @@ netCDF).
 
 from __future__ import annotations
 
-import json
 import math
 import time
 import warnings
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from gearuq._version import __version__
-from gearuq.engines.pce.basis import GERMS, Germ, basis_matrix, multi_indices, q_norm
-from gearuq.engines.pce.regression import (
-    SOLVERS,
-    corrected_loo,
-    few_blas_threads,
-    fit_columns,
-    least_squares,
-    loo_residuals,
-    pca,
-    relative_error,
-)
+from gearuq.engines.pce.basis import Germ, basis_matrix
+from gearuq.engines.pce.fitting import fit_quadrature, fit_regression, training_data
+from gearuq.engines.pce.regression import relative_error
+from gearuq.engines.pce.state import METHODS, ChaosFit, ChaosSettings, OutputInfo
+from gearuq.engines.pce.storage import from_dataset, to_dataset
 from gearuq.model import STATUS_NONFINITE, Evaluation, Model, Output, Parameter
 from gearuq.space import ParameterSpace
 
 __all__ = ["PolynomialChaos", "ChaosSettings", "ChaosFit", "OutputInfo", "METHODS"]
 
-#: Fitting methods.
-METHODS = ("regression", "sparse", "quadrature")
 #: Rows of the basis matrix evaluated at once when predicting (bounds the memory).
 _PREDICT_CHUNK = 20_000
-#: ``order="auto"`` stops after this many degrees in a row without a smaller error.
-_DEGREE_PATIENCE = 2
 
 _SPARSE_NOTE = (
     "the LOO error of a sparse basis is optimistic: the basis was chosen to make it small "
     "(selection bias; on Ishigami the hold-out error is about 2x the corrected LOO); judge a "
     "sparse surrogate by its hold-out error (n_holdout=, validate())")
-
-
-@dataclass(frozen=True)
-class ChaosSettings:
-    """How a chaos expansion is fitted (the estimator's hyper-parameters).
-
-    Attributes
-    ----------
-    order : int or "auto"
-        Total degree, or ``"auto"``: the degree in ``1..max_order`` with the smallest
-        leave-one-out error (``"regression"``) or corrected leave-one-out error
-        (``"sparse"``), tried upwards and stopped after two degrees without improvement.
-    method : {"regression", "sparse", "quadrature"}
-        Least squares, sparse least squares (hybrid LAR/OMP), or spectral projection with
-        quadrature weights.
-    truncation : float
-        Hyperbolic q-norm of the basis, in (0, 1].
-    max_order : int
-        Largest degree tried by ``order="auto"``.
-    solver : {"lars", "omp"}
-        Greedy path of the sparse method.
-    compress : int or float, optional
-        PCA across the non-sample dims of each output: a number of components or an energy
-        fraction in (0, 1].
-    germ : {"auto", "normal"}
-        Legendre germ for independent uniform marginals (``"auto"``) or Hermite everywhere.
-    """
-
-    order: int | str = "auto"
-    method: str = "regression"
-    truncation: float = 1.0
-    max_order: int = 6
-    solver: str = "lars"
-    compress: int | float | None = None
-    germ: str = "auto"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "order", check_order(self.order))
-        if self.method not in METHODS:
-            raise ValueError(f"method: unknown {self.method!r}; valid: {', '.join(METHODS)}")
-        if self.solver not in SOLVERS:
-            raise ValueError(f"solver: unknown {self.solver!r}; valid: {', '.join(SOLVERS)}")
-        if self.germ not in GERMS:
-            raise ValueError(f"germ: unknown {self.germ!r}; valid: {', '.join(GERMS)}")
-        if self.order == "auto" and self.method == "quadrature":
-            raise ValueError("order='auto' needs method 'regression' or 'sparse' (a LOO error)")
-        if isinstance(self.truncation, bool) or not isinstance(self.truncation, (int, float)) \
-                or not 0 < float(self.truncation) <= 1:
-            raise ValueError(f"truncation: q-norm must lie in (0, 1], got {self.truncation!r}")
-        if isinstance(self.max_order, bool) or not isinstance(self.max_order, (int, np.integer)) \
-                or self.max_order < 1:
-            raise ValueError(f"max_order: expected an integer >= 1, got {self.max_order!r}")
-        c = self.compress
-        if c is not None and not ((isinstance(c, float) and 0.0 < c <= 1.0) or (
-                isinstance(c, (int, np.integer)) and not isinstance(c, bool) and c >= 1)):
-            raise ValueError(f"compress: expected a number of components (int >= 1) or an "
-                             f"energy fraction in (0, 1], got {c!r}")
-
-    @property
-    def orders(self) -> list[int]:
-        """Degrees to try."""
-        return list(range(1, self.max_order + 1)) if self.order == "auto" else [int(self.order)]
-
-
-def check_order(order: Any) -> int | str:
-    """A non-negative integer degree or ``"auto"``, or a ValueError naming ``order``."""
-    if isinstance(order, str):
-        if order != "auto":
-            raise ValueError(f"order: expected a non-negative integer or 'auto', got {order!r}")
-        return order
-    if isinstance(order, (bool, np.bool_)) or not isinstance(order, (int, np.integer)):
-        raise ValueError(f"order: expected a non-negative integer or 'auto', got {order!r}")
-    if order < 0:
-        raise ValueError(f"order: polynomial degree must be >= 0, got {order}")
-    return int(order)
-
-
-@dataclass(frozen=True)
-class OutputInfo:
-    """Labels of one fitted output: non-sample dims, their shape and coordinates, units."""
-
-    dims: tuple[str, ...]
-    shape: tuple[int, ...]
-    units: str = ""
-    long_name: str = ""
-    coords: dict[str, tuple] = field(default_factory=dict)
-
-    @property
-    def time_dependent(self) -> bool:
-        """Whether the output has a ``time`` dim."""
-        return "time" in self.dims
-
-
-@dataclass
-class ChaosFit:
-    """The fitted state of a :class:`PolynomialChaos`.
-
-    Attributes
-    ----------
-    indices : ndarray (P, d)
-        Multi-indices of the kept basis terms.
-    coefficients : dict
-        Output -> coefficients ``(P, *output shape)``.
-    outputs : dict
-        Output -> :class:`OutputInfo`.
-    t : ndarray
-        Instants of time-dependent outputs (empty otherwise).
-    order : int
-        Degree of the expansion (the chosen one for ``order="auto"``).
-    n_evaluations, n_failed : int
-        Model runs used (including failed ones and hold-out runs) and runs excluded.
-    loo_error, corrected_loo_error : dict
-        Output -> relative leave-one-out error of the least-squares fit on the kept basis
-        (mean square over variance, variance-weighted over columns), and the same times
-        Chapelle's factor ``n/(n - P) (1 + tr((Psi^T Psi)^-1))``.
-    loo_error_t : dict
-        Output -> LOO error per column (instant).
-    holdout_error : dict
-        Output -> relative error on an independent validation set (when one was given).
-    compression : dict
-        Output -> ``{"components", "energy_lost", "relative_error"}`` when PCA was used.
-    info : dict
-        Design size, basis sizes, degrees tried, wall times, rule and seed of the design.
-    source : dict
-        ``model``, ``model_version``, ``time_units``, ``time_long_name`` and
-        ``parameters`` (name -> {"units", "description"}) of the fitted model.
-    """
-
-    indices: np.ndarray
-    coefficients: dict[str, np.ndarray]
-    outputs: dict[str, OutputInfo]
-    t: np.ndarray
-    order: int
-    n_evaluations: int
-    n_failed: int
-    loo_error: dict[str, float]
-    loo_error_t: dict[str, np.ndarray]
-    corrected_loo_error: dict[str, float]
-    holdout_error: dict[str, float] = field(default_factory=dict)
-    compression: dict[str, dict[str, float]] = field(default_factory=dict)
-    info: dict[str, Any] = field(default_factory=dict)
-    source: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass
-class _TrainingData:
-    """What :meth:`PolynomialChaos.fit` extracts from its inputs (valid samples only)."""
-
-    x: dict[str, np.ndarray]
-    y: dict[str, np.ndarray]  # output -> (n_valid, n_columns)
-    outputs: dict[str, OutputInfo]
-    t: np.ndarray
-    valid: np.ndarray
-    source: dict[str, Any]
 
 
 class PolynomialChaos(Model):
@@ -274,16 +107,16 @@ class PolynomialChaos(Model):
             samples, a design too small for the basis, or weights that do not fit.
         """
         wall0 = time.perf_counter()
-        data = _training_data(self.space, inputs, outputs, t, status)
+        data = training_data(self.space, inputs, outputs, t, status)
         if not data.valid.any():
             raise ValueError(f"no valid sample: all {data.valid.size} samples have status != 0")
         z = self._germ.from_physical(data.x)
         if self.settings_.method == "quadrature":
-            fit = _fit_quadrature(z, data, self.settings_, self._germ.kinds, weights)
+            fit = fit_quadrature(z, data, self.settings_, self._germ.kinds, weights)
         else:
             if weights is not None:
                 raise ValueError("weights: only method='quadrature' uses quadrature weights")
-            fit = _fit_regression(z, data, self.settings_, self._germ.kinds)
+            fit = fit_regression(z, data, self.settings_, self._germ.kinds)
         fit.info.update({"n_design": int(data.valid.size),
                          "fit_time_s": time.perf_counter() - wall0})
         self._set_fitted(fit)
@@ -319,7 +152,7 @@ class PolynomialChaos(Model):
         """
         fit = self._require_fitted()
         names = list(fit.outputs) if outputs is None else outputs
-        data = _training_data(self.space, inputs, names, t, status)
+        data = training_data(self.space, inputs, names, t, status)
         pred = self.response(data.x, data.t if data.t.size else None, outputs=list(data.y))
         errors = {}
         for o, y in data.y.items():
@@ -666,7 +499,7 @@ class PolynomialChaos(Model):
         :meth:`from_dataset` turns it back into an identical surrogate (bit-identical
         predictions); ``gearuq.save``/``gearuq.load`` round-trip it.
         """
-        return _to_dataset(self)
+        return to_dataset(self)
 
     @classmethod
     def from_dataset(cls, ds: xr.Dataset) -> PolynomialChaos:
@@ -677,7 +510,7 @@ class PolynomialChaos(Model):
         ValueError
             If ``ds`` is not a saved polynomial chaos surrogate.
         """
-        return _from_dataset(cls, ds)
+        return from_dataset(cls, ds)
 
 
 def _now() -> float:
@@ -709,308 +542,3 @@ def _sobol_from_squares(c2: np.ndarray, idx: np.ndarray, second_order: bool
                 sel = nz[:, i] & nz[:, j] & (n_vars == 2)
                 s2[i, j] = s2[j, i] = c2[sel].sum(axis=0) / var
     return s1, st, s2
-
-
-# =========================================================================== training data
-def _training_data(space: ParameterSpace, inputs: Any, outputs: Any, t: Any,
-                   status: Any) -> _TrainingData:
-    """Inputs, outputs (valid samples, flattened columns) and labels from a Dataset or arrays."""
-    if isinstance(inputs, xr.Dataset):
-        if t is not None or status is not None:
-            raise ValueError("t/status: taken from the Dataset; give them only with arrays")
-        return _from_result(space, inputs, outputs)
-    if not isinstance(inputs, Mapping):
-        raise TypeError(f"inputs: expected an xarray Dataset or a mapping of arrays, got "
-                        f"{type(inputs).__name__}")
-    if not isinstance(outputs, Mapping) or not outputs:
-        raise ValueError("outputs: with array inputs give a mapping output name -> array")
-    missing = [k for k in space.names if k not in inputs]
-    if missing:
-        raise ValueError(f"inputs: missing parameter(s) {missing} of the space {space.names}")
-    x = {k: np.asarray(inputs[k], dtype=float).ravel() for k in space.names}
-    n = x[space.names[0]].size
-    tt = np.zeros(0) if t is None else np.atleast_1d(np.asarray(t, dtype=float))
-    ys, infos = {}, {}
-    for o, v in outputs.items():
-        y = np.asarray(v, dtype=float)
-        if y.shape[0] != n or y.ndim > 2 or (y.ndim == 2 and y.shape[1] != tt.size):
-            raise ValueError(f"output {o!r}: shape {y.shape} does not fit {n} samples"
-                             + (f" x {tt.size} instants" if tt.size else " (give t= for "
-                                                                         "2-D outputs)"))
-        dims = ("time",) if y.ndim == 2 else ()
-        infos[o] = OutputInfo(dims, y.shape[1:])
-        ys[o] = y.reshape(n, -1)
-    st = np.zeros(n, dtype=int) if status is None else np.asarray(status).ravel()
-    if st.size != n:
-        raise ValueError(f"status: {st.size} values for {n} samples")
-    return _valid_only(x, ys, infos, tt, st == 0, {"model": "data"})
-
-
-def _from_result(space: ParameterSpace, ds: xr.Dataset, outputs: Any) -> _TrainingData:
-    missing = [k for k in space.names if k not in ds]
-    if missing:
-        raise ValueError(f"inputs: the Dataset has no variable(s) {missing} of the space "
-                         f"{space.names}")
-    if outputs is None:
-        names = [k for k, v in ds.data_vars.items()
-                 if v.attrs.get("role") == "output" and "sample" in v.dims]
-    else:
-        names = [outputs] if isinstance(outputs, str) else list(outputs)
-    bad = [o for o in names if o not in ds or "sample" not in ds[o].dims]
-    if bad or not names:
-        raise ValueError(f"outputs: {bad or names} not output variables over 'sample' of the "
-                         f"Dataset; it has {list(ds.data_vars)}")
-    n = ds.sizes["sample"]
-    x = {k: np.asarray(ds[k].values, dtype=float) for k in space.names}
-    timed = "time" in ds.coords and any("time" in ds[o].dims for o in names)
-    tt = np.asarray(ds["time"].values, dtype=float) if timed else np.zeros(0)
-    ys, infos = {}, {}
-    for o in names:
-        da = ds[o].transpose("sample", ...)
-        rest = tuple(d for d in da.dims if d != "sample")
-        coords = {d: (ds[d].dims, np.asarray(ds[d].values), dict(ds[d].attrs))
-                  for d in rest if d != "time" and d in ds.coords}
-        infos[o] = OutputInfo(rest, tuple(da.shape[1:]), str(da.attrs.get("units", "")),
-                              str(da.attrs.get("long_name", "")), coords)
-        ys[o] = np.asarray(da.values, dtype=float).reshape(n, -1)
-    st = np.asarray(ds["status"].values) if "status" in ds else np.zeros(n, dtype=int)
-    source = {"model": str(ds.attrs.get("model", "data")),
-              "model_version": str(ds.attrs.get("model_version", "")),
-              "time_units": str(ds["time"].attrs.get("units", "s")) if timed else "s",
-              "time_long_name": str(ds["time"].attrs.get("long_name", "time")) if timed
-              else "time",
-              "parameters": {k: {"units": str(ds[k].attrs.get("units", "1")),
-                                 "description": str(ds[k].attrs.get("long_name", ""))}
-                             for k in space.names}}
-    return _valid_only(x, ys, infos, tt, st == 0, source)
-
-
-def _valid_only(x, ys, infos, t, valid, source) -> _TrainingData:
-    for o, y in ys.items():
-        if not np.all(np.isfinite(y[valid])):
-            raise ValueError(f"output {o!r}: non-finite values in samples with status 0")
-    return _TrainingData({k: v[valid] for k, v in x.items()},
-                         {o: y[valid] for o, y in ys.items()}, infos, t, valid, source)
-
-
-# =========================================================================== fitting
-def _new_fit(data: _TrainingData, **kw: Any) -> ChaosFit:
-    return ChaosFit(outputs=data.outputs, t=data.t, n_evaluations=int(data.valid.size),
-                    n_failed=int((~data.valid).sum()), source=data.source, **kw)
-
-
-def _fit_quadrature(z: np.ndarray, data: _TrainingData, settings: ChaosSettings,
-                    kinds: list[str], weights: Any) -> ChaosFit:
-    """Spectral projection ``c = Psi^T (w y)``; least squares if nodes failed."""
-    if weights is None:
-        raise ValueError("weights: method='quadrature' needs the quadrature weights of the "
-                         "design (gearuq.polynomial_chaos designs and passes them)")
-    w = np.asarray(weights, dtype=float).ravel()
-    if w.size != data.valid.size:
-        raise ValueError(f"weights: {w.size} weights for {data.valid.size} design points")
-    idx = multi_indices(z.shape[1], int(settings.order), settings.truncation)
-    psi = basis_matrix(z, idx, kinds)
-    full = bool(data.valid.all())
-    if not full:
-        warnings.warn(f"{int((~data.valid).sum())} quadrature node(s) failed; coefficients by "
-                      "least squares on the valid nodes", RuntimeWarning, stacklevel=3)
-    coefs, loo, loo_t, corr = {}, {}, {}, {}
-    with few_blas_threads(psi.size):
-        for o, y in data.y.items():
-            coefs[o] = (psi.T @ (w[:, None] * y) if full
-                        else np.linalg.lstsq(psi, y, rcond=None)[0])
-            loo[o], loo_t[o], corr[o] = math.nan, np.full(y.shape[1], math.nan), math.nan
-            if psi.shape[0] > psi.shape[1]:  # LOO of a least-squares refit on the nodes
-                try:
-                    c_ls, h, trace = least_squares(psi, y)
-                    loo[o], loo_t[o] = relative_error(loo_residuals(psi, y, c_ls, h), y)
-                    corr[o] = corrected_loo(loo[o], psi.shape[0], psi.shape[1], trace)
-                except np.linalg.LinAlgError:
-                    pass
-    fit = _new_fit(data, indices=idx, coefficients=_shaped(coefs, data), order=int(
-        settings.order), loo_error=loo, loo_error_t=loo_t, corrected_loo_error=corr)
-    fit.info.update({"n_terms_candidate": int(idx.shape[0])})
-    return fit
-
-
-def _shaped(coefs: dict[str, np.ndarray], data: _TrainingData) -> dict[str, np.ndarray]:
-    return {o: c.reshape(c.shape[0], *data.outputs[o].shape) for o, c in coefs.items()}
-
-
-def _fit_regression(z: np.ndarray, data: _TrainingData, settings: ChaosSettings,
-                    kinds: list[str]) -> ChaosFit:
-    """Least squares or sparse least squares, one degree or the best of ``1..max_order``.
-
-    The basis is evaluated once for the largest degree; a lower degree uses the columns of
-    its (nested) index set. ``order="auto"`` stops after two degrees in a row that do not
-    lower the selection error (LOO for regression, corrected LOO for sparse).
-    """
-    orders = settings.orders
-    idx_all = multi_indices(z.shape[1], orders[-1], settings.truncation)
-    n = z.shape[0]
-    if settings.method == "regression" and n <= _n_terms(idx_all, orders[0], settings):
-        raise ValueError(
-            f"n_samples: {n} valid samples ({int((~data.valid).sum())} failed) are not more "
-            f"than the {_n_terms(idx_all, orders[0], settings)} basis terms of order "
-            f"{orders[0]} ({z.shape[1]} parameters); give more samples (typically 2-3x) or "
-            "use method='sparse'")
-    if settings.method == "sparse" and n < 3:
-        raise ValueError(f"n_samples: sparse regression needs at least 3 samples, got {n}")
-    psi_all = basis_matrix(z, idx_all, kinds)
-    with few_blas_threads(psi_all.size):
-        return _best_degree(psi_all, idx_all, data, settings)
-
-
-def _best_degree(psi_all: np.ndarray, idx_all: np.ndarray, data: _TrainingData,
-                 settings: ChaosSettings) -> ChaosFit:
-    """Fit the degrees of ``settings.orders`` on nested column sets; keep the best one."""
-    orders = settings.orders
-    n = psi_all.shape[0]
-    norms = q_norm(idx_all, settings.truncation)
-    weights = {o: max(float(np.var(y, axis=0, ddof=1).sum()), 1e-300) if n > 1 else 1.0
-               for o, y in data.y.items()}
-    best, tried, worse = None, [], 0
-    for p in orders:
-        cols = np.flatnonzero(norms <= p + 1e-9)
-        if settings.method == "regression" and n <= cols.size:
-            break
-        res = _fit_degree(psi_all[:, cols], data, settings)
-        tried.append(p)
-        key = "corrected" if settings.method == "sparse" else "loo"
-        score = sum(res[key][o] * weights[o] for o in data.y) / sum(weights.values())
-        if best is None or score < best[0]:
-            best, worse = (score, p, cols, res), 0
-        else:
-            worse += 1
-            if worse >= _DEGREE_PATIENCE:
-                break
-    _, order, cols, res = best
-    keep = np.zeros(cols.size, dtype=bool)
-    keep[0] = True
-    for c in res["coef"].values():
-        keep |= np.any(c != 0, axis=1)
-    if settings.method == "regression":
-        keep[:] = True
-    coefs = {o: c[keep] for o, c in res["coef"].items()}
-    fit = _new_fit(data, indices=idx_all[cols][keep], coefficients=_shaped(coefs, data),
-                   order=order, loo_error=res["loo"], loo_error_t=res["loo_t"],
-                   corrected_loo_error=res["corrected"], compression=res["compression"])
-    fit.info.update({"n_terms_candidate": int(cols.size), "orders_tried": tried,
-                     "n_terms_selected": int(keep.sum())})
-    return fit
-
-
-def _n_terms(idx_all: np.ndarray, order: int, settings: ChaosSettings) -> int:
-    return int(np.sum(q_norm(idx_all, settings.truncation) <= order + 1e-9))
-
-
-def _fit_degree(psi: np.ndarray, data: _TrainingData, settings: ChaosSettings
-                ) -> dict[str, Any]:
-    """Fit every output on one candidate basis; coefficients and errors per output."""
-    out: dict[str, Any] = {"coef": {}, "loo": {}, "loo_t": {}, "corrected": {},
-                           "compression": {}}
-    n = psi.shape[0]
-    for o, y in data.y.items():
-        compress = settings.compress if y.shape[1] > 1 else None
-        if compress is not None:
-            target, comps, ybar, info = pca(y, compress)
-        else:
-            target, comps, ybar, info = y, None, None, None
-        try:
-            r = fit_columns(psi, target, settings.method, settings.solver)
-        except np.linalg.LinAlgError:
-            raise ValueError("basis matrix is rank deficient on this design; use more "
-                             "samples or a lower order") from None
-        coef, res = r["coef"], r["loo_residuals"]
-        if comps is not None:
-            recon = ybar + target @ comps
-            info["relative_error"] = relative_error(recon - y, y)[0]
-            res = res @ comps + (y - recon)  # the discarded part counts as error
-            coef = coef @ comps
-            coef[0] += ybar
-            out["compression"][o] = info
-        out["coef"][o] = coef
-        out["loo"][o], out["loo_t"][o] = relative_error(res, y)
-        out["corrected"][o] = corrected_loo(out["loo"][o], n, int(r["columns"].size),
-                                            r["trace"])
-    return out
-
-
-# =========================================================================== storage
-_KIND = "gearuq_polynomial_chaos"
-
-
-def _to_dataset(pce: PolynomialChaos) -> xr.Dataset:
-    fit = pce._require_fitted()
-    ds = xr.Dataset(coords={"term": np.arange(pce.n_terms), "parameter": pce.space.names})
-    if fit.t.size:
-        ds = ds.assign_coords(time=("time", fit.t, {"units": pce.time_units,
-                                                     "long_name": pce.time_long_name}))
-    ds["multi_index"] = (("term", "parameter"), fit.indices,
-                         {"long_name": "degree of each germ variable in each basis term"})
-    outputs = {}
-    for o, m in fit.outputs.items():
-        for d, (dims, values, attrs) in m.coords.items():
-            if d not in ds.coords:
-                ds = ds.assign_coords({d: (dims, values, attrs)})
-        ds[f"coef_{o}"] = (("term", *m.dims), fit.coefficients[o],
-                           {"units": m.units, "long_name": f"chaos coefficients of {o}"})
-        ds[f"loo_{o}"] = ((), fit.loo_error.get(o, math.nan),
-                          {"long_name": f"relative LOO error of {o}"})
-        ds[f"loo_t_{o}"] = (m.dims, np.asarray(fit.loo_error_t[o]).reshape(m.shape),
-                            {"long_name": f"relative LOO error of {o} per column"})
-        outputs[o] = {"dims": list(m.dims), "units": m.units, "long_name": m.long_name}
-    ds.attrs.update({
-        "gearuq_version": __version__, "kind": _KIND, "space": pce.space.to_json(),
-        "germ": " ".join(pce.germ_kinds), "method": pce.method, "order": fit.order,
-        "n_terms": pce.n_terms, "source_model": pce.source_model,
-        "n_evaluations": fit.n_evaluations, "n_failed": fit.n_failed,
-        "settings": json.dumps(pce.settings(), default=repr),
-        "fit": json.dumps({"outputs": outputs, "source": fit.source, "info": fit.info,
-                           "compression": fit.compression,
-                           "corrected_loo_error": fit.corrected_loo_error,
-                           "holdout_error": fit.holdout_error}, default=_json_default),
-    })
-    return ds
-
-
-def _json_default(v: Any) -> Any:
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, np.generic):
-        return v.item()
-    return repr(v)
-
-
-def _from_dataset(cls: type[PolynomialChaos], ds: xr.Dataset) -> PolynomialChaos:
-    if ds.attrs.get("kind") != _KIND or "multi_index" not in ds:
-        raise ValueError("from_dataset: not a saved polynomial chaos surrogate (expected "
-                         "the Dataset of PolynomialChaos.to_dataset())")
-    space = ParameterSpace.from_json(ds.attrs["space"])
-    stored = json.loads(ds.attrs["settings"])
-    settings = {k: stored[k] for k in ("method", "truncation", "max_order", "solver",
-                                       "compress", "germ")}
-    pce = cls(space, order=int(ds.attrs["order"]), **settings)
-    pce._germ = Germ(space, settings["germ"], kinds=str(ds.attrs["germ"]).split())
-    record = json.loads(ds.attrs["fit"])
-    infos, coefs, loo, loo_t = {}, {}, {}, {}
-    for o, meta in record["outputs"].items():
-        dims = tuple(meta["dims"])
-        coords = {d: (ds[d].dims, np.asarray(ds[d].values), dict(ds[d].attrs))
-                  for d in dims if d != "time" and d in ds.coords}
-        coef = np.asarray(ds[f"coef_{o}"].transpose("term", *dims).values, dtype=float)
-        infos[o] = OutputInfo(dims, coef.shape[1:], meta["units"], meta["long_name"], coords)
-        coefs[o] = coef
-        loo[o] = float(ds[f"loo_{o}"].values)
-        loo_t[o] = np.asarray(ds[f"loo_t_{o}"].values, dtype=float).ravel()
-    t = np.asarray(ds["time"].values, dtype=float) if "time" in ds.coords else np.zeros(0)
-    fit = ChaosFit(
-        indices=np.asarray(ds["multi_index"].values, dtype=int), coefficients=coefs,
-        outputs=infos, t=t, order=int(ds.attrs["order"]),
-        n_evaluations=int(ds.attrs["n_evaluations"]), n_failed=int(ds.attrs["n_failed"]),
-        loo_error=loo, loo_error_t=loo_t,
-        corrected_loo_error={k: float(v) for k, v in record["corrected_loo_error"].items()},
-        holdout_error={k: float(v) for k, v in record["holdout_error"].items()},
-        compression=record["compression"], info=record["info"], source=record["source"])
-    pce._set_fitted(fit)
-    return pce
