@@ -121,37 +121,62 @@ class MeshExcitation:
             For a torque <= 0, or when the LTCA does not converge at some position (the
             message names them): a load the LTCA cannot carry is never passed on.
         """
-        from gearuq.gears.ltca import ltca, normal_force_from_torque
+        from gearuq.gears.ltca import ltca_setup
+
+        if not (math.isfinite(torque) and torque > 0):
+            raise ValueError(f"torque={torque!r} is outside its valid range (0, inf) N m")
+        setup = ltca_setup(pair, compliance=compliance, positions_per_cycle=positions_per_cycle,
+                           n_pts=n_pts)
+        return cls.from_setup(setup, torque, deviations=deviations, tangent=tangent,
+                              relative_step=relative_step)
+
+    @classmethod
+    def from_setup(
+        cls,
+        setup: Any,
+        torque: float,
+        *,
+        deviations: Any = None,
+        tangent: str = "ltca",
+        relative_step: float = 1e-3,
+    ) -> MeshExcitation:
+        """Like :meth:`from_ltca` on a prepared :func:`gearuq.gears.ltca.ltca_setup`.
+
+        The setup (contact grid and influence blocks) depends only on the pair, the
+        compliance and the discretisation, so many samples (loads, deviations) share it.
+        """
+        from gearuq.gears.ltca import ltca_solve, mesh_summaries, normal_force_from_torque
 
         if not (math.isfinite(torque) and torque > 0):
             raise ValueError(f"torque={torque!r} is outside its valid range (0, inf) N m")
         if tangent not in ("ltca", "finite_difference"):
             raise ValueError(f"tangent={tangent!r} is outside its valid set "
                              "{'ltca', 'finite_difference'}")
+        pair = setup.pair
         P = normal_force_from_torque(pair, torque)
-        kw = dict(deviations=deviations, compliance=compliance,
-                  positions_per_cycle=positions_per_cycle, n_pts=n_pts, keep_points=False)
-        res = ltca(pair, normal_force=P, **kw)
-        _check_ltca(res, torque)
-        ste = res["ste"].values * 1e-6
+        xi = setup.clearance(deviations)
+        sol = ltca_solve(setup, P, xi)
+        _check_ltca(sol.status, setup.grid.tau, torque)
+        summary = mesh_summaries(setup, sol)
+        ste = np.asarray(summary["ste"], dtype=float)
         if tangent == "ltca":
-            k_t = res["lpms_tangent"].values * 1e6
+            k_t = np.asarray(summary["lpms_tangent"], dtype=float)
         else:
             dP = relative_step * P
-            hi = ltca(pair, normal_force=P + dP, **kw)
-            lo = ltca(pair, normal_force=P - dP, **kw)
-            _check_ltca(hi, torque)
-            _check_ltca(lo, torque)
-            k_t = 2.0 * dP / ((hi["ste"].values - lo["ste"].values) * 1e-6)
-        n_cycles = int(round(res["tau"].values[-1] + 1.0 / positions_per_cycle))
+            hi, lo = ltca_solve(setup, P + dP, xi), ltca_solve(setup, P - dP, xi)
+            _check_ltca(hi.status, setup.grid.tau, torque)
+            _check_ltca(lo.status, setup.grid.tau, torque)
+            k_t = 2.0 * dP / (hi.ste - lo.ste)
+        tau = np.asarray(setup.grid.tau, dtype=float)
+        ppc = int(round(1.0 / (tau[1] - tau[0])))
         return cls(
-            tau=res["tau"].values.copy(), stiffness=k_t, error=ste - P / k_t,
-            normal_force=P, n_cycles=n_cycles, ste=ste,
-            secant_stiffness=res["lpms"].values * 1e6, secant_error=res["cms"].values * 1e-6,
-            contact_loss_fraction=res["contact_loss_fraction"].values.copy(),
+            tau=tau.copy(), stiffness=k_t, error=ste - P / k_t, normal_force=P,
+            n_cycles=int(round(tau.size / ppc)), ste=ste,
+            secant_stiffness=np.asarray(summary["lpms"], dtype=float),
+            secant_error=np.asarray(summary["cms"], dtype=float),
+            contact_loss_fraction=np.asarray(summary["contact_loss_fraction"], dtype=float),
             meta={"source": "ltca", "torque_Nm": float(torque), "tangent": tangent,
-                  "positions_per_cycle": int(positions_per_cycle), "n_pts": int(n_pts),
-                  "compliance": str(res.attrs.get("compliance", ""))},
+                  "positions_per_cycle": ppc, "n_pts": int(setup.n_pts)},
         )
 
     @classmethod
@@ -215,10 +240,10 @@ class MeshExcitation:
         return out
 
 
-def _check_ltca(res: Any, torque: float) -> None:
-    bad = np.flatnonzero(np.asarray(res["status"].values) != 0)
+def _check_ltca(status: np.ndarray, tau: np.ndarray, torque: float) -> None:
+    bad = np.flatnonzero(np.asarray(status) != 0)
     if bad.size:
-        taus = ", ".join(f"{t:g}" for t in res["tau"].values[bad[:5]])
+        taus = ", ".join(f"{t:g}" for t in np.asarray(tau)[bad[:5]])
         raise ValueError(
             f"torque={torque!r} N m: the LTCA did not converge at {bad.size} position(s) "
             f"(tau = {taus} ...); this load cannot be carried by the contact model")

@@ -33,8 +33,8 @@ import scipy.linalg as sla
 from gearuq.rotor.excitation import MeshExcitation
 from gearuq.rotor.reduction import ModalModel
 
-__all__ = ["PeriodicSolution", "PreparedExcitation", "prepare_excitation", "solve_periodic",
-           "synthesize"]
+__all__ = ["PeriodicSolution", "PreparedExcitation", "mesh_force_at", "prepare_excitation",
+           "solve_periodic", "synthesize"]
 
 STATUS_CONVERGED = 0
 STATUS_NOT_CONVERGED = 1
@@ -438,3 +438,19 @@ def _smoothed_homotopy(x, max_iter, tol, model, prep, h, backlash):
         width *= 0.5
     x, ok, res, it = _newton(x, 0.0, max_iter, tol, model, prep, h, backlash)
     return x, ok, res, total + it
+
+
+def mesh_force_at(prep: PreparedExcitation, sol: PeriodicSolution, t: np.ndarray,
+                  backlash: float = math.inf) -> np.ndarray:
+    """Mesh force [N] of a periodic solution at any instants ``t`` [s] (exact contact law).
+
+    ``k`` and ``k e`` are the same band-limited series as in the solver.
+    """
+    t = np.asarray(t, dtype=float)
+    k = synthesize(np.asarray(prep.stiffness_harmonics), t, sol.period)
+    ke_hat = np.fft.rfft(prep.ke_grid)[:np.asarray(prep.stiffness_harmonics).size] / prep.n_time
+    ke = synthesize(ke_hat, t, sol.period)
+    F = k * synthesize(sol.delta, t, sol.period) - ke
+    if math.isfinite(backlash):
+        return np.where(F > 0.0, F, np.where(F + k * backlash < 0.0, F + k * backlash, 0.0))
+    return np.maximum(F, 0.0)

@@ -1,0 +1,167 @@
+"""``geared_rotor``: finite-element helical geared rotor with LTCA excitation (seed 002, part 2).
+
+The rotor of seed 002 (Sec. 2.2): two stepped Timoshenko shafts of 13 elements, the 30/30
+helical pair on rigid gear bodies, four rolling-element bearings and the 12-DOF mesh element
+along the normal line of action. Each sample runs the loaded tooth contact analysis of
+``gearuq.gears`` at its torque, with its tip relief and its realisation of the random
+cumulative pitch deviations, linearises the mesh with the tangent stiffness over the long
+period (one shaft revolution of the 30/30 pair), reduces the rotor to the modes below a
+cut-off taken from the excitation band and solves the periodic steady state over the long
+period by harmonic balance on the mesh approach, with contact loss by alternating
+frequency-time Newton iterations. Outputs: dynamic transmission error, mesh force, bearing
+forces and accelerations (in time, as RMS values and as spectra at the shaft orders with
+the mesh harmonics and the sidebands ``f_m +- i f_s`` labelled). Theory, parameter sources
+and the deviations from the seed: docs/theory/geared_rotor.md.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from gearuq.model import Model, Option, Output, Parameter
+
+__all__ = ["GearedRotor"]
+
+_S, _ST, _SO, _SBT = ("sample",), ("sample", "time"), ("sample", "order"), (
+    "sample", "bearing", "time")
+
+_P = Parameter
+_PARAMETERS = (
+    _P("torque", "N m", 1000.0, 10.0, 5000.0, "pinion torque (seed 002: 200-1000 N m)"),
+    _P("speed", "rpm", 4000.0, 1.0, 20000.0,
+       "pinion speed (seed 002: 4000 rpm in Figs. 11-16, 25-8000 rpm in Fig. 17)"),
+    _P("pitch_amplitude", "um", 15.0, 0.0, 200.0,
+       "sine amplitude of the random cumulative pitch deviations (seed 002: 15 um); unused "
+       "when iso_grade > 0"),
+    _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
+       "standard deviation of the pitch scatter (seed 002: 3 um); unused when iso_grade > 0"),
+    _P("iso_grade", "1", 0, 0, 12,
+       "ISO 1328-1 flank tolerance class 1-12 setting amplitude F_pT/2 and sigma "
+       "f_pT/(3 sqrt 2) per gear; 0: use pitch_amplitude and pitch_sigma", integer=True),
+    _P("pitch_seed", "1", 2020.0, 0.0, 2.0**32 - 1.0,
+       "realisation of the random pitch deviations: its integer part seeds "
+       "numpy.random.default_rng (as in mesh_excitation)"),
+    _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
+       "parabolic tip relief e_max on pinion and wheel (seed Eq. 12); 0: unmodified"),
+    _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
+       "tip relief length along the path of contact (LTCA optimum at 1000 N m: 11.4 mm)"),
+    _P("bearing_stiffness", "N m-1", 5.0e8, 1.0e7, 1.0e11,
+       "radial stiffness of each of the four bearings (ours; the seed prints none)"),
+    _P("bearing_axial_stiffness", "N m-1", 2.0e8, 1.0e7, 1.0e11,
+       "axial stiffness of each bearing (ours)"),
+    _P("bearing_damping", "N s m-1", 0.0, 0.0, 1.0e6,
+       "radial and axial viscous damping of each bearing"),
+    _P("damping_ratio", "1", 0.05, 0.0, 0.5,
+       "modal damping ratio of every elastic mode (mesh and structure)"),
+    _P("backlash", "um", 100.0, 0.0, 2000.0,
+       "normal backlash: back-flank contact when the flanks part by more"),
+)
+
+_OUTPUTS = (
+    Output("dte", "m", _ST, "dynamic transmission error: cos(beta_b)(r_b1 theta_p + r_b2 "
+           "theta_g) of the gear bodies, normal direction"),
+    Output("mesh_force", "N", _ST, "dynamic mesh force along the normal line of action"),
+    Output("mesh_approach", "m", _ST, "mesh approach delta = v . q (equals the LTCA STE "
+           "quasi-statically)"),
+    Output("bearing_force_x", "N", _SBT, "bearing reaction force, x (line of centres)"),
+    Output("bearing_force_y", "N", _SBT, "bearing reaction force, y (tangential)"),
+    Output("bearing_force_z", "N", _SBT, "bearing reaction force, z (axial)"),
+    Output("bearing_acceleration_x", "m s-2", _SBT, "shaft acceleration at the bearing, x"),
+    Output("bearing_acceleration_y", "m s-2", _SBT, "shaft acceleration at the bearing, y"),
+    Output("bearing_acceleration_z", "m s-2", _SBT, "shaft acceleration at the bearing, z"),
+    Output("dte_rms", "m", _S, "RMS of the DTE about its mean over the long period"),
+    Output("dte_mean", "m", _S, "mean DTE (static transmission error of the rotor)"),
+    Output("dte_ptp", "m", _S, "peak-to-peak DTE over the long period"),
+    Output("mesh_force_rms", "N", _S, "RMS of the mesh force about its mean"),
+    Output("mesh_force_min", "N", _S, "smallest mesh force (0: contact loss)"),
+    Output("bearing1_acceleration_y_rms", "m s-2", _S,
+           "RMS acceleration at bearing 1 along y (seed Figs. 12, 16)"),
+    Output("contact_loss_fraction", "1", _S, "share of the long period with the teeth apart"),
+    Output("ste_ptp", "m", _S, "peak-to-peak LTCA STE of the excitation"),
+    Output("mesh_frequency", "Hz", _S, "mesh frequency z1 n / 60"),
+    Output("shaft_frequency", "Hz", _S, "pinion shaft frequency n / 60"),
+    Output("dte_spectrum", "m", _SO, "DTE amplitude at the orders of the long period"),
+    Output("mesh_force_spectrum", "N", _SO, "mesh-force amplitude at the same orders"),
+    Output("bearing1_acceleration_y_spectrum", "m s-2", _SO,
+           "bearing-1 y acceleration amplitude at the same orders"),
+)
+
+_O = Option
+_OPTIONS = (
+    _O("n_mesh_harmonics", 4, "mesh harmonics kept in the steady state (H = n x lcm(z1, z2))",
+       kind=int, lower=1, upper=20),
+    _O("cutoff_factor", 1.5, "modes kept up to this factor times the highest harmonic",
+       lower=1.0, upper=50.0),
+    _O("positions_per_cycle", 24, "LTCA positions per mesh cycle (> 2 n_mesh_harmonics)",
+       kind=int, lower=4, upper=400),
+    _O("n_pts", 20, "LTCA points per line of contact", kind=int, lower=2, upper=200),
+    _O("n_sidebands", 3, "sidebands +-i f_s labelled around each mesh harmonic", kind=int,
+       lower=0, upper=14),
+    _O("verify", False, "check contact-loss solutions by time integration (stability)"),
+    _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
+       upper=1e-3),
+    _O("moment_arm", "pitch_point", "mesh element arms: re-derived (pitch point) or as seed "
+       "Eq. 8 prints them (base circles)", choices=("pitch_point", "base_circle")),
+)
+
+
+class GearedRotor(Model):
+    """Finite-element helical geared rotor of seed 002 driven by the LTCA mesh excitation.
+
+    Parameters
+    ----------
+    cache_size : int
+        Number of LTCA excitations and rotor reductions kept between calls (a speed sweep at
+        fixed torque and deviations runs the LTCA once).
+    """
+
+    name = "geared_rotor"
+    description = ("FE helical geared rotor (seed 002): LTCA LPMS/CMS excitation, contact "
+                   "loss, modal reduction, harmonic-balance steady state")
+    version = "1.0"
+    time_units = "s"
+    parameters = _PARAMETERS
+    outputs = _OUTPUTS
+    options = _OPTIONS
+
+    def __init__(self, cache_size: int = 32) -> None:
+        if int(cache_size) != cache_size or cache_size < 0:
+            raise ValueError(f"cache_size={cache_size!r} is outside its valid range: "
+                             "integers >= 0")
+        self.cache_size = int(cache_size)
+        self._cache: dict = {}
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_cache"] = {}  # caches are rebuilt in each process
+        return state
+
+    def settings(self) -> dict[str, Any]:
+        """Construction options (provenance)."""
+        return {"cache_size": self.cache_size}
+
+    @staticmethod
+    def default_space() -> Any:
+        """Random inputs: torque, bearing stiffness, damping, relief and pitch deviations.
+
+        ``torque`` uniform on 800-1200 N m; ``bearing_stiffness`` lognormal (median 5e8 N/m,
+        20 % scatter); ``damping_ratio`` uniform on 0.03-0.08; ``pitch_amplitude`` uniform on
+        5-15 um and ``pitch_sigma`` on 1-3 um; ``pitch_seed`` uniform on [0, 2^32) (the
+        realisation). Speed is a study variable, not a random input.
+        """
+        from gearuq.space import ParameterSpace
+
+        return ParameterSpace({
+            "torque": {"dist": "uniform", "lower": 800.0, "upper": 1200.0},
+            "bearing_stiffness": {"dist": "lognormal", "mu": math.log(5.0e8), "sigma": 0.2},
+            "damping_ratio": {"dist": "uniform", "lower": 0.03, "upper": 0.08},
+            "pitch_amplitude": {"dist": "uniform", "lower": 5.0, "upper": 15.0},
+            "pitch_sigma": {"dist": "uniform", "lower": 1.0, "upper": 3.0},
+            "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 2.0**32 - 1.0},
+        })
+
+    def _evaluate(self, params, t, outputs, **options):
+        from gearuq_plugins.geared_rotor.physics import evaluate
+
+        return evaluate(self, params, t, outputs, **options)

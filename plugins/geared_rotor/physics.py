@@ -1,0 +1,259 @@
+"""Per-sample pipeline of the ``geared_rotor`` plugin: LTCA -> rotor -> steady state -> outputs.
+
+Every sample: the flank deviations of its parameters (pitch-deviation germ shared with the
+``mesh_excitation`` plugin, so one seed gives one realisation in both), the LTCA over the long
+period on a cached contact setup, the tangent linearisation (:class:`MeshExcitation`), the
+seed rotor with the sample's bearings, the modal reduction for its speed and the harmonic-
+balance steady state. LTCA results and rotor reductions are cached per model instance, so a
+speed sweep at fixed torque and deviations runs the LTCA and the eigen-solution once.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from gearuq.model import Evaluation
+
+#: Status codes of this plugin (beyond the shared 0-4).
+STATUS_HB_NOT_CONVERGED = 16
+STATUS_SINGULAR = 17
+STATUS_NO_PERIODIC = 18
+STATUS_LTCA_FAILED = 19
+STATUS_MEANINGS = {
+    STATUS_HB_NOT_CONVERGED: "harmonic_balance_not_converged",
+    STATUS_SINGULAR: "singular_harmonic_balance_system",
+    STATUS_NO_PERIODIC: "no_stable_periodic_response",
+    STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
+}
+_FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
+_BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
+_SEAT_DIAMETER = 0.110  # gear seat of both shafts (seed Sec. 2.2): the gear-blank bore
+
+
+def seed_pair() -> Any:
+    """The helical pair of seed 002, Table 1."""
+    from gearuq.gears.geometry import seed002_pair
+
+    return seed002_pair()
+
+
+def compliance_model(pair: Any) -> Any:
+    """Tooth compliance with the fillet foundation on the real bore (the 110 mm gear seat)."""
+    from gearuq.gears.compliance import ComplianceModel
+
+    return ComplianceModel(pair, bore_ratio=_SEAT_DIAMETER / pair.df1)
+
+
+def sample_deviations(pair: Any, values: dict[str, float]) -> Any:
+    """Flank deviations of one sample: pitch realisation (or ISO grade) and tip relief."""
+    from gearuq.gears.deviations import (
+        FlankDeviations,
+        cumulative_pitch_from_germ,
+        iso1328_pitch_tolerances,
+        pitch_deviation_germ,
+    )
+
+    germ = pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"]))
+    grade = int(values["iso_grade"])
+    fp = []
+    for phase, normals, d in ((germ[0], germ[1], pair.d1), (germ[2], germ[3], pair.d2)):
+        if grade > 0:
+            f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
+            amp, sigma = 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
+        else:
+            amp, sigma = values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
+        fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
+    amount, length = values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3
+    tip = (amount, length) if amount > 0 else None
+    return FlankDeviations(Fp1=fp[0], Fp2=fp[1], tip_relief1=tip, tip_relief2=tip)
+
+
+def _cached(model: Any, key: tuple, build: Any) -> Any:
+    cache = model._cache
+    if key in cache:
+        cache[key] = cache.pop(key)  # most recently used last
+        return cache[key]
+    value = build()
+    if model.cache_size:
+        cache[key] = value
+        while len(cache) > model.cache_size + 1:  # +1: the setup entry stays
+            oldest = next(k for k in cache if k[0] != "setup")
+            cache.pop(oldest)
+    return value
+
+
+_LTCA_KEYS = ("torque", "pitch_amplitude", "pitch_sigma", "iso_grade", "pitch_seed",
+              "tip_relief_amount", "tip_relief_length")
+_ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping",
+               "damping_ratio", "backlash")
+
+
+def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -> Any:
+    """The :class:`GearedRotorProblem` of one sample (LTCA and reduction cached)."""
+    from gearuq.gears.ltca import ltca_setup
+    from gearuq.rotor.examples import seed002_rotor
+    from gearuq.rotor.excitation import MeshExcitation
+    from gearuq.rotor.geared import GearedRotorProblem
+
+    pair = seed_pair()
+    ppc, n_pts = options["positions_per_cycle"], options["n_pts"]
+    setup = _cached(model, ("setup", ppc, n_pts),
+                    lambda: ltca_setup(pair, compliance=compliance_model(pair),
+                                       positions_per_cycle=ppc, n_pts=n_pts))
+    lkey = ("ltca", ppc, n_pts) + tuple(values[k] for k in _LTCA_KEYS)
+    excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
+        setup, values["torque"], deviations=sample_deviations(pair, values)))
+    H = options["n_mesh_harmonics"] * excitation.n_cycles
+    rkey = ("rotor", H, options["cutoff_factor"], options["moment_arm"]) + lkey + tuple(
+        values[k] for k in _ROTOR_KEYS)
+
+    def build() -> Any:
+        def factory(k: float) -> Any:
+            return seed002_rotor(
+                k, pair=pair, bearing_radial_stiffness=values["bearing_stiffness"],
+                bearing_axial_stiffness=values["bearing_axial_stiffness"],
+                bearing_damping=values["bearing_damping"], moment_arm=options["moment_arm"])
+
+        return GearedRotorProblem(factory, excitation, pair.z1,
+                                  damping_ratio=values["damping_ratio"], n_harmonics=H,
+                                  cutoff_factor=options["cutoff_factor"],
+                                  backlash=values["backlash"] * 1e-6)
+
+    return _cached(model, rkey, build)
+
+
+def order_coordinates(H: int, n_cycles: int, z1: int, n_sidebands: int) -> dict[str, tuple]:
+    """Coordinates of the ``order`` dimension: index, pinion order and a readable label."""
+    j = np.arange(H + 1)
+    labels = []
+    for k in j:
+        mesh, side = divmod(int(k), n_cycles)
+        if side > n_cycles // 2:
+            mesh, side = mesh + 1, side - n_cycles
+        if mesh >= 1 and side == 0:
+            labels.append("f_m" if mesh == 1 else f"{mesh} f_m")
+        elif mesh >= 1 and abs(side) <= n_sidebands:
+            m = "f_m" if mesh == 1 else f"{mesh} f_m"
+            labels.append(f"{m} {'+' if side > 0 else '-'} {abs(side)} f_s")
+        else:
+            labels.append("0" if k == 0 else ("f_s" if k == 1 else f"{k} f_s"))
+    return {
+        "order": ("order", j, {"long_name": "harmonic of the long period (one pinion "
+                               "revolution for the 30/30 pair)", "units": "1"}),
+        "pinion_order": ("order", j * z1 / n_cycles, {"units": "1",
+                         "long_name": "frequency / pinion shaft frequency"}),
+        "order_label": ("order", np.array(labels), {
+            "long_name": "f_s shaft frequency, f_m mesh frequency, sidebands f_m +- i f_s"}),
+    }
+
+
+def _amplitudes(c: np.ndarray) -> np.ndarray:
+    amp = 2.0 * np.abs(c)
+    amp[0] = abs(c[0].real)
+    return amp
+
+
+def _rms(c: np.ndarray) -> float:
+    return float(math.sqrt(2.0 * np.sum(np.abs(c[1:]) ** 2)))
+
+
+def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs: list[str],
+                 speed: float) -> None:
+    from gearuq.rotor.harmonic_balance import mesh_force_at, synthesize
+
+    T = sol.period
+    ch = sol.channels
+    grid = np.arange(prob.prep.n_time) * T / prob.prep.n_time
+    scalars = {
+        "dte_rms": _rms(ch["dte"]), "dte_mean": float(ch["dte"][0].real),
+        "dte_ptp": float(np.ptp(synthesize(ch["dte"], grid, T))),
+        "mesh_force_rms": _rms(sol.force), "mesh_force_min": sol.min_force,
+        "bearing1_acceleration_y_rms": _rms(ch["bearing 1 acceleration y"]),
+        "contact_loss_fraction": sol.contact_loss_fraction,
+        "ste_ptp": float(np.ptp(prob.excitation.ste)),
+        "mesh_frequency": prob.pinion_teeth * speed / 60.0, "shaft_frequency": speed / 60.0,
+    }
+    for name in outputs:
+        if name in scalars:
+            data[name][i] = scalars[name]
+        elif name == "dte":
+            data[name][i] = synthesize(ch["dte"], t, T)
+        elif name == "mesh_approach":
+            data[name][i] = synthesize(sol.delta, t, T)
+        elif name == "mesh_force":
+            data[name][i] = mesh_force_at(prob.prep, sol, t, prob.backlash)
+        elif name.startswith(("bearing_force_", "bearing_acceleration_")):
+            kind, axis = ("force", name[-1]) if "force" in name else ("acceleration", name[-1])
+            for b, label in enumerate(_BEARINGS):
+                data[name][i, b] = synthesize(ch[f"{label} {kind} {axis}"], t, T)
+        elif name == "dte_spectrum":
+            data[name][i] = _amplitudes(ch["dte"])
+        elif name == "mesh_force_spectrum":
+            data[name][i] = _amplitudes(sol.force)
+        elif name == "bearing1_acceleration_y_spectrum":
+            data[name][i] = _amplitudes(ch["bearing 1 acceleration y"])
+
+
+def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str],
+             **options: Any) -> Evaluation:
+    """Run every sample; failures are flagged per sample (NaN outputs), never dropped."""
+    from gearuq.gears.contact import long_period_cycles
+    from gearuq.rotor.geared import single_threaded_blas
+
+    pair = seed_pair()
+    n_cycles = long_period_cycles(pair)
+    H = options["n_mesh_harmonics"] * n_cycles
+    if 2 * options["n_mesh_harmonics"] >= options["positions_per_cycle"]:
+        raise ValueError(
+            f"n_mesh_harmonics={options['n_mesh_harmonics']} needs positions_per_cycle > "
+            f"{2 * options['n_mesh_harmonics']} (got {options['positions_per_cycle']}): the "
+            "LTCA samples must resolve the harmonics kept")
+    n = next(iter(params.values())).shape[0]
+    shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
+                                    for d in o.dims[1:]) for o in model.outputs}
+    data = {name: np.full(shapes[name], np.nan) for name in outputs}
+    status = np.zeros(n, dtype=np.int8)
+    extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
+                                              "drift")}
+    branch = np.full(n, -1, dtype=np.int8)
+    with single_threaded_blas():
+        for i in range(n):
+            values = {k: float(v[i]) for k, v in params.items()}
+            try:
+                prob = problem_for(model, values, options)
+            except ValueError:
+                status[i] = STATUS_LTCA_FAILED
+                continue
+            sol = prob.steady_state(values["speed"], tol=options["tol"])
+            if options["verify"] and sol.branch != "full_contact" and sol.status in (0, 1):
+                sol = prob.verify(sol, values["speed"])
+            status[i] = _FROM_SOLVER[sol.status]
+            extra["n_modes"][i] = prob.reduced(values["speed"]).n_modes
+            extra["hb_iterations"][i] = sol.iterations
+            extra["hb_residual"][i] = sol.residual
+            extra["drift"][i] = sol.drift
+            branch[i] = {"full_contact": 0, "contact_loss": 1, "back_flank_contact": 2}[
+                sol.branch]
+            if status[i] in (0, STATUS_NO_PERIODIC):
+                _fill_sample(data, i, sol, prob, t, outputs, values["speed"])
+    coords = {"bearing": ("bearing", np.array(_BEARINGS), {})}
+    coords.update(order_coordinates(H, n_cycles, pair.z1, options["n_sidebands"]))
+    return Evaluation(
+        data=data, status=status, status_meanings=STATUS_MEANINGS, coords=coords,
+        extra={
+            "n_modes": ("sample", extra["n_modes"], {"units": "1",
+                        "long_name": "modes kept by the reduction"}),
+            "hb_iterations": ("sample", extra["hb_iterations"], {"units": "1"}),
+            "hb_residual": ("sample", extra["hb_residual"], {"units": "1"}),
+            "stability_drift": ("sample", extra["drift"], {"units": "1", "long_name":
+                                "time-integration check (NaN: not checked)"}),
+            "branch": ("sample", branch, {"flag_values": np.array([-1, 0, 1, 2], np.int8),
+                       "flag_meanings": "not_solved full_contact contact_loss "
+                       "back_flank_contact", "units": "1"}),
+        },
+        attrs={"n_harmonics": H, "long_period_mesh_cycles": n_cycles,
+               "solver": "harmonic balance on the mesh approach (AFT for contact loss)"},
+    )

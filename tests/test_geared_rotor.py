@@ -1,0 +1,126 @@
+"""The ``geared_rotor`` plugin: contract, quasi-static limit with the LTCA, spectra, flags."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from gearuq.testing import check_model
+from gearuq_plugins.geared_rotor import GearedRotor
+
+#: A coarse discretisation keeps the contract checks fast (the physics is the same).
+COARSE = {"positions_per_cycle": 8, "n_pts": 6, "n_mesh_harmonics": 2}
+
+
+@pytest.fixture(scope="module")
+def model() -> GearedRotor:
+    return GearedRotor()
+
+
+@pytest.fixture(autouse=True)
+def _quiet():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", category=UserWarning)
+        yield
+
+
+def test_conformance(model):
+    ds = check_model(model, np.linspace(0.0, 0.02, 9), options=COARSE)
+    assert set(ds["order_label"].values[[30, 29, 31, 60]]) == {
+        "f_m", "f_m - 1 f_s", "f_m + 1 f_s", "2 f_m"}
+    assert ds["bearing_force_y"].dims == ("sample", "bearing", "time")
+    assert np.all(ds["status"].values == 0)
+
+
+def test_quasi_static_dte_equals_static_te_of_the_assembled_rotor(model):
+    """25 rpm: the DTE follows the position-wise static TE (LTCA excitation, full FE statics)."""
+    from gearuq.rotor.geared import single_threaded_blas
+    from gearuq_plugins.geared_rotor.physics import problem_for
+
+    opts = {**COARSE, "positions_per_cycle": 16, "n_mesh_harmonics": 7}
+    values = {p.name: p.nominal for p in model.parameters}
+    values["speed"] = 25.0
+    options = model.validate_options(opts)
+    prob = problem_for(model, values, options)
+    ex = prob.excitation
+    rotor, v = prob.rotor, prob.rotor.mesh_vector()
+    te, K = rotor.transmission_error_vector(), rotor.K()
+    idx = np.arange(0, ex.tau.size, 4)
+    with single_threaded_blas():
+        static = np.array([
+            te @ rotor.static(prob.load + ex.stiffness[i] * ex.error[i] * v,
+                              stiffness=K + (ex.stiffness[i] - ex.mean_stiffness) * np.outer(v, v))
+            for i in idx])
+    t = ex.tau[idx] / (30 * 25.0 / 60.0)
+    ds = model.response({"speed": [25.0]}, t, outputs=["dte", "mesh_approach"], **opts)
+    # the band-limited steady state of a step-like excitation: within 2 % of its range
+    assert np.abs(ds["dte"].values[0] - static).max() < 0.02 * np.ptp(static)
+    assert np.abs(ds["mesh_approach"].values[0] - ex.ste[idx]).max() < 0.02 * np.ptp(ex.ste)
+    # shaft and bearing compliance add to the LTCA STE
+    assert ds["dte"].values[0].mean() > 3.0 * ex.ste.mean()
+
+
+def test_rms_and_spectrum_agree_with_the_time_signal(model):
+    ds = model.response({"speed": [3000.0]}, None, outputs=["dte_rms", "dte_spectrum",
+                                                            "dte_mean"], **COARSE)
+    period = 60.0 / 3000.0
+    n = 512
+    t = np.arange(n) * period / n
+    sig = model.response({"speed": [3000.0]}, t, outputs=["dte"], **COARSE)["dte"].values[0]
+    assert ds["dte_rms"].values[0] == pytest.approx(sig.std(), rel=1e-10)
+    assert ds["dte_mean"].values[0] == pytest.approx(sig.mean(), rel=1e-12)
+    amp = 2 * np.abs(np.fft.rfft(sig)) / n
+    np.testing.assert_allclose(ds["dte_spectrum"].values[0, 1:61], amp[1:61],
+                               atol=1e-9 * amp.max())
+
+
+def test_tip_relief_lowers_the_mesh_harmonic(model):
+    """Seed 002 Sec. 3.2: relief reduces the mesh-frequency DTE (no pitch deviations)."""
+    base = {"pitch_amplitude": [0.0, 0.0], "pitch_sigma": [0.0, 0.0], "speed": [2000.0] * 2,
+            "tip_relief_amount": [0.0, 42.0]}
+    opts = {**COARSE, "positions_per_cycle": 16, "n_pts": 10}
+    ds = model.response(base, None, outputs=["dte_spectrum", "ste_ptp"], **opts)
+    fm = ds["dte_spectrum"].sel(order=30).values
+    assert fm[1] < 0.3 * fm[0]
+    assert ds["ste_ptp"].values[1] < 0.3 * ds["ste_ptp"].values[0]
+
+
+def test_a_failing_ltca_sample_is_flagged_not_dropped(model, monkeypatch):
+    from gearuq.rotor import excitation
+
+    original = excitation.MeshExcitation.from_setup.__func__
+
+    def failing(cls, setup, torque, **kw):
+        if torque > 4000.0:
+            raise ValueError(f"torque={torque!r} N m: the LTCA did not converge")
+        return original(cls, setup, torque, **kw)
+
+    monkeypatch.setattr(excitation.MeshExcitation, "from_setup", classmethod(failing))
+    fresh = GearedRotor(cache_size=0)
+    ds = fresh.response({"torque": [1000.0, 4500.0]}, None, outputs=["dte_rms"], **COARSE)
+    assert list(ds["status"].values) == [0, 19]
+    assert np.isfinite(ds["dte_rms"].values[0]) and np.isnan(ds["dte_rms"].values[1])
+    assert "ltca_cannot_carry_the_load" in ds["status"].attrs["flag_meanings"]
+
+
+def test_bad_inputs_raise_with_names(model):
+    with pytest.raises(ValueError, match="speed"):
+        model.response({"speed": [0.0]}, None, outputs=["dte_rms"], **COARSE)
+    with pytest.raises(ValueError, match="torque"):
+        model.response({"torque": [-5.0]}, None, outputs=["dte_rms"], **COARSE)
+    with pytest.raises(ValueError, match="n_mesh_harmonics"):
+        model.response({}, None, outputs=["dte_rms"], positions_per_cycle=8,
+                       n_mesh_harmonics=5)
+    with pytest.raises(ValueError, match="n_harmonic"):
+        model.response({}, None, outputs=["dte_rms"], n_harmonic=3)
+
+
+def test_model_pickles_without_its_cache(model):
+    import pickle
+
+    model.response({}, None, outputs=["dte_rms"], **COARSE)
+    assert model._cache
+    clone = pickle.loads(pickle.dumps(model))
+    assert clone._cache == {} and clone.cache_size == model.cache_size
