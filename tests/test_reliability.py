@@ -1,4 +1,6 @@
-"""Tests of gearuq.reliability: intervals, beta, bands, system and first-passage estimates."""
+"""Tests of gearuq.probability (the module behind ``gearuq.reliability``): intervals, beta,
+bands, limit states, system and first-passage estimates, streaming, design labels, and the
+one entry point ``failure_probability`` with its report form."""
 
 from __future__ import annotations
 
@@ -10,7 +12,7 @@ import xarray as xr
 from scipy import stats
 
 from gearuq.model import FunctionModel
-from gearuq.reliability import (
+from gearuq.probability import (
     Band,
     beta_from_pf,
     clopper_pearson_interval,
@@ -422,10 +424,192 @@ def test_netcdf_round_trip(tmp_path):
     assert np.all(np.isfinite(back["beta"].values))
 
 
-def test_package_attribute_is_callable_in_any_import_order():
+# =========================================================================== naming
+def test_reliability_is_the_function_and_probability_the_module():
+    import importlib
+
     import gearuq
 
     ds = _dataset({"y": [0.0, 2.0]})
     res = gearuq.reliability(ds, Band("y", upper=1.0))
     assert float(res["pf"].sel(mode="y")) == 0.5
     assert gearuq.Band is Band
+    module = importlib.import_module("gearuq.probability")
+    assert module.reliability is reliability
+    # the transitional alias keeps old imports working and stays callable in any order
+    from gearuq.reliability import Band as OldBand  # noqa: F401
+
+    assert float(gearuq.reliability(ds, Band("y", upper=1.0))["pf"].sel(mode="y")) == 0.5
+
+
+# =========================================================================== limit states
+def test_limit_state_boundary_fails_where_band_limit_is_safe():
+    """g = max(x, 0) with x ~ N(0, 1): P(g <= 0) = 0.5; a band [0, inf) on g says 0."""
+    from gearuq.limitstate import LimitState
+
+    rng = np.random.default_rng(21)
+    x = rng.standard_normal(20_000)
+    ds = _dataset({"g": np.maximum(x, 0.0)})
+    res = reliability(ds, [LimitState.output("g"), Band("g", lower=0.0, name="band")],
+                      system=False)
+    k_ls = int(res["n_failures"].sel(mode="g"))
+    assert k_ls == int(np.sum(x <= 0))
+    assert float(res["pf_lower"].sel(mode="g")) <= 0.5 <= float(res["pf_upper"].sel(mode="g"))
+    assert int(res["n_failures"].sel(mode="band")) == 0
+    assert "boundary fails" in str(res["definition"].sel(mode="g").values)
+
+
+def test_limit_state_and_system_modes_match_counts():
+    from gearuq.limitstate import LimitState, ParallelSystem, SeriesSystem
+
+    rng = np.random.default_rng(22)
+    n = 5000
+    a, b = rng.standard_normal(n), rng.standard_normal(n)
+    ds = _dataset({"a": a, "b": b})
+    la, lb = LimitState.upper("a", 1.0), LimitState.lower("b", -0.5)
+    res = reliability(ds, [SeriesSystem([la, lb], name="s"), ParallelSystem([la, lb], name="p")],
+                      system=False)
+    assert int(res["n_failures"].sel(mode="s")) == int(np.sum((a >= 1.0) | (b <= -0.5)))
+    assert int(res["n_failures"].sel(mode="p")) == int(np.sum((a >= 1.0) & (b <= -0.5)))
+
+
+# =========================================================================== streaming
+def test_streamed_result_equals_in_memory_bit_for_bit(tmp_path):
+    """monte_carlo(..., store=...) returns a dask-backed result; reliability reads it one
+    chunk at a time and gives exactly the in-memory numbers."""
+    import gearuq
+    from gearuq.limitstate import LimitState
+
+    def response(a, b, t):
+        return {"y": a[:, None] * np.sin(t[None, :] + b[:, None]),
+                "s": a + b}
+
+    model = FunctionModel(response, ["a", "b"], [gearuq.Output("y", "m"),
+                                                 gearuq.Output("s", "m", ("sample",))],
+                          name="stream_check")
+    space = gearuq.ParameterSpace.normal(a=(1.0, 0.5), b=(0.0, 1.0))
+    t = np.linspace(0.0, 6.0, 13)
+    kw = {"n_samples": 3000, "rng": 5, "executor": "serial", "chunk_size": 700}
+    mem = gearuq.monte_carlo(model, space, t, **kw)
+    lazy = gearuq.monte_carlo(model, space, t, store=tmp_path / "run", **kw)
+    assert lazy["y"].chunks is not None and len(lazy["y"].chunks[0]) == 5
+    bands = [Band("y", -1.2, 1.2), Band("s", upper=2.0), LimitState.upper("y", 1.5, name="ls")]
+    a = reliability(mem, bands)
+    b = reliability(lazy, bands)
+    xr.testing.assert_identical(a, b)
+    for var in a.data_vars:  # bit for bit, not just close
+        np.testing.assert_array_equal(a[var].values, b[var].values)
+
+
+def test_blocks_follow_the_stored_chunks(tmp_path):
+    from gearuq.probability import _sample_blocks
+
+    ds = _dataset({"y": np.zeros((10, 2))}, time=[0.0, 1.0]).chunk({"sample": 4})
+    assert _sample_blocks(ds, ["y"], 10, 2) == [(0, 4), (4, 8), (8, 10)]
+    assert _sample_blocks(ds.load(), ["y"], 10, 2) == [(0, 10)]
+
+
+# =========================================================================== design labels
+@pytest.mark.parametrize(("rule", "word"), [("random", "valid"), ("lhs", "conservative"),
+                                            ("sobol", "not guaranteed")])
+def test_interval_labelled_by_design_rule(rule, word):
+    ds = _dataset({"y": np.linspace(-3, 3, 64)})
+    ds.attrs["rule"] = rule
+    res = reliability(ds, Band("y", upper=2.0))
+    assert res.attrs["interval_validity"].startswith(word)
+    assert res.attrs["design_rule"] == rule
+
+
+# =========================================================================== grid check
+def test_first_passage_grid_check_flags_a_coarse_grid():
+    """Random-phase harmonic over 10 time units: 9 instants miss crossings (the first-passage
+    estimate is ~23 % low, its interval excludes the exact value); 201 instants resolve it."""
+    from gearuq.testing.reliability_problems import random_phase, random_phase_first_passage
+
+    rng = np.random.default_rng(31)
+    x1, x2 = rng.standard_normal(40_000), rng.standard_normal(40_000)
+    exact = random_phase_first_passage(2.0, 10.0)
+    flags = {}
+    for n_t in (9, 201):
+        t = np.linspace(0.0, 10.0, n_t)
+        ds = _dataset({"y": random_phase(x1, x2, t)["y"]}, time=t)
+        m = reliability(ds, Band("y", upper=2.0), system=False).sel(mode="y")
+        fp_upper = float(m["pf_first_passage_upper"].isel(time=-1))
+        flags[n_t] = (int(m["first_passage_grid_warning"]), fp_upper, float(
+            m["pf_first_passage_grid_gap"]))
+    assert flags[9][1] < exact  # the coarse grid's interval excludes the truth ...
+    assert flags[9][1] + flags[9][2] < exact  # ... and the half-grid gap misses it (aliasing)
+    assert flags[201][0] == 0
+    lo = float(m["pf_first_passage_lower"].isel(time=-1))
+    assert lo <= exact <= flags[201][1]
+
+
+# =========================================================================== entry point
+def _offset():
+    from gearuq.testing.reliability_problems import offset_model, offset_space
+
+    return offset_model(), offset_space()
+
+
+def test_crude_mc_reports_a_bound_never_zero():
+    """g = 4.5 - x1 (Pf = 3.4e-6) with 10^4 runs: no failure, pf is the Wilson upper bound
+    (flagged), not 0."""
+    from gearuq.engines.failure import failure_probability
+    from gearuq.testing.reliability_problems import OFFSET_PF
+
+    model, space = _offset()
+    rep = failure_probability(model, space, "g", method="mc", rng=1, executor="serial")
+    assert int(rep["pf_is_upper_bound"]) == 1 and int(rep["status"]) == 4
+    assert float(rep["pf"]) == float(rep["pf_upper"]) > 0
+    assert float(rep["pf_upper"]) == pytest.approx(Z975**2 / (1e4 + Z975**2), rel=1e-12)
+    assert float(rep["pf_upper"]) / OFFSET_PF > 100  # honest but 113x the truth
+    assert int(rep["n_model_runs"]) == 10_000
+
+
+@pytest.mark.parametrize("rule", ["lhs", "sobol"])
+def test_replicated_designs_give_a_real_interval(rule):
+    from gearuq.engines.failure import failure_probability
+    from gearuq.testing.problems import FOUR_BRANCH_PF, four_branch_model, standard_normal_space
+
+    rep = failure_probability(four_branch_model(), standard_normal_space(2), "g", method="mc",
+                              rule=rule, n_samples=8192, replicates=8, rng=3,
+                              executor="serial")
+    assert "Student-t over 8" in rep.attrs["interval_kind"]
+    assert float(rep["pf_lower"]) <= FOUR_BRANCH_PF <= float(rep["pf_upper"])
+    assert int(rep["n_model_runs"]) == 8 * 8192
+
+
+def test_one_report_form_for_every_method():
+    from gearuq.engines.failure import failure_probability
+
+    model, space = _offset()
+    common = {"pf", "pf_lower", "pf_upper", "cov_pf", "beta", "beta_lower", "beta_upper",
+              "n_model_runs", "n_invalid", "wall_time", "status", "pf_is_upper_bound"}
+    settings = {"mc": {"n_samples": 2000}, "form": {}, "sorm": {},
+                "importance": {"n_samples": 500, "max_samples": 500},
+                "subset": {"n_per_level": 300}, "akmcs": {"n_mc": 2000, "max_mc": 2000}}
+    for method, kw in settings.items():
+        rep = failure_probability(model, space, "g", method=method, rng=2, executor="serial",
+                                  **kw)
+        assert common <= set(rep.data_vars), method
+        assert rep.attrs["method"] == method
+        assert rep.attrs["engine"] == "failure_probability"
+        assert "interval_kind" in rep.attrs and "settings" in rep.attrs
+        assert int(rep["n_model_runs"]) > 0
+
+
+def test_entry_point_bad_input():
+    from gearuq.engines.failure import failure_probability
+    from gearuq.limitstate import LimitState
+
+    model, space = _offset()
+    with pytest.raises(ValueError, match=r"unknown output\(s\) 'nope'.*valid outputs: g"):
+        failure_probability(model, space, LimitState.upper("nope", 1.0), method="form")
+    with pytest.raises(ValueError, match="method: unknown 'magic'; valid: mc, form"):
+        failure_probability(model, space, "g", method="magic")
+    with pytest.raises(ValueError, match=r"unknown setting\(s\) 'n_sample'.*valid: n_samples"):
+        failure_probability(model, space, "g", method="mc", n_sample=10)
+    with pytest.raises(ValueError, match="ambiguous"):
+        failure_probability(model, space, ["g", "g"], method="form")
+    with pytest.raises(ValueError, match="confidence"):
+        failure_probability(model, space, "g", confidence=1.5)

@@ -1,0 +1,385 @@
+"""FORM and SORM in the standard normal space of a :class:`~gearuq.space.ParameterSpace`.
+
+FORM looks for the design point ``u*``, the point of the failure domain ``G(u) <= 0`` nearest
+the origin of the independent standard normal space, with the improved HLRF algorithm
+(Zhang and Der Kiureghian 1995): the HLRF step direction, a merit function
+``m(u) = |u|^2 / 2 + c |G(u)|`` with ``c = 2 max(|u|, |u_HLRF|) / |grad G|`` and Armijo
+backtracking. Gradients are batched finite differences: one design of ``d`` (forward) or ``2d``
+(central) points evaluated as one chunk through the executor; a point that would leave the
+model's valid range is replaced by the opposite one-sided difference. Several starting points
+(the origin, then points on a sphere) find several design points when the limit state has them;
+the report says so and adds the series-system FORM estimate over all of them.
+
+``beta = |u*|`` (negative when the origin fails), ``pf_FORM = Phi(-beta)``; importance factors
+``gamma^2`` with ``gamma = L^-T alpha / |L^-T alpha|`` (Der Kiureghian 2005), and parameter
+sensitivities ``d beta / d mean_i`` and ``d beta / d std_i`` for a shift and a scaling of each
+marginal about its mean (``d beta / d theta = alpha . d u / d theta`` at fixed ``x*``).
+
+SORM fits the principal curvatures ``kappa_i`` of the limit state at ``u*`` from a central
+finite-difference Hessian (``2 d^2`` runs) rotated into the tangent plane, and reports the
+formulas of Breitung (1984), Hohenbichler and Rackwitz (1988) and Tvedt (1990). All work with
+correlated inputs, because the correlation is inside the map from ``u`` to ``x``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import linalg, stats
+
+from gearuq.engines.failure import LimitStateEvaluator, failure_report
+from gearuq.model import Option
+
+__all__ = ["FORM_SETTINGS", "SORM_SETTINGS", "run_form", "design_point_search",
+           "sorm_probabilities"]
+
+FORM_SETTINGS = (
+    Option("n_starts", 1, "starting points: the origin, then points on a sphere of radius "
+           "start_radius in random directions", lower=1),
+    Option("start_radius", 3.0, "radius of the extra starting points (standard normal space)",
+           lower=0.0),
+    Option("fd_step", 1e-4, "finite-difference step in the standard normal space (raise it "
+           "for noisy models, e.g. ODE solutions)", lower=1e-12, upper=1.0),
+    Option("fd_scheme", "forward", "finite differences: forward (d runs) or central (2d)",
+           choices=("forward", "central")),
+    Option("tol_u", 1e-4, "convergence: |u - (alpha.u) alpha| below this", lower=1e-14,
+           upper=1.0),
+    Option("tol_g", 1e-4, "convergence: |G| below this times |G(start)|", lower=1e-14,
+           upper=1.0),
+    Option("max_iter", 50, "iterations per starting point", lower=1),
+    Option("max_line_search", 8, "Armijo step halvings per iteration", lower=0),
+    Option("distinct", 0.1, "two design points differ if further apart than this times "
+           "max(1, beta)", lower=0.0),
+)
+SORM_SETTINGS = FORM_SETTINGS + (
+    Option("hessian_step", 1e-3, "finite-difference step of the Hessian (standard space)",
+           lower=1e-8, upper=1.0),
+    Option("formula", "tvedt", "SORM formula reported as pf",
+           choices=("tvedt", "hohenbichler", "breitung")),
+)
+
+_NOT_STATISTICAL = ("none: FORM/SORM are asymptotic approximations without a statistical "
+                    "interval; their error is checked against references in docs/reliability.md")
+
+
+# =========================================================================== gradients
+def _gradient(ev: LimitStateEvaluator, u: np.ndarray, g_u: float | None, s: Mapping[str, Any],
+              tag: str) -> tuple[float, np.ndarray, str]:
+    """Value (when ``g_u`` is None) and finite-difference gradient at ``u``: one design.
+
+    Returns ``(g(u), grad, error)``; ``error`` is non-empty when a point failed.
+    """
+    d, h = ev.dim, s["fd_step"]
+    steps = np.eye(d) * h
+    if s["fd_scheme"] == "central":
+        plus, minus = u + steps, u - steps
+        ok_p, ok_m = ev.in_range(plus), ev.in_range(minus)
+        pts = [plus, minus]
+        kind = np.where(ok_p & ok_m, 0, np.where(ok_p, 1, np.where(ok_m, -1, 9)))
+    else:
+        plus = u + steps
+        ok_p = ev.in_range(plus)
+        minus = u - steps
+        pts = [np.where(ok_p[:, None], plus, minus)]
+        kind = np.where(ok_p, 1, np.where(ev.in_range(minus), -1, 9))
+    if np.any(kind == 9):
+        j = int(np.flatnonzero(kind == 9)[0])
+        msg = ev.outside_range((u + steps)[j:j + 1]) + ev.outside_range((u - steps)[j:j + 1])
+        raise ValueError(f"FORM gradient at u = {u}: both finite-difference points of "
+                         f"{ev.names[j]!r} leave the model's valid range ({msg[0]}); lower "
+                         "fd_step or truncate the marginal")
+    head = [] if g_u is not None else [u[None, :]]
+    design = np.vstack(head + pts)
+    res = ev.evaluate(design, tag)
+    g = res["g"]
+    if g_u is None:
+        g_u, g = float(g[0]), g[1:]
+    if not np.all(np.isfinite(g)) or not math.isfinite(g_u):
+        return g_u, np.full(d, np.nan), (f"model failed at the design of {tag} near u = {u} "
+                                         f"(x = {_x_text(ev, u)})")
+    if s["fd_scheme"] == "central":
+        gp, gm = g[:d], g[d:]
+        grad = np.where(kind == 0, (gp - gm) / (2 * h),
+                        np.where(kind == 1, (gp - g_u) / h, (g_u - gm) / h))
+    else:
+        grad = np.where(kind == 1, (g - g_u) / h, (g_u - g) / h)
+    return g_u, grad, ""
+
+
+def _x_text(ev: LimitStateEvaluator, u: np.ndarray) -> str:
+    x = ev.to_physical(u[None, :])
+    return ", ".join(f"{n}={x[n][0]:.6g}" for n in ev.names)
+
+
+# =========================================================================== iHLRF
+def design_point_search(ev: LimitStateEvaluator, u0: np.ndarray, s: Mapping[str, Any],
+                        tag: str, g0: float | None = None) -> dict[str, Any]:
+    """iHLRF search from ``u0``.
+
+    Returns
+    -------
+    dict
+        ``u``, ``g``, ``grad``, ``converged`` (bool), ``iterations``, ``error`` (str).
+    """
+    u = np.asarray(u0, dtype=float).copy()
+    g, grad, err = _gradient(ev, u, g0, s, f"{tag}/it0")
+    out = {"u": u, "g": g, "grad": grad, "converged": False, "iterations": 0, "error": err,
+           "g_start": g}
+    if err:
+        return out
+    scale = abs(g) if g != 0 else 1.0
+    for it in range(1, s["max_iter"] + 1):
+        norm = float(np.linalg.norm(grad))
+        if not norm > 0:
+            out["error"] = f"zero gradient at u = {u}; the limit state is flat there"
+            return out
+        alpha = -grad / norm
+        if abs(g) <= s["tol_g"] * scale and np.linalg.norm(u - (alpha @ u) * alpha) <= s["tol_u"]:
+            out.update(u=u, g=g, grad=grad, converged=True, iterations=it - 1)
+            return out
+        u_hlrf = ((grad @ u - g) / norm**2) * grad
+        direction = u_hlrf - u
+        c = 2.0 * max(np.linalg.norm(u), np.linalg.norm(u_hlrf)) / norm + 1e-12
+        merit = 0.5 * u @ u + c * abs(g)
+        slope = (u + c * math.copysign(1.0, g) * grad) @ direction
+        step, u_new, g_new = 1.0, u, g
+        for _ in range(s["max_line_search"] + 1):
+            u_try = u + step * direction
+            g_try = float(ev.evaluate(u_try[None, :], f"{tag}/it{it}/step{step:g}")["g"][0])
+            if math.isfinite(g_try):
+                u_new, g_new = u_try, g_try
+                if 0.5 * u_try @ u_try + c * abs(g_try) <= merit + 0.5 * step * min(slope, 0.0):
+                    break
+            step *= 0.5
+        if u_new is u:
+            out.update(error=f"model failed at every line-search point from u = {u}")
+            return out
+        u, g = u_new, g_new
+        g, grad, err = _gradient(ev, u, g, s, f"{tag}/it{it}/grad")
+        out.update(u=u, g=g, grad=grad, iterations=it)
+        if err:
+            out["error"] = err
+            return out
+    return out
+
+
+def _distinct(points: list[dict[str, Any]], tol: float) -> list[dict[str, Any]]:
+    """Converged design points, nearest first, duplicates removed."""
+    found: list[dict[str, Any]] = []
+    for p in sorted(points, key=lambda p: abs(p["beta"])):
+        if all(np.linalg.norm(p["u"] - q["u"]) > tol * max(1.0, abs(q["beta"]))
+               for q in found):
+            found.append(p)
+    return found
+
+
+def _series_form(found: list[dict[str, Any]]) -> float:
+    """Series-system FORM over several design points: ``1 - Phi_k(beta; alpha_i . alpha_j)``."""
+    betas = np.array([p["beta"] for p in found])
+    alphas = np.array([p["u"] / p["beta"] for p in found])
+    corr = alphas @ alphas.T
+    if len(found) == 2:
+        both = stats.multivariate_normal.cdf(-betas, mean=np.zeros(2), cov=corr,
+                                             allow_singular=True, abseps=1e-14, releps=1e-10)
+        return float(stats.norm.sf(betas).sum() - both)
+    inside = stats.multivariate_normal.cdf(betas, mean=np.zeros(len(found)), cov=corr,
+                                           allow_singular=True, abseps=1e-12, releps=1e-10)
+    return float(1.0 - inside)
+
+
+# =========================================================================== sensitivities
+def _sensitivities(ev: LimitStateEvaluator, u_star: np.ndarray, beta: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """``d beta / d mean_i`` and ``d beta / d std_i`` (location shift / scaling of marginal i)."""
+    alpha = u_star / beta
+    weight = alpha if ev.chol is None else linalg.solve_triangular(ev.chol.T, alpha, lower=False)
+    z = ev.to_correlated(u_star)[0]
+    x = ev.to_physical(u_star[None, :])
+    d_mean, d_std = np.empty(ev.dim), np.empty(ev.dim)
+    for i, (n, m) in enumerate(zip(ev.names, ev.marginals, strict=True)):
+        xi = float(x[n][0])
+        dens = float(m.pdf(xi)) / float(stats.norm.pdf(z[i]))
+        d_mean[i] = -weight[i] * dens
+        d_std[i] = -weight[i] * dens * (xi - m.mean()) / m.std()
+    return d_mean, d_std
+
+
+# =========================================================================== SORM
+def _hessian(ev: LimitStateEvaluator, u: np.ndarray, g_u: float, h: float, tag: str
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Central finite-difference Hessian and gradient at ``u``: one design of ``2 d^2`` points."""
+    d = ev.dim
+    eye = np.eye(d) * h
+    pts = [u + eye, u - eye]
+    pairs = [(i, j) for i in range(d) for j in range(i + 1, d)]
+    for si, sj in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+        pts += [np.array([u + si * eye[i] + sj * eye[j] for i, j in pairs]).reshape(-1, d)]
+    design = np.vstack(pts)
+    if not ev.in_range(design).all():
+        raise ValueError(f"SORM Hessian at the design point: {ev.outside_range(design)[0]}; "
+                         "lower hessian_step or truncate the marginal")
+    g = ev.evaluate(design, tag)["g"]
+    if not np.all(np.isfinite(g)):
+        raise _ModelFailure(f"model failed in the Hessian design around u = {u}")
+    gp, gm = g[:d], g[d:2 * d]
+    grad = (gp - gm) / (2 * h)
+    hess = np.diag((gp - 2 * g_u + gm) / h**2)
+    n_p = len(pairs)
+    blocks = [g[2 * d + k * n_p: 2 * d + (k + 1) * n_p] for k in range(4)]
+    for k, (i, j) in enumerate(pairs):
+        hess[i, j] = hess[j, i] = (blocks[0][k] - blocks[1][k] - blocks[2][k] + blocks[3][k]) \
+            / (4 * h * h)
+    return hess, grad
+
+
+class _ModelFailure(RuntimeError):
+    pass
+
+
+def curvatures(hess: np.ndarray, grad: np.ndarray) -> np.ndarray:
+    """Principal curvatures of ``G = 0`` at the design point (positive: failure domain curves
+    away from the origin, smaller Pf)."""
+    norm = np.linalg.norm(grad)
+    alpha = -grad / norm
+    q, _ = np.linalg.qr(np.column_stack([alpha, np.eye(alpha.size)]))
+    tangent = q[:, 1:alpha.size]
+    return np.linalg.eigvalsh(tangent.T @ hess @ tangent / norm)
+
+
+def sorm_probabilities(beta: float, kappa: np.ndarray) -> dict[str, float]:
+    """Breitung, Hohenbichler-Rackwitz and Tvedt (three-term) Pf from ``beta`` and curvatures.
+
+    A formula whose square-root argument is not positive returns NaN (invalid there).
+    """
+    kappa = np.asarray(kappa, dtype=float)
+    phi, tail = stats.norm.pdf(beta), stats.norm.sf(beta)
+
+    def prod_root(x: np.ndarray) -> float:
+        return float(np.prod(x ** -0.5)) if np.all(x > 0) else math.nan
+
+    breitung_factor = prod_root(1 + beta * kappa)
+    psi = phi / tail
+    out = {"breitung": tail * breitung_factor,
+           "hohenbichler": tail * prod_root(1 + psi * kappa)}
+    shifted = prod_root(1 + (beta + 1) * kappa)
+    complex_factor = complex(np.prod((1 + (beta + 1j) * kappa) ** -0.5))
+    core = beta * tail - phi
+    a1 = tail * breitung_factor
+    a2 = core * (breitung_factor - shifted)
+    a3 = (beta + 1) * core * (breitung_factor - complex_factor.real)
+    out["tvedt"] = a1 + a2 + a3 if math.isfinite(breitung_factor + shifted) else math.nan
+    return out
+
+
+# =========================================================================== driver
+def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
+             *, second_order: bool = False) -> xr.Dataset:
+    """FORM (or SORM) with multiple starting points; the report of the nearest design point."""
+    t0 = time.perf_counter()
+    found, starts = form_design_points(ev, s, seed)
+    method = "sorm" if second_order else "form"
+    common = {"interval_kind": _NOT_STATISTICAL, "confidence": confidence, "settings": s,
+              "seed": seed}
+    start_vars = {
+        "start_converged": (("start",), np.array([r["converged"] for r in starts], np.int8),
+                            {"units": "1", "long_name": "1 if the search from this start "
+                             "converged"}),
+        "start_iterations": (("start",), np.array([r["iterations"] for r in starts]),
+                             {"units": "1", "long_name": "iHLRF iterations per start"}),
+        "start_beta": (("start",), np.array([r["beta"] for r in starts]),
+                       {"units": "1", "long_name": "beta found from each start"}),
+    }
+    if not found:
+        failed = any(r["error"].startswith("model failed") for r in starts)
+        msg = "; ".join(r["error"] or "not converged" for r in starts)
+        return failure_report(ev, method, pf=math.nan, status=2 if failed else 1,
+                              message=msg, wall_time=time.perf_counter() - t0,
+                              extra=start_vars, **common)
+    best = found[0]
+    beta = best["beta"]
+    pf_form = float(stats.norm.sf(beta))
+    d_mean, d_std = _sensitivities(ev, best["u"], beta)
+    extra = {**start_vars,
+             "pf_form": ((), pf_form, {"units": "1", "long_name": "Phi(-beta) of the nearest "
+                                       "design point"}),
+             "dbeta_dmean": (("parameter",), d_mean, {"units": "per parameter unit", "long_name":
+                             "d beta / d mean_i (shift of marginal i)"}),
+             "dbeta_dstd": (("parameter",), d_std, {"units": "per parameter unit", "long_name":
+                            "d beta / d std_i (scaling of marginal i about its mean)"}),
+             "dpf_dmean": (("parameter",), -stats.norm.pdf(beta) * d_mean,
+                           {"units": "per parameter unit", "long_name": "d pf_FORM / d mean_i"}),
+             "dpf_dstd": (("parameter",), -stats.norm.pdf(beta) * d_std,
+                          {"units": "per parameter unit", "long_name": "d pf_FORM / d std_i"})}
+    message, attrs = "", {}
+    if len(found) > 1:
+        pf_multi = _series_form(found)
+        extra["pf_multi_design_points"] = ((), pf_multi, {"units": "1", "long_name": (
+            "series-system FORM over all design points found, 1 - Phi_k(beta; R), "
+            "R_ij = alpha_i . alpha_j")})
+        message = (f"the starting points found {len(found)} different design points (beta = "
+                   f"{', '.join(format(p['beta'], '.4g') for p in found)}); pf is that of the "
+                   "nearest; "
+                   f"over all of them (series FORM) pf = {pf_multi:.4g}")
+        attrs["multiple_design_points"] = len(found)
+    status, pf = (0 if best["converged"] else 1), pf_form
+    if second_order:
+        try:
+            pf, sorm_vars, sorm_status, sorm_msg = _sorm(ev, best, s)
+        except _ModelFailure as exc:
+            return failure_report(ev, method, pf=math.nan, status=2, message=str(exc),
+                                  wall_time=time.perf_counter() - t0, design_points=found,
+                                  extra=extra, **common)
+        extra.update(sorm_vars)
+        status = max(status, sorm_status)
+        message = "; ".join(m for m in (message, sorm_msg) if m)
+    return failure_report(ev, method, pf=pf, status=status, message=message,
+                          wall_time=time.perf_counter() - t0, design_points=found, extra=extra,
+                          extra_attrs=attrs, **common)
+
+
+def form_design_points(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
+                       ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Run the iHLRF search from every start; return the distinct converged design points
+    (nearest first) and the per-start records."""
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
+    starts = []
+    g_origin = None
+    for k in range(s["n_starts"]):
+        if k == 0:
+            u0 = np.zeros(ev.dim)
+        else:
+            direction = rng.standard_normal(ev.dim)
+            u0 = s["start_radius"] * direction / np.linalg.norm(direction)
+        rec = design_point_search(ev, u0, s, f"form/start{k}")
+        if k == 0 and math.isfinite(rec["g_start"]):
+            g_origin = rec["g_start"]
+        sign = -1.0 if (g_origin is not None and g_origin <= 0) else 1.0
+        rec["beta"] = sign * float(np.linalg.norm(rec["u"]))
+        starts.append(rec)
+    converged = [r for r in starts if r["converged"]]
+    return _distinct(converged, s["distinct"]), starts
+
+
+def _sorm(ev: LimitStateEvaluator, best: dict[str, Any], s: Mapping[str, Any]
+          ) -> tuple[float, dict[str, tuple], int, str]:
+    """Curvatures and the three SORM formulas at the nearest design point."""
+    hess, grad = _hessian(ev, best["u"], best["g"], s["hessian_step"], "sorm/hessian")
+    kappa = curvatures(hess, grad)
+    probs = sorm_probabilities(best["beta"], kappa)
+    status, msg = 0, ""
+    if not math.isfinite(probs[s["formula"]]):
+        status = 5
+        msg = (f"SORM {s['formula']} is not defined here (1 + beta kappa <= 0 for some "
+               f"curvature, kappa = {kappa}); the failure domain curves too strongly towards "
+               "the origin: use importance sampling or subset simulation")
+    out = {f"pf_{k}": ((), v, {"units": "1", "long_name": f"SORM ({k}) failure probability"})
+           for k, v in probs.items()}
+    out["curvature"] = (("curvature",), kappa, {"units": "1", "long_name": (
+        "principal curvatures of G = 0 at the design point (standard normal space; positive: "
+        "curving away from the origin)")})
+    return probs[s["formula"]], out, status, msg

@@ -1,0 +1,521 @@
+"""Limit states ``g <= 0`` on model outputs, and systems of them (series, parallel, cut sets).
+
+A :class:`LimitState` is a function ``g`` of a result's variables (model outputs, or inputs)
+whose **failure side is inclusive**: a sample fails where ``g <= 0``. This differs on purpose
+from a :class:`~gearuq.probability.Band`, whose limits are safe: with ``g = max(x, 0)`` and
+``x`` standard normal, ``P(g <= 0) = 0.5`` and a limit state reports exactly that.
+
+Three ways to make one:
+
+* ``LimitState.output("g")`` — the output *is* the limit-state function (the usual form of
+  analytic benchmark models);
+* ``LimitState.upper("mesh_force", 5e4)`` / ``LimitState.lower("r", 0.2)`` — a threshold on an
+  output (``g = limit - value`` resp. ``value - limit``), with ``absolute=True`` for ``|value|``
+  and ``select={"dof": ...}`` for outputs with extra dims;
+* ``LimitState(fn, ["R", "S"])`` — any vectorised function of several variables,
+  ``g = fn(R=..., S=...)``.
+
+Time-dependent responses give ``g(t)`` over the output instants (optionally restricted to a
+``window``); engines that need one number per sample take the **first-passage** value
+``min_t g(t)``: a sample fails in the window if it fails at any output instant. This is the
+limit state of the running maximum of the response; how far a time grid can be from the
+continuous-time answer is discussed in :mod:`gearuq.outcrossing`.
+
+Systems combine limit states per instant (then over time): a :class:`SeriesSystem` fails when
+any component fails (``g = min g_i``), a :class:`ParallelSystem` when all fail
+(``g = max g_i``), and :func:`cut_set_system` is a series system of parallel cut sets. The
+combined ``g`` has exactly the system's failure indicator as its sign, so every engine works on
+systems; active-learning Kriging additionally learns each component separately
+(:meth:`System.combine` returns which component governs each sample).
+
+Input that could mean two things is refused with the reason: a bare list of limit states
+(series or parallel?), a mapping ``{output: number}`` (upper or lower limit?), an output with
+extra dims and no ``select``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["LimitState", "System", "SeriesSystem", "ParallelSystem", "cut_set_system",
+           "as_limit_state"]
+
+
+class LimitState:
+    """A limit-state function ``g`` of result variables; failure where ``g <= 0``.
+
+    Parameters
+    ----------
+    function : callable
+        Vectorised ``function(**{var: array}) -> array``; receives every variable named in
+        ``variables`` as an array over ``sample`` (and ``time`` for time-dependent outputs,
+        broadcast as xarray does).
+    variables : str or sequence of str
+        Names of the result variables (outputs, or inputs) that ``function`` takes.
+    name : str, optional
+        Label (default: ``"g(" + variables + ")"``).
+    window : (float, float), optional
+        Closed time window ``[t0, t1]``; instants outside it are ignored.
+    select : mapping, optional
+        ``xarray`` label selection applied to every variable first (``{"dof": "x1"}``).
+    description : str, optional
+        Human-readable definition (recorded in results).
+
+    Notes
+    -----
+    Use the constructors :meth:`output`, :meth:`upper` and :meth:`lower` for the common cases;
+    they record a JSON definition that a result can be traced back to.
+    """
+
+    def __init__(
+        self,
+        function: Callable[..., Any],
+        variables: str | Sequence[str],
+        *,
+        name: str | None = None,
+        window: tuple[float, float] | None = None,
+        select: Mapping[str, Any] | None = None,
+        description: str | None = None,
+    ) -> None:
+        if not callable(function):
+            raise ValueError(f"LimitState: function must be callable, got {function!r}")
+        names = [variables] if isinstance(variables, str) else list(variables)
+        if not names or not all(isinstance(v, str) and v for v in names):
+            raise ValueError(f"LimitState: variables must be non-empty names, got {variables!r}")
+        if len(set(names)) != len(names):
+            raise ValueError(f"LimitState: duplicate variable names in {names}")
+        if window is not None:
+            if len(window) != 2 or not float(window[0]) <= float(window[1]):
+                raise ValueError(f"LimitState: window must be (t0, t1) with t0 <= t1, got "
+                                 f"{window!r}")
+            window = (float(window[0]), float(window[1]))
+        if name is not None and (not isinstance(name, str) or not name):
+            raise ValueError(f"LimitState: name must be a non-empty string, got {name!r}")
+        self.function = function
+        self.variables = tuple(names)
+        self.window = window
+        self.select = dict(select) if select else {}
+        self.name = name or f"g({', '.join(names)})"
+        self.description = description or (
+            f"{getattr(function, '__qualname__', repr(function))}({', '.join(names)}) <= 0")
+        self._spec: dict[str, Any] = {"kind": "function", "function": getattr(
+            function, "__qualname__", repr(function)), "variables": list(names)}
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def output(cls, name: str, **kwargs: Any) -> LimitState:
+        """The output ``name`` is the limit-state function itself (failure ``g <= 0``)."""
+        ls = cls(_identity, name, name=kwargs.pop("name", name),
+                 description=f"{name} <= 0", **kwargs)
+        ls._spec = {"kind": "output", "output": name}
+        return ls
+
+    @classmethod
+    def upper(cls, output: str, limit: float, *, absolute: bool = False,
+              **kwargs: Any) -> LimitState:
+        """Failure when the output reaches ``limit`` or above: ``g = limit - value``.
+
+        With ``absolute=True``, ``g = limit - |value|`` (vibration amplitudes).
+        """
+        limit = _finite(limit, "limit")
+        v = f"|{output}|" if absolute else output
+        fn = _UpperLimit(limit, bool(absolute))
+        ls = cls(fn, output, name=kwargs.pop("name", f"{v} >= {limit:g}"),
+                 description=f"g = {limit:g} - {v}; fails where {v} >= {limit:g}", **kwargs)
+        ls._spec = {"kind": "upper", "output": output, "limit": limit, "absolute": absolute}
+        return ls
+
+    @classmethod
+    def lower(cls, output: str, limit: float, **kwargs: Any) -> LimitState:
+        """Failure when the output reaches ``limit`` or below: ``g = value - limit``."""
+        limit = _finite(limit, "limit")
+        fn = _LowerLimit(limit)
+        ls = cls(fn, output, name=kwargs.pop("name", f"{output} <= {limit:g}"),
+                 description=f"g = {output} - {limit:g}; fails where {output} <= {limit:g}",
+                 **kwargs)
+        ls._spec = {"kind": "lower", "output": output, "limit": limit}
+        return ls
+
+    @classmethod
+    def from_band(cls, band: Any) -> LimitState:
+        """The limit state of a :class:`~gearuq.probability.Band` (leaving the band fails).
+
+        ``g = min(value - lower, upper - value)`` (``|value|`` for absolute bands). Unlike the
+        band, a value exactly on a limit now **fails**; for continuous outputs this changes
+        nothing.
+        """
+        fn = _BandDistance(band.lower, band.upper, band.absolute)
+        ls = cls(fn, band.output, name=band.name, select=band.select or None,
+                 description=f"leaves the band {band.describe()} (limits fail)")
+        ls._spec = {"kind": "band", "output": band.output, "lower": _json_num(band.lower),
+                    "upper": _json_num(band.upper), "absolute": band.absolute}
+        return ls
+
+    # ------------------------------------------------------------------ description
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """The result variables this limit state reads (alias of :attr:`variables`)."""
+        return self.variables
+
+    def leaves(self) -> list[LimitState]:
+        """The component limit states (just this one)."""
+        return [self]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able definition (recorded in every result)."""
+        out = {"name": self.name, **self._spec, "description": self.description}
+        if self.window is not None:
+            out["window"] = list(self.window)
+        if self.select:
+            out["select"] = {k: str(v) for k, v in self.select.items()}
+        return out
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    def __repr__(self) -> str:
+        return f"LimitState({self.name!r}: {self.description})"
+
+    # ------------------------------------------------------------------ evaluation
+    def check(self, ds: xr.Dataset) -> None:
+        """Raise a ValueError if a variable is missing or has an unsupported shape."""
+        missing = [v for v in self.variables if v not in ds.variables]
+        if missing:
+            outs = [k for k, v in ds.data_vars.items() if v.attrs.get("role") == "output"]
+            raise ValueError(
+                f"limit state {self.name!r}: variable(s) {', '.join(map(repr, missing))} not "
+                f"in the result; available outputs: {', '.join(outs or map(str, ds.data_vars))}")
+
+    def values(self, ds: xr.Dataset) -> xr.DataArray:
+        """``g`` over ``sample`` (and ``time`` inside the window) as a DataArray.
+
+        Raises
+        ------
+        ValueError
+            Missing variables, a failed ``select``, extra dims other than ``sample`` and
+            ``time`` left after selection, or a window that holds no output instant.
+        """
+        self.check(ds)
+        args = {}
+        for var in self.variables:
+            da = ds[var]
+            if self.select:
+                try:
+                    da = da.sel({k: v for k, v in self.select.items() if k in da.dims})
+                except (KeyError, ValueError) as exc:
+                    raise ValueError(f"limit state {self.name!r}: select={self.select!r} "
+                                     f"failed on {var!r} with dims {da.dims}: {exc}") from exc
+            extra = [d for d in da.dims if d not in ("sample", "time")]
+            if extra:
+                raise ValueError(
+                    f"limit state {self.name!r}: variable {var!r} has extra dim(s) {extra}; "
+                    f"choose one element with select={{{extra[0]!r}: ...}} (or build a system "
+                    "over the elements) - which element fails is otherwise ambiguous")
+            if self.window is not None and "time" in da.dims:
+                da = da.sel(time=slice(*self.window))
+                if da.sizes["time"] == 0:
+                    raise ValueError(f"limit state {self.name!r}: window {self.window} holds "
+                                     f"no output instant of {var!r}")
+            args[var] = da
+        g = self.function(**args)
+        if not isinstance(g, xr.DataArray):
+            ref = next(iter(args.values()))
+            g = xr.DataArray(np.asarray(g, dtype=float), dims=ref.dims, coords=ref.coords)
+        return g.astype(float).rename(self.name)
+
+    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
+        """One ``g`` per sample: the first-passage value ``min_t g(t)`` for time-dependent g.
+
+        NaN where any instant of ``g`` is NaN (a NaN is neither safe nor failed).
+        """
+        g = self.values(ds)
+        if "time" in g.dims:
+            g = g.min("time", skipna=False)
+        return np.asarray(g.transpose("sample").values, dtype=float)
+
+    def fails(self, ds: xr.Dataset) -> xr.DataArray:
+        """Boolean failure indicator ``g <= 0`` over sample (and time)."""
+        return self.values(ds) <= 0.0
+
+
+# --------------------------------------------------------------------------- helpers
+def _identity(**kw: Any) -> Any:
+    return next(iter(kw.values()))
+
+
+class _UpperLimit:
+    """``limit - value`` (picklable, module level)."""
+
+    def __init__(self, limit: float, absolute: bool) -> None:
+        self.limit, self.absolute = limit, absolute
+
+    def __call__(self, **kw: Any) -> Any:
+        v = next(iter(kw.values()))
+        return self.limit - (abs(v) if self.absolute else v)
+
+
+class _LowerLimit:
+    """``value - limit``."""
+
+    def __init__(self, limit: float) -> None:
+        self.limit = limit
+
+    def __call__(self, **kw: Any) -> Any:
+        return next(iter(kw.values())) - self.limit
+
+
+class _BandDistance:
+    """Signed distance into a band: ``min(value - lower, upper - value)``."""
+
+    def __init__(self, lower: float, upper: float, absolute: bool) -> None:
+        self.lower, self.upper, self.absolute = lower, upper, absolute
+
+    def __call__(self, **kw: Any) -> Any:
+        v = next(iter(kw.values()))
+        v = abs(v) if self.absolute else v
+        parts = []
+        if self.lower > -math.inf:
+            parts.append(v - self.lower)
+        if self.upper < math.inf:
+            parts.append(self.upper - v)
+        return parts[0] if len(parts) == 1 else np.minimum(parts[0], parts[1])
+
+
+def _finite(value: Any, what: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: expected a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{what}: must be finite, got {value!r}")
+    return v
+
+
+def _json_num(v: float) -> Any:
+    return v if math.isfinite(v) else None
+
+
+# =========================================================================== systems
+class System:
+    """A system of limit states, combined per instant.
+
+    Parameters
+    ----------
+    components : sequence of LimitState or System
+        At least two components (nested systems allowed).
+    kind : {"series", "parallel"}
+        Series: fails when any component fails (``g = min g_i``); parallel: fails when all
+        fail at the same instant (``g = max g_i``).
+    name : str, optional
+        Label (default: ``"series(a, b)"``).
+    """
+
+    def __init__(self, components: Sequence[Any], kind: str, *, name: str | None = None
+                 ) -> None:
+        if kind not in ("series", "parallel"):
+            raise ValueError(f"System: kind must be 'series' or 'parallel', got {kind!r}")
+        comps = [as_limit_state(c) for c in components]
+        if len(comps) < 2:
+            raise ValueError(f"{kind} system: needs at least two components, got {len(comps)}")
+        names = [c.name for c in self._flatten(comps)]
+        if len(set(names)) != len(names):
+            raise ValueError(f"{kind} system: component names must be distinct, got {names}; "
+                             "give each limit state a name=...")
+        self.components = tuple(comps)
+        self.kind = kind
+        self.name = name or f"{kind}({', '.join(c.name for c in comps)})"
+
+    @staticmethod
+    def _flatten(comps: Sequence[Any]) -> list[LimitState]:
+        out: list[LimitState] = []
+        for c in comps:
+            out.extend(c.leaves())
+        return out
+
+    @property
+    def variables(self) -> tuple[str, ...]:
+        """Every result variable read by a component."""
+        return tuple(dict.fromkeys(v for leaf in self.leaves() for v in leaf.variables))
+
+    outputs = variables
+
+    @property
+    def description(self) -> str:
+        """Human-readable definition."""
+        return f"{self.kind} system of {', '.join(c.name for c in self.components)}"
+
+    def leaves(self) -> list[LimitState]:
+        """Component limit states in depth-first order."""
+        return self._flatten(self.components)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able definition."""
+        return {"name": self.name, "kind": self.kind,
+                "components": [c.to_dict() for c in self.components]}
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as a JSON string."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r})"
+
+    def check(self, ds: xr.Dataset) -> None:
+        """Check every component against a result."""
+        for leaf in self.leaves():
+            leaf.check(ds)
+
+    def values(self, ds: xr.Dataset) -> xr.DataArray:
+        """System ``g`` per sample and instant (min for series, max for parallel)."""
+        parts = [c.values(ds) for c in self.components]
+        parts = xr.broadcast(*parts)
+        stacked = xr.concat(parts, dim="_component", coords="minimal", compat="override")
+        g = stacked.min("_component", skipna=False) if self.kind == "series" \
+            else stacked.max("_component", skipna=False)
+        return g.rename(self.name)
+
+    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
+        """First-passage system ``g`` per sample (``min_t`` of the per-instant system g)."""
+        g = self.values(ds)
+        if "time" in g.dims:
+            g = g.min("time", skipna=False)
+        return np.asarray(g.transpose("sample").values, dtype=float)
+
+    def fails(self, ds: xr.Dataset) -> xr.DataArray:
+        """Boolean failure indicator over sample (and time)."""
+        return self.values(ds) <= 0.0
+
+    def combine(self, leaf_values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """System ``g`` from per-leaf scalar values, and the governing leaf of each sample.
+
+        Parameters
+        ----------
+        leaf_values : ndarray, shape (n, n_leaves)
+            Columns in :meth:`leaves` order.
+
+        Returns
+        -------
+        g : ndarray (n,)
+            Series: min over components, parallel: max (recursively).
+        governing : ndarray of int (n,)
+            Index of the leaf whose value is ``g`` (the component that decides the sample).
+        """
+        leaf_values = np.asarray(leaf_values, dtype=float)
+        col = 0
+        gs, idx = [], []
+        for c in self.components:
+            k = len(c.leaves())
+            block = leaf_values[:, col:col + k]
+            if isinstance(c, System):
+                g_c, i_c = c.combine(block)
+            else:
+                g_c, i_c = block[:, 0], np.zeros(block.shape[0], dtype=int)
+            gs.append(g_c)
+            idx.append(i_c + col)
+            col += k
+        g_all = np.column_stack(gs)
+        pick = np.argmin(g_all, axis=1) if self.kind == "series" else np.argmax(g_all, axis=1)
+        rows = np.arange(g_all.shape[0])
+        return g_all[rows, pick], np.column_stack(idx)[rows, pick]
+
+
+class SeriesSystem(System):
+    """Fails when any component fails (``g = min g_i`` per instant)."""
+
+    def __init__(self, components: Sequence[Any], *, name: str | None = None) -> None:
+        super().__init__(components, "series", name=name)
+
+
+class ParallelSystem(System):
+    """Fails when every component fails at the same instant (``g = max g_i``)."""
+
+    def __init__(self, components: Sequence[Any], *, name: str | None = None) -> None:
+        super().__init__(components, "parallel", name=name)
+
+
+def cut_set_system(cut_sets: Sequence[Sequence[Any]], *, name: str | None = None) -> System:
+    """A series system of parallel cut sets: fails when every member of some cut set fails.
+
+    Parameters
+    ----------
+    cut_sets : sequence of sequences
+        Each inner sequence is one (minimal) cut set of limit states; a cut set of one member
+        is that limit state itself. The same limit state may appear in several cut sets only
+        if it is the same object (its name must be unique per object).
+    """
+    if isinstance(cut_sets, (str, LimitState, System)) or not len(cut_sets):
+        raise ValueError("cut_set_system: expected a non-empty list of cut sets (lists of limit "
+                         "states)")
+    parts: list[Any] = []
+    for i, cut in enumerate(cut_sets):
+        if isinstance(cut, (str, LimitState, System)):
+            raise ValueError(f"cut_set_system: cut set #{i} must be a list of limit states, "
+                             f"got {cut!r}")
+        members = [as_limit_state(c) for c in cut]
+        if not members:
+            raise ValueError(f"cut_set_system: cut set #{i} is empty")
+        parts.append(members[0] if len(members) == 1 else ParallelSystem(
+            members, name=f"cut{i + 1}"))
+    if len(parts) == 1:
+        if isinstance(parts[0], System):
+            return parts[0]
+        raise ValueError("cut_set_system: a single one-member cut set is a limit state, not a "
+                         "system; use it directly")
+    return _SharedSeries(parts, name=name or "cut_sets")
+
+
+class _SharedSeries(System):
+    """Series system whose parallel components may share leaves (cut sets)."""
+
+    def __init__(self, components: Sequence[Any], *, name: str | None = None) -> None:
+        comps = [as_limit_state(c) for c in components]
+        if len(comps) < 2:
+            raise ValueError("cut_set_system: needs at least two cut sets")
+        self.components = tuple(comps)
+        self.kind = "series"
+        self.name = name or f"series({', '.join(c.name for c in comps)})"
+
+
+def as_limit_state(spec: Any) -> LimitState | System:
+    """Turn a user's limit-state argument into a :class:`LimitState` or :class:`System`.
+
+    Accepts a LimitState, a System, a :class:`~gearuq.probability.Band` (leaving it fails,
+    the limits included) or an output name (the output is ``g``).
+
+    Raises
+    ------
+    ValueError
+        For input that could mean two things: a list/tuple (series or parallel? use
+        :class:`SeriesSystem` / :class:`ParallelSystem`), a mapping (an upper or a lower
+        limit? use :meth:`LimitState.upper` / :meth:`LimitState.lower`), or anything else.
+    """
+    if isinstance(spec, (LimitState, System)):
+        return spec
+    from gearuq.probability import Band
+
+    if isinstance(spec, Band):
+        return LimitState.from_band(spec)
+    if isinstance(spec, str):
+        if not spec:
+            raise ValueError("limit state: empty output name")
+        return LimitState.output(spec)
+    if isinstance(spec, Mapping):
+        raise ValueError(
+            f"limit state {spec!r} is ambiguous: is each number an upper or a lower limit? "
+            "Use LimitState.upper(output, limit) or LimitState.lower(output, limit) (or a Band "
+            "with gearuq.reliability)")
+    if isinstance(spec, (list, tuple)):
+        raise ValueError(
+            f"limit state: a {type(spec).__name__} of {len(spec)} limit states is ambiguous "
+            "(series or parallel?); wrap it in SeriesSystem([...]) or ParallelSystem([...]), "
+            "or cut_set_system([[...], ...])")
+    raise ValueError(
+        f"limit state: expected a LimitState, a System, a Band or an output name, got "
+        f"{type(spec).__name__} {spec!r}")

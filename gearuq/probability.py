@@ -1,0 +1,963 @@
+"""Probability from response samples: bands, limit states, instantaneous / system /
+first-passage estimates, binomial intervals and reliability indices.
+
+This is the module behind :func:`gearuq.reliability` (the function; the module is
+``gearuq.probability``). A failure mode is
+
+* an allowed **band** ``[lower, upper]`` on one model output (either side may be open): a
+  sample *fails* at an instant when its value lies outside the closed interval (values equal
+  to a limit are safe); with ``absolute=True`` the band applies to ``|value|``;
+* or a **limit state** ``g <= 0`` (:mod:`gearuq.limitstate`; the boundary fails), or a
+  series / parallel / cut-set **system** of limit states.
+
+:func:`reliability` turns a Monte Carlo result Dataset (dims ``sample`` and optionally ``time``,
+a per-sample ``status`` flag, see :mod:`gearuq.model`) into
+
+- per-mode and series-system failure probabilities at every instant,
+- first-passage (cumulative) failure probabilities over the time window, with a check of how
+  far the time grid can be from continuous time,
+- confidence intervals (Wilson score or Clopper-Pearson) on every probability, labelled by how
+  valid they are for the design (i.i.d., Latin hypercube, QMC),
+- the generalised reliability index ``beta = Phi^-1(R) = -Phi^-1(pf)`` with its interval,
+  finite even when no (or every) sample fails: it is then a one-sided bound and flagged.
+
+It streams: a lazily loaded, dask-backed result is read one stored chunk at a time, and the
+failure counts, being additive, give the in-memory numbers exactly.
+
+Samples whose ``status`` is nonzero (the solver gave up) are neither safe nor failed: they are
+excluded from the estimates, counted (``n_invalid``) and their possible effect is shown by
+``pf_if_invalid_failed`` / ``pf_if_invalid_safe``.
+
+The mean-value (Cornell) index :func:`mean_value_beta` is offered separately and labelled as
+such: it equals ``Phi^-1(R)`` only for a normally distributed response. Rare-event methods
+(FORM/SORM, importance sampling, subset simulation, AK-MCS) are behind
+:func:`gearuq.failure_probability`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import stats
+
+__all__ = [
+    "Band",
+    "reliability",
+    "mean_value_beta",
+    "beta_from_pf",
+    "pf_from_beta",
+    "wilson_interval",
+    "clopper_pearson_interval",
+    "binomial_interval",
+    "INTERVAL_METHODS",
+]
+
+#: Accepted names of the binomial confidence-interval methods.
+INTERVAL_METHODS = ("wilson", "clopper-pearson")
+
+SYSTEM_MODE = "system"
+
+
+# =========================================================================== intervals
+def _check_counts(k: Any, n: Any, confidence: float) -> tuple[np.ndarray, np.ndarray, float]:
+    if not 0.0 < float(confidence) < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    k_arr = np.asarray(k, dtype=float)
+    n_arr = np.asarray(n, dtype=float)
+    k_arr, n_arr = np.broadcast_arrays(k_arr, n_arr)
+    if np.any(~np.isfinite(k_arr)) or np.any(~np.isfinite(n_arr)):
+        raise ValueError("k and n must be finite")
+    if np.any(n_arr < 1):
+        raise ValueError(f"n must be >= 1 (got min n = {np.min(n_arr):g})")
+    if np.any(k_arr < 0) or np.any(k_arr > n_arr):
+        raise ValueError("k must satisfy 0 <= k <= n")
+    return k_arr, n_arr, float(confidence)
+
+
+def wilson_interval(k: Any, n: Any, confidence: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """Wilson score interval for a binomial proportion (vectorised).
+
+    Parameters
+    ----------
+    k : array_like
+        Number of "successes" (here: failures), ``0 <= k <= n``.
+    n : array_like
+        Number of trials (valid samples), ``n >= 1``; broadcast against ``k``.
+    confidence : float
+        Two-sided confidence level, e.g. 0.95.
+
+    Returns
+    -------
+    lower, upper : ndarray
+        Interval ends, exactly 0 where ``k = 0`` and exactly 1 where ``k = n``.
+
+    Notes
+    -----
+    With ``z = Phi^-1(1 - alpha/2)`` and ``p = k/n``::
+
+        centre = (p + z^2/(2n)) / (1 + z^2/n)
+        half   = z sqrt(p(1-p)/n + z^2/(4n^2)) / (1 + z^2/n)
+
+    Its coverage is close to nominal on average (it can dip below nominal for some ``p``),
+    which makes it the usual default for Monte Carlo failure probabilities.
+    """
+    k_arr, n_arr, conf = _check_counts(k, n, confidence)
+    z = stats.norm.isf((1.0 - conf) / 2.0)
+    p = k_arr / n_arr
+    denom = 1.0 + z * z / n_arr
+    centre = (p + z * z / (2.0 * n_arr)) / denom
+    half = z * np.sqrt(p * (1.0 - p) / n_arr + z * z / (4.0 * n_arr * n_arr)) / denom
+    lower = np.clip(centre - half, 0.0, 1.0)
+    upper = np.clip(centre + half, 0.0, 1.0)
+    lower = np.where(k_arr == 0, 0.0, lower)
+    upper = np.where(k_arr == n_arr, 1.0, upper)
+    return lower, upper
+
+
+def clopper_pearson_interval(
+    k: Any, n: Any, confidence: float = 0.95
+) -> tuple[np.ndarray, np.ndarray]:
+    """Clopper-Pearson ("exact") interval for a binomial proportion (vectorised).
+
+    Parameters
+    ----------
+    k, n, confidence
+        As in :func:`wilson_interval`.
+
+    Returns
+    -------
+    lower, upper : ndarray
+        ``lower = B^-1(alpha/2; k, n-k+1)`` (0 where ``k = 0``) and
+        ``upper = B^-1(1-alpha/2; k+1, n-k)`` (1 where ``k = n``), with ``B^-1`` the beta
+        quantile. For ``k = 0`` the upper end is ``1 - (alpha/2)^(1/n)``.
+
+    Notes
+    -----
+    The coverage is at least the nominal level for every ``p`` (conservative).
+    """
+    k_arr, n_arr, conf = _check_counts(k, n, confidence)
+    alpha = 1.0 - conf
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lower = stats.beta.ppf(alpha / 2.0, k_arr, n_arr - k_arr + 1.0)
+        upper = stats.beta.isf(alpha / 2.0, k_arr + 1.0, n_arr - k_arr)
+    lower = np.where(k_arr == 0, 0.0, lower)
+    upper = np.where(k_arr == n_arr, 1.0, upper)
+    return np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+
+
+def _interval_method(interval: str) -> str:
+    key = str(interval).strip().lower().replace("_", "-")
+    if key in ("cp", "exact"):
+        key = "clopper-pearson"
+    if key not in INTERVAL_METHODS:
+        raise ValueError(
+            f"interval {interval!r} unknown; valid: {', '.join(map(repr, INTERVAL_METHODS))}"
+        )
+    return key
+
+
+def binomial_interval(
+    k: Any, n: Any, confidence: float = 0.95, method: str = "wilson"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Dispatch to :func:`wilson_interval` or :func:`clopper_pearson_interval` by name."""
+    if _interval_method(method) == "wilson":
+        return wilson_interval(k, n, confidence)
+    return clopper_pearson_interval(k, n, confidence)
+
+
+# =========================================================================== beta helpers
+def beta_from_pf(pf: Any) -> Any:
+    """Generalised reliability index ``beta = -Phi^-1(pf) = Phi^-1(1 - pf)``.
+
+    Computed with the normal inverse survival function, so it stays accurate for tiny ``pf``.
+    Returns ``+inf`` for ``pf = 0`` and ``-inf`` for ``pf = 1`` (:func:`reliability` never
+    reports those: it gives the one-sided bound from the confidence interval instead).
+    """
+    out = stats.norm.isf(np.asarray(pf, dtype=float))
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def pf_from_beta(beta: Any) -> Any:
+    """Failure probability ``pf = Phi(-beta)`` of a generalised reliability index."""
+    out = stats.norm.sf(np.asarray(beta, dtype=float))
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def mean_value_beta(samples: Any, lower: float | None = None, upper: float | None = None) -> Any:
+    """Mean-value (Cornell) reliability index of response samples.
+
+    ``beta_MV = (mu - lower) / sigma`` for a lower limit, ``(upper - mu) / sigma`` for an upper
+    limit and the minimum of both for a two-sided band, with ``mu`` the sample mean and
+    ``sigma`` the sample standard deviation (``ddof=1``).
+
+    .. warning::
+       This is the **mean-value (Cornell) index**, a second-moment measure. It equals the
+       generalised index ``Phi^-1(R)`` reported by :func:`reliability` only when the response
+       is normally distributed (and, for a two-sided band, only when the other side's
+       probability is negligible). Do not convert it with ``Phi(-beta)`` for skewed
+       responses such as vibration amplitudes.
+
+    Parameters
+    ----------
+    samples : array_like or xarray.DataArray
+        Response samples along axis 0 (or along dim ``sample`` for a DataArray); extra
+        axes/dims (e.g. ``time``) give one index each.
+    lower, upper : float, optional
+        Band limits; at least one is required.
+
+    Returns
+    -------
+    float, ndarray or xarray.DataArray
+        ``beta_MV``; a DataArray carries ``attrs["long_name"]`` naming it as the Cornell index.
+    """
+    if lower is None and upper is None:
+        raise ValueError("mean_value_beta: give lower and/or upper")
+    if lower is not None and upper is not None and lower >= upper:
+        raise ValueError(f"mean_value_beta: lower={lower!r} must be < upper={upper!r}")
+    if isinstance(samples, xr.DataArray):
+        dim = "sample" if "sample" in samples.dims else samples.dims[0]
+        if not bool(np.isfinite(samples).all()):
+            raise ValueError("mean_value_beta: samples contain non-finite values")
+        if samples.sizes[dim] < 2:
+            raise ValueError("mean_value_beta: at least 2 samples are needed")
+        mu = samples.mean(dim)
+        sigma = samples.std(dim, ddof=1)
+    else:
+        arr = np.asarray(samples, dtype=float)
+        if arr.ndim == 0 or arr.shape[0] < 2:
+            raise ValueError("mean_value_beta: at least 2 samples are needed")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(
+                f"mean_value_beta: samples contain {int(np.sum(~np.isfinite(arr)))} "
+                "non-finite value(s)"
+            )
+        mu = arr.mean(axis=0)
+        sigma = arr.std(axis=0, ddof=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sides = []
+        if lower is not None:
+            sides.append((mu - lower) / sigma)
+        if upper is not None:
+            sides.append((upper - mu) / sigma)
+        beta = sides[0] if len(sides) == 1 else np.minimum(sides[0], sides[1])
+    if isinstance(beta, xr.DataArray):
+        beta.attrs = {
+            "units": "1",
+            "long_name": "mean-value (Cornell) reliability index beta_MV = (mu - limit)/sigma",
+            "note": "equals Phi^-1(R) only for a normally distributed response",
+        }
+        return beta
+    return float(beta) if np.ndim(beta) == 0 else np.asarray(beta)
+
+
+# =========================================================================== Band
+class Band:
+    """Allowed interval on one model output: the limit state of a failure mode.
+
+    Parameters
+    ----------
+    output : str
+        Name of the output variable in the result Dataset.
+    lower, upper : float, optional
+        Closed band limits in the output's units; ``None`` (or -inf/+inf) leaves a side open.
+        At least one side must be given and ``lower < upper``.
+    name : str, optional
+        Label of the failure mode (default: the output name, with ``|...|`` for absolute bands).
+    absolute : bool
+        Apply the band to ``|value|`` (vibration amplitudes, signed deflections).
+    select : mapping, optional
+        ``xarray`` label selection applied to the output first, e.g. ``{"dof": "x1"}``. Dims
+        other than ``sample`` and ``time`` that remain after selection expand the band into one
+        mode per element, labelled ``"name[dof=x1]"``.
+
+    Notes
+    -----
+    A sample fails at an instant when ``value < lower`` or ``value > upper`` (``|value|`` when
+    ``absolute``); a value equal to a limit is safe.
+    """
+
+    __slots__ = ("output", "lower", "upper", "name", "absolute", "select")
+
+    def __init__(
+        self,
+        output: str,
+        lower: float | None = None,
+        upper: float | None = None,
+        *,
+        name: str | None = None,
+        absolute: bool = False,
+        select: Mapping[str, Any] | None = None,
+    ) -> None:
+        if not isinstance(output, str) or not output:
+            raise ValueError(f"Band: output must be a non-empty string, got {output!r}")
+        lo = -math.inf if lower is None else float(lower)
+        up = math.inf if upper is None else float(upper)
+        if math.isnan(lo) or math.isnan(up):
+            raise ValueError(f"Band on {output!r}: limits must not be NaN (lower={lower}, "
+                             f"upper={upper})")
+        if lo >= up:
+            raise ValueError(
+                f"Band on {output!r}: lower={lo:g} must be < upper={up:g}"
+            )
+        if lo == -math.inf and up == math.inf:
+            raise ValueError(f"Band on {output!r}: both sides open; give lower and/or upper")
+        if absolute and up <= 0:
+            raise ValueError(
+                f"Band on {output!r}: absolute band needs upper > 0 (|value| >= 0), got {up:g}"
+            )
+        if name is not None and (not isinstance(name, str) or not name):
+            raise ValueError(f"Band on {output!r}: name must be a non-empty string")
+        self.output = output
+        self.lower = lo
+        self.upper = up
+        self.absolute = bool(absolute)
+        self.select = dict(select) if select else {}
+        self.name = name if name is not None else (f"|{output}|" if absolute else output)
+
+    # ------------------------------------------------------------------ helpers
+    def __repr__(self) -> str:
+        parts = [repr(self.output)]
+        if self.lower > -math.inf:
+            parts.append(f"lower={self.lower!r}")
+        if self.upper < math.inf:
+            parts.append(f"upper={self.upper!r}")
+        parts.append(f"name={self.name!r}")
+        if self.absolute:
+            parts.append("absolute=True")
+        if self.select:
+            parts.append(f"select={self.select!r}")
+        return f"Band({', '.join(parts)})"
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Band):
+            return NotImplemented
+        return all(getattr(self, s) == getattr(other, s) for s in self.__slots__)
+
+    def __hash__(self) -> int:
+        return hash((self.output, self.lower, self.upper, self.name, self.absolute))
+
+    def describe(self) -> str:
+        """Human-readable safe set, e.g. ``"-1 <= |y| <= 2"``."""
+        v = f"|{self.output}|" if self.absolute else self.output
+        if self.lower > -math.inf and self.upper < math.inf:
+            return f"{self.lower:g} <= {v} <= {self.upper:g}"
+        if self.lower > -math.inf:
+            return f"{v} >= {self.lower:g}"
+        return f"{v} <= {self.upper:g}"
+
+    def fails(self, values: Any) -> np.ndarray:
+        """Boolean failure indicator of ``values`` (True = outside the band).
+
+        Raises
+        ------
+        ValueError
+            If ``values`` contains NaN (a NaN is neither safe nor failed).
+        """
+        v = np.asarray(values, dtype=float)
+        if np.isnan(v).any():
+            raise ValueError(
+                f"Band {self.name!r}: {int(np.isnan(v).sum())} NaN value(s); a NaN is neither "
+                "safe nor failed"
+            )
+        if self.absolute:
+            v = np.abs(v)
+        return (v < self.lower) | (v > self.upper)
+
+    def pf_from_distribution(self, dist: Any) -> float:
+        """Probability of leaving the band under a (frozen scipy) distribution of the output.
+
+        Uses ``cdf``/``sf`` tails separately so small probabilities keep full precision.
+        """
+        pf = 0.0
+        if self.absolute:
+            pf += float(dist.sf(self.upper)) + float(dist.cdf(-self.upper))
+            if self.lower > 0:
+                pf += float(dist.cdf(self.lower)) - float(dist.cdf(-self.lower))
+        else:
+            if self.upper < math.inf:
+                pf += float(dist.sf(self.upper))
+            if self.lower > -math.inf:
+                pf += float(dist.cdf(self.lower))
+        return min(max(pf, 0.0), 1.0)
+
+
+def _as_bands(bands: Any) -> list[Band]:
+    if isinstance(bands, Band):
+        return [bands]
+    out: list[Band] = []
+    if isinstance(bands, Mapping):
+        for key, spec in bands.items():
+            if isinstance(spec, Band):
+                out.append(spec)
+            elif isinstance(spec, Mapping):
+                out.append(Band(key, **spec))
+            elif isinstance(spec, Sequence) and not isinstance(spec, str) and len(spec) == 2:
+                out.append(Band(key, spec[0], spec[1]))
+            else:
+                raise ValueError(
+                    f"bands[{key!r}]: expected (lower, upper), a Band or a dict of Band "
+                    f"arguments, got {spec!r}"
+                )
+    elif isinstance(bands, Iterable) and not isinstance(bands, str):
+        for b in bands:
+            if not isinstance(b, Band):
+                raise ValueError(f"bands: expected Band objects, got {type(b).__name__}")
+            out.append(b)
+    else:
+        raise ValueError(
+            "bands: expected a Band, a list of Bands or a dict {output: (lower, upper)}"
+        )
+    if not out:
+        raise ValueError("bands: empty; give at least one band")
+    return out
+
+
+# =========================================================================== reliability
+_VAR_DOC = {
+    "n_failures": ("number of valid samples outside the band", "int"),
+    "pf": ("failure probability estimate k/n over valid samples", "float"),
+    "pf_lower": ("lower confidence bound of the failure probability", "float"),
+    "pf_upper": ("upper confidence bound of the failure probability", "float"),
+    "r": ("reliability R = 1 - pf", "float"),
+    "r_lower": ("lower confidence bound of R (= 1 - pf_upper)", "float"),
+    "r_upper": ("upper confidence bound of R (= 1 - pf_lower)", "float"),
+    "beta": (
+        "generalised reliability index Phi^-1(R) = -Phi^-1(pf); where no sample fails it is the "
+        "lower bound -Phi^-1(pf_upper), where all fail the upper bound -Phi^-1(pf_lower) "
+        "(see the *_is_*_bound flags)",
+        "float",
+    ),
+    "beta_lower": ("lower confidence bound of beta, -Phi^-1(pf_upper) (-inf if pf_upper=1)",
+                   "float"),
+    "beta_upper": ("upper confidence bound of beta, -Phi^-1(pf_lower) (+inf if pf_lower=0)",
+                   "float"),
+    "beta_is_lower_bound": ("1 where no valid sample failed and beta is a lower bound", "flag"),
+    "beta_is_upper_bound": ("1 where every valid sample failed and beta is an upper bound",
+                            "flag"),
+    "cov_pf": (
+        "coefficient of variation of the pf estimator sqrt((1 - pf)/(n pf)) (+inf where pf=0)",
+        "float",
+    ),
+    "pf_if_invalid_failed": (
+        "conservative pf counting invalid (status != 0) samples as failed: "
+        "(k + n_invalid)/(n + n_invalid)",
+        "float",
+    ),
+    "pf_if_invalid_safe": (
+        "optimistic pf counting invalid (status != 0) samples as safe: k/(n + n_invalid)",
+        "float",
+    ),
+}
+
+
+def _var_name(stem: str, first_passage: bool) -> str:
+    """``pf_lower`` -> ``pf_first_passage_lower`` etc."""
+    if not first_passage:
+        return stem
+    for head in ("n_failures", "cov_pf", "beta", "pf", "r"):
+        if stem == head or stem.startswith(head + "_"):
+            if head == "n_failures":
+                return "n_failures_first_passage"
+            return head + "_first_passage" + stem[len(head):]
+    raise AssertionError(stem)  # pragma: no cover
+
+
+def _estimates(
+    k: np.ndarray, n: int, n_invalid: int, confidence: float, method: str
+) -> dict[str, np.ndarray]:
+    k = np.asarray(k, dtype=np.int64)
+    kf = k.astype(float)
+    pf = kf / n
+    lo, up = binomial_interval(kf, float(n), confidence, method)
+    none_fail = k == 0
+    all_fail = k == n
+    beta_lower = stats.norm.isf(up)
+    beta_upper = stats.norm.isf(lo)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        beta = stats.norm.isf(pf)
+        cov = np.where(none_fail, np.inf, np.sqrt((1.0 - pf) / (n * pf)))
+    beta = np.where(none_fail, beta_lower, beta)
+    beta = np.where(all_fail, beta_upper, beta)
+    total = n + n_invalid
+    return {
+        "n_failures": k.astype(np.int32),
+        "pf": pf,
+        "pf_lower": lo,
+        "pf_upper": up,
+        "r": 1.0 - pf,
+        "r_lower": 1.0 - up,
+        "r_upper": 1.0 - lo,
+        "beta": beta,
+        "beta_lower": beta_lower,
+        "beta_upper": beta_upper,
+        "beta_is_lower_bound": none_fail.astype(np.int8),
+        "beta_is_upper_bound": all_fail.astype(np.int8),
+        "cov_pf": cov,
+        "pf_if_invalid_failed": (kf + n_invalid) / total,
+        "pf_if_invalid_safe": kf / total,
+    }
+
+
+def _select_time(ds: xr.Dataset, time: Any) -> xr.Dataset:
+    if time is None:
+        return ds
+    if "time" not in ds.dims:
+        raise ValueError("time: the Dataset has no 'time' dimension to select from")
+    if isinstance(time, slice):
+        out = ds.sel(time=time)
+    elif isinstance(time, tuple) and len(time) == 2:
+        out = ds.sel(time=slice(time[0], time[1]))
+    else:
+        t = np.atleast_1d(np.asarray(time, dtype=float))
+        out = ds.sel(time=t, method="nearest")
+    if out.sizes.get("time", 0) == 0:
+        raise ValueError(f"time: selection {time!r} contains no output instant")
+    return out
+
+
+# =========================================================================== modes
+def _as_modes(bands: Any) -> list[Any]:
+    """Bands, limit states and systems as a list of failure modes."""
+    from gearuq.limitstate import LimitState, System
+
+    if isinstance(bands, (Band, LimitState, System)):
+        return [bands]
+    if isinstance(bands, Mapping):
+        return _as_bands(bands)
+    if isinstance(bands, Iterable) and not isinstance(bands, str):
+        out = list(bands)
+        for b in out:
+            if not isinstance(b, (Band, LimitState, System)):
+                raise ValueError(f"bands: expected Band, LimitState or System objects, got "
+                                 f"{type(b).__name__}")
+        if not out:
+            raise ValueError("bands: empty; give at least one band")
+        return out
+    raise ValueError("bands: expected a Band, a LimitState, a System, a list of them or a dict "
+                     "{output: (lower, upper)}")
+
+
+def _mode_variables(mode: Any) -> list[str]:
+    return [mode.output] if isinstance(mode, Band) else list(mode.variables)
+
+
+def _band_modes(
+    blk: xr.Dataset, band: Band, valid: np.ndarray, time_dep_window: bool, n_t: int,
+    first_sample: int,
+) -> list[tuple[str, dict[str, Any], np.ndarray]]:
+    """Failure indicators ``(n_valid_in_block, n_t)`` of each mode produced by ``band``."""
+    da = blk[band.output]
+    if "sample" not in da.dims:
+        raise ValueError(f"band {band.name!r}: output {band.output!r} has no 'sample' dim")
+    if band.select:
+        try:
+            da = da.sel(band.select)
+        except (KeyError, ValueError) as exc:
+            raise ValueError(
+                f"band {band.name!r}: select={band.select!r} failed on output "
+                f"{band.output!r} with dims {da.dims}: {exc}"
+            ) from exc
+    extra = [d for d in da.dims if d not in ("sample", "time")]
+    order = ["sample", *extra] + (["time"] if "time" in da.dims else [])
+    da = da.transpose(*order)
+    values = np.asarray(da.values, dtype=float)[valid]
+    _check_finite(values, band.output, blk, valid, first_sample)
+    meta = {
+        "output": band.output, "lower": band.lower, "upper": band.upper,
+        "absolute": int(band.absolute), "output_units": str(da.attrs.get("units", "")),
+        "definition": band.describe(),
+    }
+    time_dep = "time" in da.dims
+    out = []
+    for idx in np.ndindex(*(da.sizes[d] for d in extra)) if extra else [()]:
+        f = band.fails(values[(slice(None), *idx)])
+        f = f.reshape(f.shape[0], -1) if time_dep else np.repeat(f[:, None], n_t, axis=1)
+        label = band.name
+        if extra:
+            parts = [f"{d}={da[d].values[i] if d in da.coords else i}"
+                     for d, i in zip(extra, idx, strict=True)]
+            label = f"{band.name}[{', '.join(parts)}]"
+        out.append((label, meta, f))
+    return out
+
+
+def _limit_state_mode(
+    blk: xr.Dataset, mode: Any, valid: np.ndarray, time: Any, n_t: int, first_sample: int,
+) -> list[tuple[str, dict[str, Any], np.ndarray]]:
+    """Failure indicator ``g <= 0`` of a LimitState or System over the block's valid samples."""
+    g = mode.values(blk)
+    if "time" in g.dims:
+        if time is not None and g.sizes["time"] != len(time):
+            # a window: instants outside it cannot fail
+            g = g.reindex(time=time, fill_value=np.inf)
+        g = g.transpose("sample", "time")
+    values = np.asarray(g.values, dtype=float)[valid]
+    _check_finite(values, mode.name, blk, valid, first_sample)
+    f = values <= 0.0
+    f = f if f.ndim == 2 else np.repeat(f[:, None], n_t, axis=1)
+    units = ""
+    if len(_mode_variables(mode)) == 1:
+        units = str(blk[_mode_variables(mode)[0]].attrs.get("units", ""))
+    meta = {"output": ",".join(_mode_variables(mode)), "lower": math.nan, "upper": math.nan,
+            "absolute": 0, "output_units": units,
+            "definition": f"limit state g <= 0 (boundary fails): {mode.description}"}
+    return [(mode.name, meta, f)]
+
+
+def _check_finite(values: np.ndarray, what: str, blk: xr.Dataset, valid: np.ndarray,
+                  first_sample: int) -> None:
+    bad = ~np.isfinite(values)
+    if bad.any():
+        rows = np.flatnonzero(bad.reshape(values.shape[0], -1).any(axis=1))
+        ids = (np.asarray(blk["sample"].values)[valid][rows] if "sample" in blk.coords
+               else rows + first_sample)
+        raise ValueError(
+            f"output {what!r}: {int(bad.sum())} non-finite value(s) in {rows.size} sample(s) "
+            f"with status 0 (first: sample {ids[0]}); a valid sample must be finite - the model "
+            "should have flagged it with a nonzero status")
+
+
+# =========================================================================== streaming counts
+#: Largest number of (sample x instant) values processed at once for an in-memory Dataset.
+_BLOCK_VALUES = 2**24
+
+
+def _sample_blocks(ds: xr.Dataset, names: Sequence[str], n: int, n_t: int
+                   ) -> list[tuple[int, int]]:
+    """Sample ranges to process one at a time: the dask chunks of a lazily loaded result
+    (one stored chunk at a time), else blocks of at most :data:`_BLOCK_VALUES` values."""
+    for name in names:
+        chunks = ds[name].chunksizes.get("sample") if ds[name].chunks is not None else None
+        if chunks:
+            edges = np.concatenate([[0], np.cumsum(chunks)])
+            return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    size = max(1, _BLOCK_VALUES // max(1, n_t))
+    return [(s, min(s + size, n)) for s in range(0, n, size)]
+
+
+class _Counts:
+    """Integer failure counts per mode, summed over sample blocks (additive, so streaming
+    gives exactly the in-memory numbers)."""
+
+    def __init__(self, n_t: int, system: bool, first_passage: bool) -> None:
+        self.n_t, self.system, self.first_passage = n_t, system, first_passage
+        self.labels: list[str] = []
+        self.metas: list[dict[str, Any]] = []
+        self.k_inst: list[np.ndarray] = []
+        self.k_fp: list[np.ndarray] = []
+        self.k_half: list[int] = []
+
+    def add_block(self, block_modes: list[tuple[str, dict[str, Any], np.ndarray]],
+                  n_block_valid: int) -> None:
+        sys_f = np.zeros((n_block_valid, self.n_t), dtype=bool)
+        first = not self.labels
+        for i, (label, meta, f) in enumerate(block_modes):
+            if first:
+                if label in self.labels or label == SYSTEM_MODE:
+                    raise ValueError(
+                        f"duplicate or reserved mode label {label!r}; give each Band a "
+                        f"distinct name=... (reserved: {SYSTEM_MODE!r})")
+                self.labels.append(label)
+                self.metas.append(meta)
+                self.k_inst.append(np.zeros(self.n_t, dtype=np.int64))
+                self.k_fp.append(np.zeros(self.n_t, dtype=np.int64))
+                self.k_half.append(0)
+            self._add(i, f)
+            sys_f |= f
+        if self.system:
+            if first:
+                self.labels.append(SYSTEM_MODE)
+                self.metas.append({
+                    "output": "*", "lower": math.nan, "upper": math.nan, "absolute": 0,
+                    "output_units": "", "definition": "series system: fails if any mode fails"})
+                self.k_inst.append(np.zeros(self.n_t, dtype=np.int64))
+                self.k_fp.append(np.zeros(self.n_t, dtype=np.int64))
+                self.k_half.append(0)
+            self._add(len(self.labels) - 1, sys_f)
+
+    def _add(self, i: int, f: np.ndarray) -> None:
+        self.k_inst[i] += f.sum(axis=0)
+        if self.first_passage:
+            self.k_fp[i] += np.logical_or.accumulate(f, axis=1).sum(axis=0)
+            self.k_half[i] += int(f[:, ::2].any(axis=1).sum())
+
+
+# =========================================================================== reliability
+def reliability(
+    ds: xr.Dataset,
+    bands: Any,
+    *,
+    confidence: float = 0.95,
+    interval: str = "wilson",
+    system: bool = True,
+    first_passage: bool = True,
+    time: Any = None,
+) -> xr.Dataset:
+    """Instantaneous, system and first-passage reliability of response samples.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Model result with dim ``sample`` (and ``time`` for time-dependent outputs) and,
+        normally, a per-sample ``status`` variable (0 = ok). Without ``status`` every sample is
+        taken as valid (recorded in the attrs). A lazily loaded, dask-backed result (what
+        ``monte_carlo(..., store=DIR)`` returns) is processed one stored chunk at a time, never
+        loaded whole; failure counts are additive over chunks, so the result is identical to
+        the in-memory one.
+    bands : Band, LimitState, System, list of them, or dict
+        Failure modes. A dict maps an output name to ``(lower, upper)`` (``None`` = open side),
+        to a :class:`Band` or to a dict of :class:`Band` keyword arguments. A
+        :class:`~gearuq.limitstate.LimitState` or :class:`~gearuq.limitstate.System` fails
+        where its ``g <= 0`` (the boundary fails; a band's limits are safe).
+    confidence : float
+        Two-sided confidence level of the intervals.
+    interval : {"wilson", "clopper-pearson"}
+        Binomial interval method (see :func:`wilson_interval`, :func:`clopper_pearson_interval`).
+    system : bool
+        Add the series-system mode ``"system"``: a sample fails when ANY mode fails at that
+        instant. Computed from the same samples, so the dependence between modes is kept.
+    first_passage : bool
+        Add first-passage (cumulative) estimates ``*_first_passage``: a sample has failed by
+        ``t`` if it failed at any output instant ``<= t`` of the (selected) window. Only when
+        some mode depends on time. The grid check ``pf_first_passage_grid_gap`` says how
+        much the estimate moves when every other instant is dropped.
+    time : slice, (t0, t1), array_like or scalar, optional
+        Restrict the window: a slice / pair selects by label, values select the nearest
+        instants. The first-passage window starts at the first selected instant.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims ``mode`` (mode labels, then ``"system"``) and ``time`` (if any mode depends on
+        it). Variables (all units "1"): ``n_failures``, ``pf``, ``pf_lower``, ``pf_upper``,
+        ``r``, ``r_lower``, ``r_upper``, ``beta``, ``beta_lower``, ``beta_upper``,
+        ``beta_is_lower_bound``, ``beta_is_upper_bound`` (int8 flags), ``cov_pf``,
+        ``pf_if_invalid_failed``, ``pf_if_invalid_safe``; the same with ``_first_passage``
+        after the stem (``pf_first_passage``, ``pf_first_passage_upper``, ...);
+        ``pf_first_passage_grid_gap`` and ``first_passage_grid_warning`` per mode; scalars
+        ``n_samples``, ``n_valid``, ``n_invalid``. Mode coordinates ``output``, ``lower``,
+        ``upper`` (+-inf for open sides; NaN for limit states and the system), ``absolute``,
+        ``output_units``, ``definition``. ``attrs["interval_validity"]`` says whether the
+        binomial interval is valid for the design that produced ``ds`` (``attrs["rule"]``).
+
+    Raises
+    ------
+    ValueError
+        Unknown output, bad band, no valid sample, a non-finite output value in a valid
+        (status 0) sample, duplicate mode labels, unsorted time.
+
+    Notes
+    -----
+    ``beta = Phi^-1(R)`` is the generalised reliability index. Where no valid sample fails,
+    ``pf = 0`` and ``beta`` reports the finite lower bound ``-Phi^-1(pf_upper)`` with
+    ``beta_is_lower_bound = 1``; where every sample fails, ``beta = -Phi^-1(pf_lower)`` is an
+    upper bound (``beta_is_upper_bound = 1``). The interval ends ``beta_upper`` (no failure)
+    and ``beta_lower`` (all failed) are then infinite, which is exact.
+    """
+    if not isinstance(ds, xr.Dataset):
+        raise ValueError(f"reliability: ds must be an xarray.Dataset, got {type(ds).__name__}")
+    method = _interval_method(interval)
+    if not 0.0 < float(confidence) < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    modes = _as_modes(bands)
+    if "sample" not in ds.dims:
+        raise ValueError("reliability: the Dataset has no 'sample' dimension")
+    ds = _select_time(ds, time)
+    valid, status_note = _valid_samples(ds)
+    n_samples, n_valid = valid.size, int(valid.sum())
+    used = list(dict.fromkeys(v for m in modes for v in _mode_variables(m)))
+    missing = [o for o in used if o not in ds.variables]
+    if missing:
+        outs = [k for k, v in ds.data_vars.items() if v.attrs.get("role") == "output"]
+        raise ValueError(
+            f"output(s) {', '.join(map(repr, missing))} not in the Dataset; available "
+            f"outputs: {', '.join(outs or list(map(str, ds.data_vars)))}")
+    has_time = any("time" in ds[o].dims for o in used)
+    if has_time:
+        tvals = np.asarray(ds["time"].values)
+        if tvals.size > 1 and np.any(np.diff(tvals.astype(float)) < 0):
+            raise ValueError("reliability: time must be sorted in increasing order")
+    n_t = ds.sizes["time"] if has_time else 1
+    counts = _Counts(n_t, system, first_passage and has_time)
+    time_coord = ds["time"] if has_time else None
+    for start, stop in _sample_blocks(ds, used, n_samples, n_t):
+        v = valid[start:stop]
+        if not v.any() and counts.labels:
+            continue
+        blk = ds[used].isel(sample=slice(start, stop))
+        found = []
+        for mode in modes:
+            if isinstance(mode, Band):
+                found += _band_modes(blk, mode, v, has_time, n_t, start)
+            else:
+                found += _limit_state_mode(blk, mode, v, time_coord, n_t, start)
+        counts.add_block(found, int(v.sum()))
+    out = _assemble(ds, counts, has_time, n_valid, n_samples - n_valid, confidence, method)
+    _describe(out, ds, modes, system, first_passage and has_time, status_note, n_samples,
+              n_valid, confidence, method)
+    return out
+
+
+def _valid_samples(ds: xr.Dataset) -> tuple[np.ndarray, str]:
+    n_samples = int(ds.sizes["sample"])
+    if n_samples == 0:
+        raise ValueError("reliability: the Dataset has no samples")
+    if "status" in ds.data_vars:
+        status = np.asarray(ds["status"].values)
+        if status.shape != (n_samples,):
+            raise ValueError(f"status must have shape (n_samples,), got {status.shape}")
+        valid = status == 0
+        note = (
+            "samples with nonzero status (solver failure) are excluded from every estimate; "
+            "they are neither safe nor failed. n_invalid counts them; pf_if_invalid_failed / "
+            "pf_if_invalid_safe show the estimate if they had all failed / all been safe")
+    else:
+        valid = np.ones(n_samples, dtype=bool)
+        note = "no status variable in the input: every sample was taken as valid"
+    if not valid.any():
+        raise ValueError(
+            f"reliability: no valid sample (all {n_samples} have nonzero status); "
+            "nothing can be estimated")
+    return valid, note
+
+
+def _assemble(ds: xr.Dataset, counts: _Counts, has_time: bool, n_valid: int, n_invalid: int,
+              confidence: float, method: str) -> xr.Dataset:
+    """The result Dataset from the summed counts."""
+    dims: tuple[str, ...] = ("mode", "time") if has_time else ("mode",)
+
+    def shape(a: list[np.ndarray]) -> np.ndarray:
+        arr = np.stack(a)
+        return arr if has_time else arr[:, 0]
+
+    metas = counts.metas
+    coords: dict[str, Any] = {
+        "mode": ("mode", np.array(counts.labels, dtype=str), {"long_name": "failure mode"}),
+        "output": ("mode", np.array([m["output"] for m in metas], dtype=str),
+                   {"long_name": "output variable(s) of the mode"}),
+        "lower": ("mode", np.array([m["lower"] for m in metas], dtype=float),
+                  {"long_name": "band lower limit (output units; -inf = open)"}),
+        "upper": ("mode", np.array([m["upper"] for m in metas], dtype=float),
+                  {"long_name": "band upper limit (output units; +inf = open)"}),
+        "absolute": ("mode", np.array([m["absolute"] for m in metas], dtype=np.int8),
+                     {"long_name": "1 if the band applies to |value|", "units": "1"}),
+        "output_units": ("mode", np.array([m["output_units"] for m in metas], dtype=str),
+                         {"long_name": "units of the band limits"}),
+        "definition": ("mode", np.array([m["definition"] for m in metas], dtype=str),
+                       {"long_name": "safe set of the mode"}),
+    }
+    if has_time:
+        coords["time"] = ("time", ds["time"].values, dict(ds["time"].attrs))
+    out = xr.Dataset(coords=coords)
+    sets = [(False, shape(counts.k_inst))]
+    if counts.first_passage:
+        sets.append((True, shape(counts.k_fp)))
+    for fp, k in sets:
+        for stem, arr in _estimates(k, n_valid, n_invalid, confidence, method).items():
+            doc, kind = _VAR_DOC[stem]
+            if fp:
+                doc = "first-passage (failed at any instant <= t in the window): " + doc
+            attrs = {"units": "1", "long_name": doc}
+            if kind == "flag":
+                attrs["flag_values"] = np.array([0, 1], dtype=np.int8)
+                attrs["flag_meanings"] = "point_estimate bound"
+            out[_var_name(stem, fp)] = (dims, arr, attrs)
+    if counts.first_passage and ds.sizes["time"] >= 3:
+        _grid_check(out, counts, n_valid)
+    out["n_samples"] = ((), np.int32(n_valid + n_invalid),
+                        {"units": "1", "long_name": "samples in input"})
+    out["n_valid"] = ((), np.int32(n_valid), {
+        "units": "1", "long_name": "samples with status 0 used in every estimate"})
+    out["n_invalid"] = ((), np.int32(n_invalid), {
+        "units": "1", "long_name": "samples with nonzero status, excluded"})
+    return out
+
+
+def _grid_check(out: xr.Dataset, counts: _Counts, n_valid: int) -> None:
+    """How far the first-passage estimate on this time grid can be from continuous time.
+
+    Dropping every other instant can only lose failures; the samples lost, ``d``, estimate
+    the first-passage probability the full grid itself still misses if that loss shrinks at
+    least linearly with the spacing (true for smooth responses as the grid is refined:
+    ``M(h) = (M(2h) - M(h)) / (2^p - 1) <= M(2h) - M(h)`` for ``M(h) ~ h^p``, ``p >= 1``).
+    """
+    k_full = np.array([k[-1] for k in counts.k_fp], dtype=np.int64)
+    gap = (k_full - np.array(counts.k_half, dtype=np.int64)) / n_valid
+    half_width = out["pf_first_passage_upper"].isel(time=-1).values - \
+        out["pf_first_passage"].isel(time=-1).values
+    warn = (gap > 0) & (gap > 0.5 * half_width)
+    out["pf_first_passage_grid_gap"] = ("mode", gap, {
+        "units": "1",
+        "long_name": (
+            "first-passage Pf over the window on this grid minus the same on every other "
+            "instant; estimates how much the continuous-time Pf can exceed the grid value "
+            "(assuming the missed probability shrinks at least linearly with the spacing)")})
+    out["first_passage_grid_warning"] = ("mode", warn.astype(np.int8), {
+        "units": "1", "flag_values": np.array([0, 1], dtype=np.int8),
+        "flag_meanings": "grid_resolves grid_too_coarse",
+        "long_name": ("1 where the grid gap exceeds half the interval width: refine the time "
+                      "grid or use gearuq.outcrossing.first_passage with the derivative")})
+
+
+_RULE_VALIDITY = {
+    "random": "valid: i.i.d. samples (rule='random')",
+    "lhs": ("conservative: the binomial interval assumes i.i.d. samples; a Latin hypercube's "
+            "variance is at most n/(n-1) times the i.i.d. one (Owen 1997), so it is about as "
+            "wide or wider than needed. For a real interval use failure_probability(..., "
+            "method='mc', rule='lhs', replicates=R)"),
+    "sobol": ("not guaranteed: the binomial interval assumes i.i.d. samples; for scrambled QMC "
+              "designs and a discontinuous failure indicator it is neither exact nor proven "
+              "conservative. Use failure_probability(..., method='mc', rule='sobol', "
+              "replicates=R) for an interval from independent randomisations"),
+}
+_RULE_VALIDITY["halton"] = _RULE_VALIDITY["sobol"].replace("rule='sobol'", "rule='halton'")
+
+
+def _describe(out: xr.Dataset, ds: xr.Dataset, modes: list[Any], system: bool, fp: bool,
+              status_note: str, n_samples: int, n_valid: int, confidence: float,
+              method: str) -> None:
+    """Attributes of a reliability result."""
+    out["n_invalid"].attrs["note"] = status_note
+    rule = str(ds.attrs.get("rule", "")).lower()
+    mode_json = json.dumps([_mode_json(m) for m in modes])
+    out.attrs.update({
+        "description": (
+            "Monte Carlo reliability: failure probability, reliability and generalised "
+            "reliability index beta = Phi^-1(R) per failure mode"
+            + (", series system" if system else "")
+            + (" and first-passage over the time window" if fp else "")),
+        "confidence": float(confidence),
+        "interval": method,
+        "design_rule": rule or "unknown",
+        "interval_validity": _RULE_VALIDITY.get(
+            rule, "valid only if the samples are i.i.d. (the design rule is not recorded)"),
+        "failure_definition": (
+            "a sample fails a band at an instant when its value (|value| for absolute bands) "
+            "is outside the closed interval [lower, upper] (values on a limit are safe); it "
+            "fails a limit state where g <= 0 (the boundary fails)"),
+        "beta_definition": (
+            "generalised index beta = Phi^-1(R) = -Phi^-1(pf); zero/all failures give a "
+            "finite one-sided bound flagged by beta_is_lower_bound / beta_is_upper_bound"),
+        "system_definition": "series: fails if any mode fails at that instant (same samples)",
+        "invalid_samples": status_note,
+        "n_samples": n_samples,
+        "n_valid": n_valid,
+        "n_invalid": n_samples - n_valid,
+        "bands": mode_json,
+    })
+    if "model" in ds.attrs:
+        out.attrs["model"] = str(ds.attrs["model"])
+
+
+def _mode_json(m: Any) -> dict[str, Any]:
+    if isinstance(m, Band):
+        return {"name": m.name, "output": m.output,
+                "lower": None if m.lower == -math.inf else m.lower,
+                "upper": None if m.upper == math.inf else m.upper,
+                "absolute": m.absolute, "select": {k: str(v) for k, v in m.select.items()}}
+    return m.to_dict()

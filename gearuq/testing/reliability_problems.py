@@ -1,0 +1,394 @@
+"""Reliability benchmark problems with reference failure probabilities.
+
+Each problem is a vectorised function (module level, so models built on it pickle), a ready
+:class:`~gearuq.model.FunctionModel` factory, its :class:`~gearuq.space.ParameterSpace` and a
+reference answer computed **without** any gearuq engine (closed form or one-dimensional
+quadrature), or a published value where no closed form exists.
+
+=====================  ================================  =======================================
+problem                inputs                            reference
+=====================  ================================  =======================================
+linear, 100-D          x1..x100 ~ N(0, 1)                g = 3.5 sqrt(100) - sum(x):
+                                                         beta = 3.5, Pf = Phi(-3.5) = 2.326e-4
+offset                 x1, x2 ~ N(0, 1)                  g = 4.5 - x1: Pf = Phi(-4.5) = 3.398e-6
+resistance-load        R lognormal (mean 10, std 1),     g = R - S: Pf by 1-D quadrature
+                       S ~ N(5, 1.5), optional copula    (2.349e-3 independent)
+oscillator             m, c1, c2, r, F1, t1 normal       g = 3r - |2F1/(m w0^2) sin(w0 t1/2)|:
+                       (Echard et al. 2011)              Pf = 2.86e-2 (2e7 MC: 2.858e-2 +- 4e-5)
+parabola, 2 design     u1, u2 ~ N(0, 1)                  g = 5 - u2 - 0.5 (u1 - 0.1)^2 (Der
+points                                                   Kiureghian and Dakessian 1998): Pf by
+                                                         1-D quadrature (3.0e-3)
+four-branch, by        x1, x2 ~ N(0, 1)                  outputs g1..g4 of the four branches
+branch                                                   (series system): Pf = 4.4573e-3
+jump                   x1, x2 ~ N(0, 1)                  g = 3.5 - x1 - 1.5 [x2 > 1]: a
+                                                         discontinuous response, Pf closed form
+random-phase process   X1, X2 ~ N(0, 1)                  y(t) = X1 sin(w t) + X2 cos(w t):
+                                                         stationary Gaussian, exact out-crossing
+                                                         rate and exact first passage
+Gaussian process       A_k, B_k ~ N(0, 1)                y(t) = sum_k s_k (A_k cos w_k t + B_k
+(K harmonics)                                            sin w_k t): spectral moments m0, m2
+=====================  ================================  =======================================
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from scipy import integrate, stats
+
+from gearuq.testing.problems import FOUR_BRANCH_K, FOUR_BRANCH_PF, standard_normal_space
+
+if TYPE_CHECKING:
+    from gearuq.model import FunctionModel
+    from gearuq.space import ParameterSpace
+
+__all__ = [
+    "linear_sum", "linear_sum_model", "LINEAR_100D_BETA", "LINEAR_100D_PF",
+    "offset", "offset_model", "offset_space", "OFFSET_PF",
+    "resistance_load", "resistance_load_model", "resistance_load_space", "resistance_load_pf",
+    "oscillator", "oscillator_model", "oscillator_space", "OSCILLATOR_PF",
+    "OSCILLATOR_PF_MC", "OSCILLATOR_PF_MC_SE",
+    "parabola", "parabola_model", "parabola_pf", "PARABOLA_PF",
+    "four_branch_components", "four_branch_components_model", "FOUR_BRANCH_PF",
+    "jump", "jump_model", "JUMP_PF",
+    "random_phase", "random_phase_model", "random_phase_rate", "random_phase_first_passage",
+    "gaussian_process", "gaussian_process_model", "gaussian_process_moments",
+    "rice_rate_gaussian", "reliability_problems",
+]
+
+
+# =========================================================================== linear 100-D
+LINEAR_100D_BETA = 3.5
+#: Phi(-3.5).
+LINEAR_100D_PF = float(stats.norm.sf(LINEAR_100D_BETA))
+
+
+def linear_sum(*x: Any, beta: float = LINEAR_100D_BETA) -> np.ndarray:
+    """``g = beta sqrt(n) - sum(x)`` (failure ``g <= 0``; exact ``Pf = Phi(-beta)``)."""
+    return beta * math.sqrt(len(x)) - sum(np.asarray(v, dtype=float) for v in x)
+
+
+def _linear_named(*, dim: int, beta: float, **x: np.ndarray) -> np.ndarray:
+    return linear_sum(*(x[f"x{i + 1}"] for i in range(dim)), beta=beta)
+
+
+def linear_sum_model(dim: int = 100, beta: float = LINEAR_100D_BETA) -> FunctionModel:
+    """The linear limit state in ``dim`` standard normal inputs, output ``g``."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(functools.partial(_linear_named, dim=int(dim), beta=float(beta)),
+                         [f"x{i + 1}" for i in range(int(dim))], ["g"], name=f"linear_{dim}d",
+                         description=f"g = {beta:g} sqrt({dim}) - sum(x)")
+
+
+# =========================================================================== offset
+#: Phi(-4.5) = 3.398e-6.
+OFFSET_PF = float(stats.norm.sf(4.5))
+
+
+def offset(x1: Any, x2: Any) -> np.ndarray:
+    """``g = 4.5 - x1`` (``x2`` is inert; it makes the problem two-dimensional)."""
+    return 4.5 - np.asarray(x1, dtype=float) + 0.0 * np.asarray(x2, dtype=float)
+
+
+def offset_model() -> FunctionModel:
+    """``g = 4.5 - x1`` as a model with inputs x1, x2."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(offset, ["x1", "x2"], ["g"], name="offset", description="g = 4.5 - x1")
+
+
+def offset_space() -> ParameterSpace:
+    """x1, x2 independent standard normal."""
+    return standard_normal_space(2)
+
+
+# =========================================================================== resistance-load
+R_MEAN, R_STD = 10.0, 1.0
+S_MEAN, S_STD = 5.0, 1.5
+
+
+def resistance_load(R: Any, S: Any) -> np.ndarray:  # noqa: N803 - the usual symbols
+    """``g = R - S``."""
+    return np.asarray(R, dtype=float) - np.asarray(S, dtype=float)
+
+
+def resistance_load_model() -> FunctionModel:
+    """``g = R - S`` as a model."""
+    from gearuq.model import FunctionModel, Parameter
+
+    return FunctionModel(resistance_load, [Parameter("R", "1", R_MEAN, 0.0),
+                                           Parameter("S", "1", S_MEAN)], ["g"],
+                         name="resistance_load", description="g = R - S")
+
+
+def resistance_load_space(rho: float = 0.0) -> ParameterSpace:
+    """R lognormal (mean 10, std 1), S normal (5, 1.5); ``rho`` = correlation of the
+    underlying normals (Gaussian copula)."""
+    from gearuq.space import ParameterSpace
+
+    corr = None if rho == 0 else {("R", "S"): float(rho)}
+    return ParameterSpace({"R": {"dist": "lognormal", "mean": R_MEAN, "std": R_STD},
+                           "S": {"dist": "normal", "mean": S_MEAN, "std": S_STD}}, corr)
+
+
+def resistance_load_pf(rho: float = 0.0) -> float:
+    """``P(R <= S)`` by one-dimensional quadrature over the standard normal of S.
+
+    Given ``z_S``, ``z_R ~ N(rho z_S, 1 - rho^2)`` and ``R <= s`` iff
+    ``z_R <= Phi^-1(F_R(s))``, so ``Pf = int phi(z) Phi((Phi^-1(F_R(s(z))) - rho z) /
+    sqrt(1 - rho^2)) dz`` with ``s(z) = 5 + 1.5 z``.
+    """
+    sigma = math.sqrt(math.log(1 + (R_STD / R_MEAN) ** 2))
+    mu = math.log(R_MEAN) - sigma**2 / 2
+
+    def integrand(z: float) -> float:
+        s = S_MEAN + S_STD * z
+        if s <= 0:
+            return 0.0
+        z_r = (math.log(s) - mu) / sigma  # Phi^-1(F_R(s)) for a lognormal
+        return stats.norm.pdf(z) * stats.norm.cdf((z_r - rho * z) / math.sqrt(1 - rho**2))
+
+    val, _ = integrate.quad(integrand, -12, 12, epsabs=1e-15, epsrel=1e-11, limit=400,
+                            points=[0.0, 2.0, 3.0, 4.0])
+    return float(val)
+
+
+# =========================================================================== oscillator
+#: Published reference (Echard et al. 2011; Schueremans and Van Gemert 2005).
+OSCILLATOR_PF = 2.86e-2
+#: 2e7 Monte Carlo draws (the issue's reference) and its standard error.
+OSCILLATOR_PF_MC = 2.858e-2
+OSCILLATOR_PF_MC_SE = 4e-5
+_OSC = {"m": (1.0, 0.05), "c1": (1.0, 0.1), "c2": (0.1, 0.01), "r": (0.5, 0.05),
+        "F1": (1.0, 0.2), "t1": (1.0, 0.2)}
+
+
+def oscillator(m: Any, c1: Any, c2: Any, r: Any, F1: Any, t1: Any) -> np.ndarray:  # noqa: N803
+    """Non-linear undamped oscillator: ``g = 3r - |2 F1/(m w0^2) sin(w0 t1 / 2)|``."""
+    w0 = np.sqrt((c1 + c2) / m)
+    return 3.0 * r - np.abs(2.0 * F1 / (m * w0**2) * np.sin(w0 * t1 / 2.0))
+
+
+def oscillator_model() -> FunctionModel:
+    """The oscillator as a model (m, c1, c2 positive)."""
+    from gearuq.model import FunctionModel, Parameter
+
+    params = [Parameter(k, "1", mu, 0.0 if k in ("m", "c1", "c2") else -math.inf)
+              for k, (mu, _) in _OSC.items()]
+    return FunctionModel(oscillator, params, ["g"], name="oscillator",
+                         description="non-linear undamped oscillator (Echard et al. 2011)")
+
+
+def oscillator_space() -> ParameterSpace:
+    """Six independent normals (Echard et al. 2011, Table 4)."""
+    from gearuq.space import ParameterSpace
+
+    return ParameterSpace.normal(**_OSC)
+
+
+# =========================================================================== parabola
+PARABOLA_B, PARABOLA_KAPPA, PARABOLA_E = 5.0, 0.5, 0.1
+
+
+def parabola(u1: Any, u2: Any) -> np.ndarray:
+    """``g = b - u2 - kappa (u1 - e)^2`` with two design points (b=5, kappa=0.5, e=0.1)."""
+    u1 = np.asarray(u1, dtype=float)
+    return PARABOLA_B - np.asarray(u2, dtype=float) - PARABOLA_KAPPA * (u1 - PARABOLA_E) ** 2
+
+
+def parabola_model() -> FunctionModel:
+    """The parabolic limit state as a model with inputs u1, u2."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(parabola, ["u1", "u2"], ["g"], name="parabola",
+                         description="g = 5 - u2 - 0.5 (u1 - 0.1)^2 (two design points)")
+
+
+def parabola_pf() -> float:
+    """``int phi(u1) Phi(kappa (u1 - e)^2 - b) du1``."""
+    def f(u: float) -> float:
+        return stats.norm.pdf(u) * stats.norm.cdf(PARABOLA_KAPPA * (u - PARABOLA_E) ** 2
+                                                 - PARABOLA_B)
+
+    val, _ = integrate.quad(f, -15, 15, epsabs=1e-15, epsrel=1e-12, limit=400,
+                            points=[-3.0, 0.1, 3.0])
+    return float(val)
+
+
+PARABOLA_PF = parabola_pf()
+
+
+# =========================================================================== four-branch
+def four_branch_components(x1: Any, x2: Any, k: float = FOUR_BRANCH_K
+                           ) -> tuple[np.ndarray, ...]:
+    """The four branches ``(g1, g2, g3, g4)`` of the four-branch series system."""
+    x1 = np.asarray(x1, dtype=float)
+    x2 = np.asarray(x2, dtype=float)
+    spread = 3.0 + 0.1 * (x1 - x2) ** 2
+    along = (x1 + x2) / math.sqrt(2.0)
+    return spread - along, spread + along, (x1 - x2) + k, (x2 - x1) + k
+
+
+def four_branch_components_model(k: float = FOUR_BRANCH_K) -> FunctionModel:
+    """Outputs g1..g4 (each fails at g_i <= 0); the series system is Pf = 4.4573e-3."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(functools.partial(four_branch_components, k=float(k)), ["x1", "x2"],
+                         ["g1", "g2", "g3", "g4"], name="four_branch_components",
+                         description="the four branches of the four-branch system")
+
+
+# =========================================================================== jump
+def jump(x1: Any, x2: Any) -> np.ndarray:
+    """``g = 3.5 - x1 - 1.5 [x2 > 1]``: the margin drops by 1.5 where x2 exceeds 1."""
+    x1 = np.asarray(x1, dtype=float)
+    return 3.5 - x1 - 1.5 * (np.asarray(x2, dtype=float) > 1.0)
+
+
+#: ``Phi(1) Phi(-3.5) + Phi(-1) Phi(-2)``.
+JUMP_PF = float(stats.norm.cdf(1.0) * stats.norm.sf(3.5) + stats.norm.sf(1.0) * stats.norm.sf(2.0))
+
+
+def jump_model() -> FunctionModel:
+    """The discontinuous limit state as a model with inputs x1, x2."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(jump, ["x1", "x2"], ["g"], name="jump",
+                         description="g = 3.5 - x1 - 1.5 [x2 > 1] (discontinuous)")
+
+
+# =========================================================================== random phase
+def random_phase(X1: Any, X2: Any, t: Any, omega: float = 1.0) -> dict[str, np.ndarray]:  # noqa: N803
+    """``y = X1 sin(w t) + X2 cos(w t)`` and ``dy = dy/dt``: stationary, Gaussian, m0 = 1,
+    m2 = w^2."""
+    x1 = np.asarray(X1, dtype=float)[:, None]
+    x2 = np.asarray(X2, dtype=float)[:, None]
+    wt = omega * np.asarray(t, dtype=float)[None, :]
+    return {"y": x1 * np.sin(wt) + x2 * np.cos(wt),
+            "dy": omega * (x1 * np.cos(wt) - x2 * np.sin(wt))}
+
+
+def random_phase_model(omega: float = 1.0) -> FunctionModel:
+    """The random-phase process as a time-dependent model (outputs y, dy)."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(functools.partial(random_phase, omega=float(omega)), ["X1", "X2"],
+                         ["y", "dy"], name="random_phase", time_dependent=True,
+                         description=f"y = X1 sin({omega:g} t) + X2 cos({omega:g} t)")
+
+
+def random_phase_rate(level: float, omega: float = 1.0) -> float:
+    """Up-crossing rate of ``level``: ``(w / 2 pi) exp(-level^2 / 2)`` (Rice)."""
+    return omega / (2 * math.pi) * math.exp(-level * level / 2)
+
+
+def random_phase_first_passage(level: float, duration: float, omega: float = 1.0) -> float:
+    """Exact ``P(max_{0<=t<=T} y(t) >= level)`` for ``level > 0``.
+
+    ``y = A cos(w t - theta)`` with ``A`` Rayleigh and ``theta`` uniform, independent. Over
+    the phase window ``[-theta, w T - theta]`` the largest cosine is 1 if the window holds a
+    multiple of 2 pi, else the larger end value ``M``; ``P(A M >= a) = exp(-a^2 / (2 M^2))``.
+    """
+    span = omega * duration
+    if span >= 2 * math.pi:
+        return math.exp(-level * level / 2)
+
+    def given_theta(theta: float) -> float:
+        start, end = -theta, span - theta
+        if math.floor(end / (2 * math.pi)) > math.floor(start / (2 * math.pi)) or \
+                math.isclose(start % (2 * math.pi), 0.0):
+            peak = 1.0
+        else:
+            peak = max(math.cos(start), math.cos(end))
+        return math.exp(-level * level / (2 * peak * peak)) if peak > 0 else 0.0
+
+    val, _ = integrate.quad(given_theta, 0.0, 2 * math.pi, limit=400, epsabs=1e-14,
+                            epsrel=1e-11, points=[span, math.pi / 2, 3 * math.pi / 2,
+                                                  span + math.pi / 2, span + 3 * math.pi / 2])
+    return float(val / (2 * math.pi))
+
+
+# =========================================================================== Gaussian process
+def gaussian_process(t: Any, *, scales: tuple[float, ...], omegas: tuple[float, ...],
+                     **coef: np.ndarray) -> dict[str, np.ndarray]:
+    """``y = sum_k s_k (A_k cos w_k t + B_k sin w_k t)`` and its time derivative."""
+    t = np.asarray(t, dtype=float)[None, :]
+    y = 0.0
+    dy = 0.0
+    for k, (s, w) in enumerate(zip(scales, omegas, strict=True)):
+        a = np.asarray(coef[f"A{k + 1}"], dtype=float)[:, None]
+        b = np.asarray(coef[f"B{k + 1}"], dtype=float)[:, None]
+        y = y + s * (a * np.cos(w * t) + b * np.sin(w * t))
+        dy = dy + s * w * (-a * np.sin(w * t) + b * np.cos(w * t))
+    return {"y": y, "dy": dy}
+
+
+_GP_SCALES = (1.0, 0.6, 0.3)
+_GP_OMEGAS = (1.0, 2.3, 4.1)
+
+
+def gaussian_process_model(scales: tuple[float, ...] = _GP_SCALES,
+                           omegas: tuple[float, ...] = _GP_OMEGAS) -> FunctionModel:
+    """The K-harmonic stationary Gaussian process as a model (inputs A_k, B_k ~ N(0, 1))."""
+    from gearuq.model import FunctionModel
+
+    names = [f"{c}{k + 1}" for k in range(len(scales)) for c in ("A", "B")]
+    return FunctionModel(functools.partial(gaussian_process, scales=tuple(scales),
+                                           omegas=tuple(omegas)), names, ["y", "dy"],
+                         name="gaussian_process", time_dependent=True,
+                         description="stationary Gaussian process, sum of random harmonics")
+
+
+def gaussian_process_moments(scales: tuple[float, ...] = _GP_SCALES,
+                             omegas: tuple[float, ...] = _GP_OMEGAS) -> tuple[float, float]:
+    """Spectral moments ``m0 = sum s_k^2`` and ``m2 = sum s_k^2 w_k^2``."""
+    s = np.asarray(scales, dtype=float)
+    w = np.asarray(omegas, dtype=float)
+    return float(np.sum(s**2)), float(np.sum(s**2 * w**2))
+
+
+def rice_rate_gaussian(level: float, m0: float, m2: float) -> float:
+    """Rice's up-crossing rate of a zero-mean stationary Gaussian process,
+    ``nu+ = (1 / 2 pi) sqrt(m2 / m0) exp(-u^2 / (2 m0))``."""
+    return math.sqrt(m2 / m0) / (2 * math.pi) * math.exp(-level * level / (2 * m0))
+
+
+# =========================================================================== all of them
+def reliability_problems() -> dict[str, dict[str, Any]]:
+    """The static problems by name: ``{"model", "space", "limit_state", "pf", "source"}``."""
+    from gearuq.limitstate import LimitState, SeriesSystem
+    from gearuq.testing.problems import four_branch_model
+
+    return {
+        "linear_100d": {"model": linear_sum_model(), "space": standard_normal_space(100),
+                        "limit_state": "g", "pf": LINEAR_100D_PF, "source": "exact"},
+        "offset": {"model": offset_model(), "space": offset_space(), "limit_state": "g",
+                   "pf": OFFSET_PF, "source": "exact"},
+        "resistance_load": {"model": resistance_load_model(),
+                            "space": resistance_load_space(), "limit_state": "g",
+                            "pf": resistance_load_pf(), "source": "1-D quadrature"},
+        "oscillator": {"model": oscillator_model(), "space": oscillator_space(),
+                       "limit_state": "g", "pf": OSCILLATOR_PF_MC,
+                       "source": "2e7 Monte Carlo (+- 4e-5)"},
+        "four_branch": {"model": four_branch_model(), "space": standard_normal_space(2),
+                        "limit_state": "g", "pf": FOUR_BRANCH_PF, "source": "1-D quadrature"},
+        "four_branch_system": {
+            "model": four_branch_components_model(), "space": standard_normal_space(2),
+            "limit_state": SeriesSystem([LimitState.output(f"g{i}") for i in range(1, 5)]),
+            "pf": FOUR_BRANCH_PF, "source": "1-D quadrature"},
+        "parabola": {"model": parabola_model(),
+                     "space": _named_normals(["u1", "u2"]), "limit_state": "g",
+                     "pf": PARABOLA_PF, "source": "1-D quadrature"},
+        "jump": {"model": jump_model(), "space": standard_normal_space(2), "limit_state": "g",
+                 "pf": JUMP_PF, "source": "exact"},
+    }
+
+
+def _named_normals(names: list[str]) -> ParameterSpace:
+    from gearuq.space import ParameterSpace
+
+    return ParameterSpace.normal(**{n: (0.0, 1.0) for n in names})
