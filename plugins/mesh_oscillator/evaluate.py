@@ -115,8 +115,8 @@ def _perturbation(model, system, grids, options, out, extra, coords, status):
     extra["trace_points"] = ("sample", res.n_points, {"units": "1",
                                                       "long_name": "points of the traced "
                                                       "response curve"})
-    losses = np.nanmax(np.stack([res.path(w, "separation")[..., sf.S_LOSSES]
-                                 for w in ("up", "down")]), axis=(0, 2))
+    losses = np.stack([res.path(w, "separation")[..., sf.S_LOSSES] for w in ("up", "down")])
+    losses = np.where(np.isnan(losses), 0.0, losses).max(axis=(0, 2))
     extra["contact_losses_per_period"] = ("sample", losses, {
         "units": "1", "long_name": "largest number of contact losses per period on the "
         "sweep paths (the closed-form separation assumes at most one)"})

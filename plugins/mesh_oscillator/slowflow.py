@@ -124,8 +124,10 @@ def separation_closed_form(a: float, gam: float, c: np.ndarray, order: int,
     s[S_D0] = tau / math.pi - 1.0
     s[S_D1] = 2.0 / math.pi * math.sin(tau)
     s[S_N1] = nu
-    s[S_D2] = 1.0 / math.pi * math.sin(2.0 * tau)
-    s[S_N2] = 2.0 * nu
+    d2 = 1.0 / math.pi * math.sin(2.0 * tau)
+    # amplitudes are kept >= 0 (Delta_2 < 0 for tau > pi/2 is the phase shifted by pi)
+    s[S_D2] = abs(d2)
+    s[S_N2] = 2.0 * nu if d2 >= 0.0 else 2.0 * nu + math.pi
     s[S_LOSSES] = 1.0
 
 
