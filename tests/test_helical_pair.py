@@ -469,3 +469,20 @@ def test_seed_operating_points_sit_near_the_coupled_mesh_resonance(model):
     assert -lam[j].real / abs(lam[j]) == pytest.approx(0.095, abs=1e-3)
     mesh_ratio = 2 * np.pi * p["n"] * 34 / 60 / omega_n
     np.testing.assert_allclose(mesh_ratio, [0.990, 1.100], atol=1e-3)
+
+
+def test_retake_does_not_stall_where_the_force_jumps(model):
+    """Gated mesh, re-taken steps: at a contact onset the damping force jumps, and the
+    switching function at the end of a step cut for it can stay within rounding noise on the
+    old side. The integrator used to cut ever shorter steps there (step limit at tau = 1.6);
+    it now registers that crossing at the start of the next step."""
+    par = {"n": [3000.0], "T": [1000.0], "e_a": [2e-5], "b5": [5e-6]}
+    t = np.linspace(0.0, 200.0, 801)
+    common = {"outputs": ["v5"], "mesh_damping": "in_contact", "rtol": 1e-9, "atol": 1e-11}
+    retake = model.response(par, t, method="dopri5", freeze_sides=False, max_steps=200_000,
+                            **common)
+    frozen = model.response(par, t, **common)
+    assert int(retake["status"][0]) == 0 and int(frozen["status"][0]) == 0
+    assert int(retake["n_events"][0]) == int(frozen["n_events"][0]) > 100
+    scale = float(np.abs(frozen["v5"]).max())
+    assert float(np.abs(retake["v5"] - frozen["v5"]).max()) < 1e-6 * scale

@@ -601,8 +601,10 @@ _CACHE_SCRIPT = textwrap.dedent(
     res = ode.solve_batch(rhs, np.array([[1.0, 0.0]]), np.array([[4.0]]),
                           np.linspace(0.0, 1.0, 3), parallel=False)
     t2 = time.perf_counter()
-    kernel = ode._get_kernel(False)
+    kernel = ode.get_kernel("dopri5", "none")
+    from gearuq.ode import kernel as kernel_module
     print(json.dumps({
+        "variants": sorted("/".join(map(str, k)) for k in kernel_module._KERNELS),
         "kernel_hits": sum(kernel.stats.cache_hits.values()),
         "kernel_misses": sum(kernel.stats.cache_misses.values()),
         "rhs_hits": sum(rhs.stats.cache_hits.values()),
@@ -629,6 +631,7 @@ def test_second_process_loads_kernel_from_cache(tmp_path):
     second = _run_cache_script(tmp_path)
     assert second["kernel_hits"] == 1 and second["kernel_misses"] == 0, second
     assert second["rhs_hits"] == 1, second
+    assert second["variants"] == ["0/0"], second  # only the variant the call used
     assert second["y_end"] == pytest.approx(math.cos(2.0), abs=1e-6)
 
 
