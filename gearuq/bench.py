@@ -15,6 +15,10 @@ rtol 1e-12, itself cross-checked against scipy DOP853 at rtol 1e-12), for
 - numbalsoda LSODA and DOP853 where the package is installed (it needs a Fortran compiler).
 
 All timings are taken in this one run; nothing is compared with numbers from elsewhere.
+
+``gearuq bench startup`` measures the first ``helical_pair`` call in fresh interpreters with
+an empty numba cache (what a fresh clone pays: the kernel is compiled), with the filled
+cache, and after the install-time ``precompile`` step.
 """
 
 from __future__ import annotations
@@ -135,11 +139,13 @@ def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
                           max_steps=5_000_000, freeze_sides=frozen)
         return res
 
-    # warm up (load compiled kernels from the cache, or compile) before any timing
+    # warm up every kernel variant used below (each is compiled, or loaded from the cache, on
+    # its first use) before any timing
     gearuq_run("dopri5", 1e-3, True, idx=[0])
     gearuq_run("dop853", 1e-3, True, idx=[0])
     gearuq_run("dopri5", 1e-3, False, idx=[0])
     gearuq_run("dopri5", 1e-3, True, idx=[0], frozen=True)
+    gearuq_run("dop853", 1e-3, True, idx=[0], frozen=True)
     t_ref, ref_res = _timed(lambda: gearuq_run("dop853", 1e-12, True))
     ref = ref_res.y
     scipy_idx = list(range(min(n_scipy, n_samples)))
@@ -239,13 +245,114 @@ def render_markdown(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+# --------------------------------------------------------------------------------------------
+# gearuq bench startup: the first helical_pair call from an empty compilation cache
+# --------------------------------------------------------------------------------------------
+
+_FIRST_CALL_SCRIPT = """
+import json, sys, time
+wall, cpu = time.perf_counter(), time.process_time()
+import numpy as np
+import gearuq
+n, precompile_only = int(sys.argv[1]), sys.argv[2] == "precompile"
+model = gearuq.get_model("helical_pair")
+if precompile_only:
+    model.precompile()
+    print(json.dumps({"precompile_wall": time.perf_counter() - wall,
+                      "precompile_cpu": time.process_time() - cpu}))
+    sys.exit(0)
+params = model.default_space().sample(n, rule="random", rng=1)
+tau = np.linspace(0.0, 200.0, 101)
+outputs = [f"p{i}" for i in range(1, 11)]
+setup = (time.perf_counter() - wall, time.process_time() - cpu)
+w, c = time.perf_counter(), time.process_time()
+ds = model.response(params, tau, outputs=outputs)
+first = (time.perf_counter() - w, time.process_time() - c)
+w, c = time.perf_counter(), time.process_time()
+model.response(params, tau, outputs=outputs)
+second = (time.perf_counter() - w, time.process_time() - c)
+print(json.dumps({"setup_wall": setup[0], "setup_cpu": setup[1], "first_wall": first[0],
+                  "first_cpu": first[1], "second_wall": second[0], "second_cpu": second[1],
+                  "failed": int((ds["status"] != 0).sum())}))
+"""
+
+
+def _first_call(cache_dir: Path, n_samples: int, mode: str = "call") -> dict[str, float]:
+    """Run the first-call probe in a fresh interpreter with the given numba cache folder."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
+    wall = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", _FIRST_CALL_SCRIPT, str(n_samples), mode],
+                          capture_output=True, text=True, env=env, check=True)
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    result["process_wall"] = time.perf_counter() - wall
+    return result
+
+
+def startup_table(n_samples: int = 10_000) -> dict[str, Any]:
+    """First-call times of helical_pair (tau in [0, 200], 101 instants, p1..p10) in fresh
+    processes: from an empty numba cache (as after a fresh clone), from the filled cache, and
+    after :meth:`HelicalPair.precompile` (the install-time step), for 1 and ``n_samples``
+    samples. Each row also holds the second call in the same process."""
+    import tempfile
+
+    rows = []
+    for n in (1, n_samples):
+        with tempfile.TemporaryDirectory() as tmp:
+            cache = Path(tmp)
+            rows.append({"case": "empty cache (fresh clone)", "n_samples": n,
+                         **_first_call(cache, n)})
+            rows.append({"case": "filled cache (later runs)", "n_samples": n,
+                         **_first_call(cache, n)})
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = Path(tmp)
+        pre = _first_call(cache, 1, "precompile")
+        rows.append({"case": "after precompile", "n_samples": 1, **_first_call(cache, 1)})
+    return {"rows": rows, "precompile": pre, "machine": _machine()}
+
+
+def render_startup(result: dict[str, Any]) -> str:
+    """Markdown table of a :func:`startup_table` result."""
+    pre = result["precompile"]
+    lines = [
+        f"Machine: {result['machine']}. helical_pair, tau in [0, 200], 101 instants, outputs "
+        "p1..p10, seed Table 2 samples; each row a fresh interpreter; wall (CPU) seconds.",
+        f"`HelicalPair.precompile()` into an empty cache: {pre['precompile_wall']:.2f} "
+        f"({pre['precompile_cpu']:.2f}) s.",
+        "",
+        "| numba cache | samples | import + set-up | first call | second call | process |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in result["rows"]:
+        lines.append(
+            f"| {r['case']} | {r['n_samples']} | {r['setup_wall']:.2f} ({r['setup_cpu']:.2f}) | "
+            f"{r['first_wall']:.2f} ({r['first_cpu']:.2f}) | {r['second_wall']:.2f} "
+            f"({r['second_cpu']:.2f}) | {r['process_wall']:.2f} |")
+    return "\n".join(lines)
+
+
 def run_bench(what: str, out: str | Path = "gearuq_bench", quick: bool = False) -> int:
-    """Run a benchmark, write ``integrator.md``, ``integrator.json`` and a PNG into ``out``."""
+    """Run a benchmark and write its tables (markdown, JSON) and figure into ``out``.
+
+    ``what``: ``"integrator"`` (work-precision of the batched integrator) or ``"startup"``
+    (first-call times from an empty and a filled compilation cache).
+    """
     from gearuq import plot
 
-    if what != "integrator":
-        raise ValueError(f"bench: unknown benchmark {what!r}; valid: 'integrator'")
+    if what not in ("integrator", "startup"):
+        raise ValueError(f"bench: unknown benchmark {what!r}; valid: 'integrator', 'startup'")
     out = Path(out)
+    if what == "startup":
+        out.mkdir(parents=True, exist_ok=True)
+        result = startup_table(n_samples=1000 if quick else 10_000)
+        text = render_startup(result)
+        (out / "startup.md").write_text(text + "\n")
+        (out / "startup.json").write_text(json.dumps(result, indent=1, default=float))
+        print(text)
+        return 0
     out.mkdir(parents=True, exist_ok=True)
     kwargs = {"n_samples": 4, "n_scipy": 1, "rtols": (1e-4, 1e-6, 1e-8)} if quick else {}
     result = integrator_table(**kwargs)
@@ -258,3 +365,10 @@ def run_bench(what: str, out: str | Path = "gearuq_bench", quick: bool = False) 
     print(text)
     print(f"\nwritten: {out}/integrator.md, integrator.json, integrator_work_precision.png")
     return 0
+
+
+if __name__ == "__main__":  # python -m gearuq.bench {integrator,startup} [--quick]
+    import sys
+
+    raise SystemExit(run_bench(sys.argv[1] if len(sys.argv) > 1 else "integrator",
+                               quick="--quick" in sys.argv))

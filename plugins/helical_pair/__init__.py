@@ -238,6 +238,20 @@ class HelicalPair(Model):
             "state_names": [f"p{i + 1}" for i in range(10)] + [f"dp{i + 1}" for i in range(10)],
         }
 
+    def precompile(self) -> float:
+        """Compile (or load from the numba cache) what a default call needs; returns seconds.
+
+        The compiled right-hand side, switching functions and the integrator variant of the
+        default options (DOP853, frozen sides) are built on their first use and cached on
+        disk: from an empty cache that costs seconds (docs/benchmarks.md, ``gearuq bench
+        startup``). Run this once after installing so that no later first call pays it.
+        """
+        import time
+
+        start = time.perf_counter()
+        self.response({}, [0.0, 1.0], outputs=["p1"])
+        return time.perf_counter() - start
+
     def _time_attrs(self, options):
         if options.get("time", "tau") == "s":
             return {"units": "s", "long_name": "time t"}
