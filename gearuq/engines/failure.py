@@ -263,7 +263,7 @@ class LimitStateEvaluator:
                                  chunk_size=self.chunk_size if self.chunk_size else n,
                                  store=store, progress=False, fingerprint=fp)
         except RuntimeError as exc:  # every sample failed: flag them, keep going
-            self.errors.append(f"{tag}: {exc}")
+            self.errors.append(f"{tag}: {str(exc).split(chr(10))[0][:300]}")
             self.n_runs += n
             self.n_invalid += n
             nan = np.full(n, np.nan)
@@ -288,7 +288,9 @@ class LimitStateEvaluator:
         g[invalid] = np.nan
         leaf[invalid] = np.nan
         if invalid.any() and "failures" in ds.attrs:
-            self.errors.append(f"{tag}: {ds.attrs['failures'][:500]}")
+            groups = json.loads(ds.attrs["failures"])
+            self.errors += [f"{tag}: {len(g['samples'])} sample(s): {g['error'][:300]}"
+                            for g in groups]
         self.n_runs += n
         self.n_invalid += int(invalid.sum())
         return {"g": g, "leaf": leaf, "status": status, "x": x}

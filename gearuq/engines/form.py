@@ -7,8 +7,9 @@ the origin of the independent standard normal space, with the improved HLRF algo
 backtracking. Gradients are batched finite differences: one design of ``d`` (forward) or ``2d``
 (central) points evaluated as one chunk through the executor; a point that would leave the
 model's valid range is replaced by the opposite one-sided difference. Several starting points
-(the origin, then points on a sphere) find several design points when the limit state has them;
-the report says so and adds the series-system FORM estimate over all of them.
+(the origin, then points on the +- axes and in random directions) find several design points
+when the limit state has them; the report says so and adds the series-system FORM estimate
+over all of them.
 
 ``beta = |u*|`` (negative when the origin fails), ``pf_FORM = Phi(-beta)``; importance factors
 ``gamma^2`` with ``gamma = L^-T alpha / |L^-T alpha|`` (Der Kiureghian 2005), and parameter
@@ -39,8 +40,8 @@ __all__ = ["FORM_SETTINGS", "SORM_SETTINGS", "run_form", "design_point_search",
            "sorm_probabilities"]
 
 FORM_SETTINGS = (
-    Option("n_starts", 1, "starting points: the origin, then points on a sphere of radius "
-           "start_radius in random directions", lower=1),
+    Option("n_starts", 1, "starting points: the origin, then points at start_radius on the "
+           "+- coordinate axes (u1+, u1-, u2+, ...), then in random directions", lower=1),
     Option("start_radius", 3.0, "radius of the extra starting points (standard normal space)",
            lower=0.0),
     Option("fd_step", 1e-4, "finite-difference step in the standard normal space (raise it "
@@ -352,6 +353,9 @@ def form_design_points(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
     for k in range(s["n_starts"]):
         if k == 0:
             u0 = np.zeros(ev.dim)
+        elif k <= 2 * ev.dim:  # +-axes first: a spread that random directions may not give
+            u0 = np.zeros(ev.dim)
+            u0[(k - 1) // 2] = s["start_radius"] * (1.0 if k % 2 else -1.0)
         else:
             direction = rng.standard_normal(ev.dim)
             u0 = s["start_radius"] * direction / np.linalg.norm(direction)

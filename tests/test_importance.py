@@ -1,0 +1,67 @@
+"""Importance sampling around the FORM design point(s): estimates within their intervals,
+the run budget, a mixture for two design points, degenerate weights reported."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from gearuq.engines.failure import failure_probability
+from gearuq.engines.importance import mixture_log_weights
+from gearuq.testing import reliability_problems as rp
+from gearuq.testing.problems import standard_normal_space
+
+
+def test_offset_within_15_percent_with_at_most_5000_runs():
+    rep = failure_probability(rp.offset_model(), rp.offset_space(), "g", method="importance",
+                              rng=4, executor="serial")
+    assert int(rep["n_model_runs"]) <= 5000
+    assert float(rep["pf"]) == pytest.approx(rp.OFFSET_PF, rel=0.15)
+    assert float(rep["pf_lower"]) <= rp.OFFSET_PF <= float(rep["pf_upper"])
+    assert float(rep["cov_pf"]) <= 0.05 and int(rep["status"]) == 0
+    assert 0 < int(rep["n_form_runs"]) < int(rep["n_model_runs"])
+
+
+def test_linear_100d_within_interval():
+    rep = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
+                              method="importance", rng=5, executor="serial")
+    assert float(rep["pf_lower"]) <= rp.LINEAR_100D_PF <= float(rep["pf_upper"])
+    assert float(rep["pf"]) == pytest.approx(rp.LINEAR_100D_PF, rel=0.15)
+
+
+def test_mixture_over_two_design_points():
+    """One design point misses 39 % of the parabola's Pf; the mixture over both recovers it."""
+    space = rp._named_normals(["u1", "u2"])
+    one = failure_probability(rp.parabola_model(), space, "g", method="importance", rng=6,
+                              executor="serial")
+    both = failure_probability(rp.parabola_model(), space, "g", method="importance", rng=6,
+                               n_starts=6, executor="serial")
+    assert one.sizes["design_point"] == 1 and both.sizes["design_point"] == 2
+    assert float(one["pf_upper"]) < rp.PARABOLA_PF  # the honest failure mode of 1-point IS
+    assert float(both["pf_lower"]) <= rp.PARABOLA_PF <= float(both["pf_upper"])
+
+
+def test_weights_exact_for_a_single_shift():
+    """phi(u) / phi(u - c) = exp(-c.u + |c|^2 / 2)."""
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((50, 3))
+    c = np.array([[1.0, -2.0, 0.5]])
+    np.testing.assert_allclose(mixture_log_weights(u, c, np.array([1.0]), 1.0),
+                               -u @ c[0] + 0.5 * c[0] @ c[0], rtol=1e-12)
+    # equal two-component mixture: log weight of the mean of the two densities
+    c2 = np.array([[2.0, 0.0, 0.0], [-2.0, 0.0, 0.0]])
+    dens = 0.5 * (stats.multivariate_normal(c2[0]).pdf(u) + stats.multivariate_normal(c2[1]).pdf(u))
+    np.testing.assert_allclose(mixture_log_weights(u, c2, np.array([0.5, 0.5]), 1.0),
+                               np.log(stats.multivariate_normal(np.zeros(3)).pdf(u) / dens),
+                               rtol=1e-10)
+
+
+def test_degenerate_weights_are_reported():
+    """A density far too narrow for 100 dimensions: a few samples carry the estimate."""
+    rep = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
+                              method="importance", rng=7, sampling_std=0.5, n_samples=400,
+                              max_samples=400, executor="serial")
+    assert int(rep["status"]) == 3
+    assert "weights degenerate" in rep.attrs["message"]
+    assert float(rep["max_weight_share"]) > 0.5 or float(rep["effective_sample_size"]) < 10

@@ -1,0 +1,132 @@
+"""Limit states and systems: definitions, inclusive failure, systems against closed forms,
+ambiguous input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy import stats
+
+from gearuq.limitstate import (
+    LimitState,
+    ParallelSystem,
+    SeriesSystem,
+    as_limit_state,
+    cut_set_system,
+)
+from gearuq.probability import Band, reliability
+
+
+def _ds(n: int = 40_000, seed: int = 0, time: np.ndarray | None = None) -> xr.Dataset:
+    rng = np.random.default_rng(seed)
+    data = {k: ("sample", rng.standard_normal(n), {"units": "m", "role": "output"})
+            for k in ("a", "b", "c")}
+    ds = xr.Dataset(data, coords={"sample": np.arange(n)})
+    if time is not None:
+        ds = ds.assign_coords(time=("time", time))
+        ds["y"] = (("sample", "time"), ds["a"].values[:, None] * np.cos(time)[None, :]
+                   + ds["b"].values[:, None] * np.sin(time)[None, :])
+    ds["status"] = ("sample", np.zeros(n, np.int8))
+    return ds
+
+
+def test_constructors_and_values():
+    ds = _ds(10)
+    a = ds["a"].values
+    np.testing.assert_array_equal(LimitState.output("a").sample_values(ds), a)
+    np.testing.assert_array_equal(LimitState.upper("a", 1.0).sample_values(ds), 1.0 - a)
+    np.testing.assert_array_equal(LimitState.upper("a", 1.0, absolute=True).sample_values(ds),
+                                  1.0 - np.abs(a))
+    np.testing.assert_array_equal(LimitState.lower("a", -1.0).sample_values(ds), a + 1.0)
+    fn = LimitState(lambda a, b: a - b, ["a", "b"], name="diff")
+    np.testing.assert_array_equal(fn.sample_values(ds), a - ds["b"].values)
+    assert fn.name == "diff" and fn.variables == ("a", "b")
+    band = LimitState.from_band(Band("a", -0.5, 0.5))
+    np.testing.assert_array_equal(band.sample_values(ds), np.minimum(a + 0.5, 0.5 - a))
+    assert '"kind": "upper"' in LimitState.upper("a", 1.0).to_json()
+
+
+def test_failure_is_inclusive():
+    ds = xr.Dataset({"g": ("sample", np.array([-1.0, 0.0, 1.0]))})
+    assert LimitState.output("g").fails(ds).values.tolist() == [True, True, False]
+    assert Band("g", lower=0.0).fails(ds["g"].values).tolist() == [True, False, False]
+
+
+def test_first_passage_value_is_min_over_window():
+    t = np.linspace(0, 2 * np.pi, 64)
+    ds = _ds(200, time=t)
+    ls = LimitState.upper("y", 1.0)
+    y = ds["y"].values
+    np.testing.assert_array_equal(ls.sample_values(ds), 1.0 - y.max(axis=1))
+    win = LimitState.upper("y", 1.0, window=(1.0, 2.0))
+    keep = (t >= 1.0) & (t <= 2.0)
+    np.testing.assert_array_equal(win.sample_values(ds), 1.0 - y[:, keep].max(axis=1))
+    with pytest.raises(ValueError, match="window"):
+        LimitState.upper("y", 1.0, window=(7.0, 8.0)).sample_values(ds)
+
+
+def test_series_parallel_cut_sets_against_closed_forms():
+    """Independent standard normals a, b, c with upper limits: products of tail probabilities."""
+    ds = _ds()
+    la, lb, lc = (LimitState.upper(k, 1.0) for k in "abc")
+    p = stats.norm.sf(1.0)
+    exact = {
+        "series": 1 - (1 - p) ** 2,
+        "parallel": p * p,
+        "cuts": 1 - (1 - p * p) * (1 - p),  # {a and b} or {c}
+    }
+    systems = {"series": SeriesSystem([la, lb], name="series"),
+               "parallel": ParallelSystem([la, lb], name="parallel"),
+               "cuts": cut_set_system([[la, lb], [lc]], name="cuts")}
+    res = reliability(ds, list(systems.values()), system=False)
+    for name, value in exact.items():
+        m = res.sel(mode=name)
+        assert float(m["pf_lower"]) <= value <= float(m["pf_upper"]), name
+    a, b, c = (ds[k].values >= 1.0 for k in "abc")
+    assert int(res["n_failures"].sel(mode="cuts")) == int(np.sum((a & b) | c))
+
+
+def test_cut_sets_may_share_a_member():
+    ds = _ds(2000, seed=3)
+    la, lb, lc = (LimitState.upper(k, 0.5) for k in "abc")
+    sys_ = cut_set_system([[la, lb], [la, lc]])
+    a, b, c = (ds[k].values >= 0.5 for k in "abc")
+    g = sys_.sample_values(ds)
+    np.testing.assert_array_equal(g <= 0, (a & b) | (a & c))
+
+
+def test_combine_returns_governing_component():
+    series = SeriesSystem([LimitState.output("a"), ParallelSystem(
+        [LimitState.output("b"), LimitState.output("c")])])
+    leaf = np.array([[1.0, 2.0, 3.0], [5.0, -1.0, 0.5], [0.2, -3.0, -4.0]])
+    g, gov = series.combine(leaf)
+    np.testing.assert_array_equal(g, [1.0, 0.5, -3.0])
+    np.testing.assert_array_equal(gov, [0, 2, 1])
+    assert [leaf.name for leaf in series.leaves()] == ["a", "b", "c"]
+
+
+def test_ambiguous_and_bad_input():
+    with pytest.raises(ValueError, match="series or parallel"):
+        as_limit_state([LimitState.output("a"), LimitState.output("b")])
+    with pytest.raises(ValueError, match="upper or a lower limit"):
+        as_limit_state({"a": 1.0})
+    with pytest.raises(ValueError, match="expected a LimitState"):
+        as_limit_state(3.0)
+    with pytest.raises(ValueError, match="at least two components"):
+        SeriesSystem([LimitState.output("a")])
+    with pytest.raises(ValueError, match="names must be distinct"):
+        SeriesSystem([LimitState.upper("a", 1.0), LimitState.upper("a", 1.0)])
+    with pytest.raises(ValueError, match="limit: must be finite"):
+        LimitState.upper("a", np.inf)
+    ds = _ds(5)
+    with pytest.raises(ValueError, match=r"'nope'.*available outputs: a, b, c"):
+        LimitState.upper("nope", 1.0).sample_values(ds)
+    extra = xr.Dataset({"v": (("sample", "dof"), np.zeros((3, 2)))},
+                       coords={"dof": ["x", "y"]})
+    with pytest.raises(ValueError, match="extra dim.*select"):
+        LimitState.upper("v", 1.0).sample_values(extra)
+    sel = LimitState.upper("v", 1.0, select={"dof": "y"})
+    np.testing.assert_array_equal(sel.sample_values(extra), [1.0, 1.0, 1.0])
+    assert isinstance(as_limit_state("a"), LimitState)
+    assert isinstance(as_limit_state(Band("a", upper=1.0)), LimitState)
