@@ -53,6 +53,8 @@ _FD_REL = 1e-7
 _CORNER_STEP = 1e-4
 #: Largest |contact margin| at which a corner is looked for.
 _CORNER_MARGIN = 2e-2
+#: Largest traced amplitude, in units of the amplitude scale (the linear peak).
+_A_MAX = 50.0
 #: Continuation step sizes in scaled arclength.
 H_START = 0.01
 H_MIN = 1e-7
@@ -353,23 +355,26 @@ def _store(tr, n, y, c, order, mode, sa, sw, sep_mode):
 
 
 @njit(cache=True, nogil=True)
-def trace_curve(c, order, mode, om_start, om_end, sa, tr, tans):
-    """Trace the steady-state curve from ``om_start`` to beyond ``om_end``.
+def trace_curve(c, order, mode, om_lo, om_hi, from_high, sa, tr, tans):
+    """Trace the steady-state curve across the window ``[om_lo, om_hi]``.
 
-    ``tr = (pts, seps, jacs, stable)`` receives ``(a, gamma, Omega)``, the separation data,
-    the Jacobian and the stability of every point, ``tans`` the scaled unit tangents.
-    Returns ``(n_points, status)``.
+    Starts at ``om_lo`` going up (or at ``om_hi`` going down when ``from_high``) and stops
+    where the curve leaves the window on either side. ``tr = (pts, seps, jacs, stable)``
+    receives ``(a, gamma, Omega)``, the separation data, the Jacobian and the stability of
+    every point, ``tans`` the scaled unit tangents. Returns ``(n_points, status, exit)``
+    with ``exit`` -1 (left the window below ``om_lo``), +1 (above ``om_hi``) or 0.
     """
     pts = tr[0]
     jacs = tr[2]
     max_pts = pts.shape[0]
-    sw = max(om_end - om_start, 1e-6)
+    sw = max(om_hi - om_lo, 1e-6)
+    om_start = om_hi if from_high else om_lo
     if abs(forcing_phasor(c, om_start)) == 0.0:
-        return 0, TRACE_UNFORCED
+        return 0, TRACE_UNFORCED, 0
     a_lin, g_lin = linear_solution(c, om_start)
     a0, g0, ok = newton_fixed_omega(a_lin, g_lin, om_start, c, order, mode, 60)
     if not ok:
-        return 0, TRACE_START_FAILED
+        return 0, TRACE_START_FAILED, 0
     y = np.array([a0 / sa, g0 / math.pi, om_start / sw])
     y_new = np.empty(3)
     pred = np.empty(3)
@@ -378,8 +383,8 @@ def trace_curve(c, order, mode, om_start, om_end, sa, tr, tans):
     t_new = np.empty(3)
     _store(tr, 0, y, c, order, mode, sa, sw, mode)
     if not _tangent(jacs[0], sa, sw, tans[0]):
-        return 0, TRACE_START_FAILED
-    if tans[0, 2] < 0.0:
+        return 0, TRACE_START_FAILED, 0
+    if (tans[0, 2] < 0.0) != from_high:
         tans[0] *= -1.0
     n = 1
     h = H_START
@@ -396,13 +401,13 @@ def trace_curve(c, order, mode, om_start, om_end, sa, tr, tans):
                         side = 1.0 if tr[1][back, S_MARGIN] > 0.0 else -1.0
                         break
                 if not _cross_corner(y, t, side, c, order, mode, sa, sw, p0, p1):
-                    return n, TRACE_STEP_UNDERFLOW
+                    return n, TRACE_STEP_UNDERFLOW, 0
                 # the onset point, with the smooth contact-side Jacobian, then across it
                 _store(tr, n, p0, c, order, mode, sa, sw, mode | SEP_MARGIN_ONLY)
                 tans[n] = t
                 _store(tr, n + 1, p1, c, order, mode, sa, sw, mode)
                 if not _tangent(jacs[n + 1], sa, sw, t_new):
-                    return n, TRACE_STEP_UNDERFLOW
+                    return n, TRACE_STEP_UNDERFLOW, 0
                 if (p1[0] - p0[0]) * t_new[0] + (p1[1] - p0[1]) * t_new[1] + (
                         p1[2] - p0[2]) * t_new[2] < 0.0:
                     t_new *= -1.0
@@ -413,7 +418,7 @@ def trace_curve(c, order, mode, om_start, om_end, sa, tr, tans):
                 h = _CORNER_STEP
                 continue
         if h < H_MIN:
-            return n, TRACE_STEP_UNDERFLOW
+            return n, TRACE_STEP_UNDERFLOW, 0
         for k in range(3):
             pred[k] = y[k] + h * t[k]
         its = _correct(pred, t, jacs[n - 1], c, order, mode, sa, sw, y_new, 12, False)
@@ -440,10 +445,14 @@ def trace_curve(c, order, mode, om_start, om_end, sa, tr, tans):
         for k in range(3):
             y[k] = y_new[k]
         n += 1
-        if y[2] * sw > om_end:
-            return n, TRACE_OK
+        if y[2] * sw > om_hi:
+            return n, TRACE_OK, 1
+        if y[2] * sw < om_lo:
+            return n, TRACE_OK, -1
+        if y[0] > _A_MAX:  # amplitude beyond any physical meaning (scale: the linear peak)
+            return n, TRACE_STEP_UNDERFLOW, 0
         if n >= max_pts - 2:
-            return n, TRACE_TOO_MANY_POINTS
+            return n, TRACE_TOO_MANY_POINTS, 0
         h = min(grow * h, H_MAX)
 
 
@@ -488,12 +497,13 @@ def _hermite_guess(tr, tans, j, om, sa, sw):
 
 
 @njit(cache=True, nogil=True)
-def solve_on_grid(c, order, mode, tr, tans, n_pts, grid, sa, sw, sol):
+def solve_on_grid(c, order, mode, tr, tans, n_pts, brk, grid, sa, sw, sol):
     """Every solution at each grid frequency, from the crossings of the traced curve.
 
     ``sol = (a, gamma, position, stable, separation, count)`` with shapes
     ``(n_grid, max_solutions[, N_SEP])``; ``position`` is the place along the curve (segment
-    index + fraction), which orders the branches for sweep paths.
+    index + fraction), which orders the branches for sweep paths. Points ``brk - 1`` and
+    ``brk`` are not joined (the curve was traced in two pieces).
     """
     pts, seps, jacs, stab = tr
     sol_a, sol_g, sol_par, sol_stable, sol_sep, n_sol = sol
@@ -504,6 +514,8 @@ def solve_on_grid(c, order, mode, tr, tans, n_pts, grid, sa, sw, sol):
     work = np.empty(2)
     n_sol[:] = 0
     for j in range(n_pts - 1):
+        if j + 1 == brk:
+            continue
         w0 = pts[j, 2]
         w1 = pts[j + 1, 2]
         k0 = np.searchsorted(grid, min(w0, w1))
@@ -575,7 +587,7 @@ def sweep_paths(sol_par, sol_stable, n_sol, up, down):
 
 
 @njit(cache=True, nogil=True)
-def onset_points(c, order, mode, tr, n_pts, out):
+def onset_points(c, order, mode, tr, n_pts, brk, out):
     """Points of the traced curve where the contact margin changes sign (seed Eqs. 36-37).
 
     Each is refined by the Illinois (regula falsi) method on ``Omega`` with Newton solves on
@@ -588,6 +600,8 @@ def onset_points(c, order, mode, tr, n_pts, out):
     flow = mode | SEP_MARGIN_ONLY
     n_on = 0
     for j in range(n_pts - 1):
+        if j + 1 == brk:
+            continue
         m0 = seps[j, S_MARGIN]
         m1 = seps[j + 1, S_MARGIN]
         if (m0 > 0.0) == (m1 > 0.0) or n_on >= out.shape[0]:
@@ -636,6 +650,37 @@ def unforced_stability(c, om):
 
 
 @njit(cache=True, nogil=True)
+def _trace_window(c, order, mode, om_lo, om_hi, sa, max_pts):
+    """The curve across the window, in one piece or, when the piece started at the low end
+    leaves the window on the left (a branch bent out of it by softening) or fails, joined
+    with a piece traced down from the high end (reversed, so that the curve position still
+    runs from low to high frequency). Returns ``(tr, tans, n, brk, status)``."""
+    tr = (np.empty((max_pts, 3)), np.empty((max_pts, N_SEP)), np.empty((max_pts, 2, 3)),
+          np.zeros(max_pts, np.int64))
+    tans = np.empty((max_pts, 3))
+    n_a, status, side = trace_curve(c, order, mode, om_lo, om_hi, False, sa, tr, tans)
+    if status == TRACE_UNFORCED or (status == TRACE_OK and side == 1):
+        return tr, tans, n_a, -1, status
+    trb = (np.empty((max_pts, 3)), np.empty((max_pts, N_SEP)), np.empty((max_pts, 2, 3)),
+           np.zeros(max_pts, np.int64))
+    tansb = np.empty((max_pts, 3))
+    n_b, status_b, side_b = trace_curve(c, order, mode, om_lo, om_hi, True, sa, trb, tansb)
+    n_b = min(n_b, max_pts - n_a)
+    for k in range(n_b):  # append the second piece reversed
+        src = n_b - 1 - k
+        tr[0][n_a + k] = trb[0][src]
+        tr[1][n_a + k] = trb[1][src]
+        tr[2][n_a + k] = trb[2][src]
+        tr[3][n_a + k] = trb[3][src]
+        tans[n_a + k] = -tansb[src]
+    if status == TRACE_OK and side == -1 and status_b == TRACE_OK:
+        status = TRACE_OK
+    elif status_b != TRACE_OK:
+        status = status_b
+    return tr, tans, n_a + n_b, n_a, status
+
+
+@njit(cache=True, nogil=True)
 def sample_response(c, order, mode, grid, max_pts, sol, up, down, onsets):
     """Whole perturbation frequency response of one sample on an increasing grid.
 
@@ -645,15 +690,12 @@ def sample_response(c, order, mode, grid, max_pts, sol, up, down, onsets):
     lo = grid[0]
     hi = grid[-1]
     margin = 0.02 * (hi - lo) + 1e-9
-    om_start = lo - margin
-    om_end = hi + margin
-    sw = max(om_end - om_start, 1e-6)
+    om_lo = lo - margin
+    om_hi = hi + margin
+    sw = max(om_hi - om_lo, 1e-6)
     a_lin, _ = linear_solution(c, 1.0)
     sa = min(max(a_lin, 1e-6), 10.0)
-    tr = (np.empty((max_pts, 3)), np.empty((max_pts, N_SEP)), np.empty((max_pts, 2, 3)),
-          np.zeros(max_pts, np.int64))
-    tans = np.empty((max_pts, 3))
-    n_pts, status = trace_curve(c, order, mode, om_start, om_end, sa, tr, tans)
+    tr, tans, n_pts, brk, status = _trace_window(c, order, mode, om_lo, om_hi, sa, max_pts)
     if status == TRACE_UNFORCED:
         for k in range(grid.shape[0]):
             n_sol[k] = 1
@@ -668,9 +710,9 @@ def sample_response(c, order, mode, grid, max_pts, sol, up, down, onsets):
         return status, 0, 0
     if n_pts < 2:
         return status, 0, n_pts
-    solve_on_grid(c, order, mode, tr, tans, n_pts, grid, sa, sw, sol)
+    solve_on_grid(c, order, mode, tr, tans, n_pts, brk, grid, sa, sw, sol)
     sweep_paths(sol_par, sol_stable, n_sol, up, down)
-    n_on = onset_points(c, order, mode, tr, n_pts, onsets)
+    n_on = onset_points(c, order, mode, tr, n_pts, brk, onsets)
     if status == TRACE_OK:
         for k in range(grid.shape[0]):
             if n_sol[k] == 0:

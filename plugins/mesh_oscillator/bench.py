@@ -1,0 +1,148 @@
+"""Speed against error: perturbation frequency response against numerical frequency sweeps.
+
+``run()`` measures, side by side in one process, a frequency response on the same grid of
+``n_points`` frequencies (500 by default) for the example system of seed Fig. 4:
+
+- the multiple-scales solution, second order with the closed-form separation (Eqs. 31, 34,
+  35), second order with the numerical separation (Eqs. 32-33) and first order (Eq. 27);
+- numerical upward and downward sweeps of Eq. 11 (``gearuq.ode.solve_batch``, DOP853,
+  rtol 1e-8, transients decayed to ``settle_tolerance`` at every frequency), on one core;
+- a tighter sweep (``settle_tolerance`` 1e-6) as the check of the sweep itself.
+
+Errors are the relative amplitude differences to the sweep, per response region (regions
+from the sweep). Timings are wall-clock on this machine (the best of repeated runs for the
+fast methods); the ratio to the sweep is what a quiet machine should reproduce.
+
+Call ``gearuq_plugins.mesh_oscillator.bench.run(out="gearuq_bench", quick=False)``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gearuq_plugins.mesh_oscillator import perturbation, sweeps, timedomain
+from gearuq_plugins.mesh_oscillator.evaluate import linear_amplitude, regions
+from gearuq_plugins.mesh_oscillator.model import MeshOscillator
+
+GRID = (0.85, 1.10)
+
+
+def _best(fn, repeat: int) -> tuple[float, Any]:
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def _sweep(system, grid, tolerance: float) -> tuple[float, dict]:
+    """Upward and downward sweeps, serial (one core), amplitudes and separations."""
+    problem = timedomain.expanded_rows(system)
+    settle = sweeps.settle_periods(system.mu, np.array([grid.max()]), tolerance)
+    both = sweeps.OscillatorProblem(problem.kind, np.vstack([problem.rows] * 2), 1)
+    coefs = system.coefficients()
+    y0 = np.vstack([timedomain.initial_linear(coefs, grid[:1]),
+                    timedomain.initial_linear(coefs, grid[-1:])])
+    t0 = time.perf_counter()
+    res = sweeps.integrate_schedule(both, np.vstack([grid, grid[::-1]]),
+                                    np.repeat(settle, 2), 4, 32, y0, parallel=False)
+    wall = time.perf_counter() - t0
+    return wall, {"up": res.amplitude[0], "down": res.amplitude[1][::-1],
+                  "sep_up": res.separation[0], "sep_down": res.separation[1][::-1],
+                  "settle_periods": int(settle[0]), "steps": int(res.n_steps.sum()),
+                  "status": res.status.tolist()}
+
+
+def _errors(amp: dict, ref: dict, reg: dict) -> dict[str, float]:
+    """Max and RMS relative amplitude error against ``ref`` per region (both sweeps)."""
+    rel = np.concatenate([np.abs(amp[w] - ref[w]) / ref[w] for w in ("up", "down")])
+    where = np.concatenate([reg["up"], reg["down"]])
+    out: dict[str, float] = {"max_all": float(np.nanmax(rel))}
+    for r in (1, 2, 3, 4):
+        sel = where == r
+        out[f"max_r{r}"] = float(np.nanmax(rel[sel])) if sel.any() else float("nan")
+        out[f"rms_r{r}"] = float(np.sqrt(np.nanmean(rel[sel] ** 2))) if sel.any() else float(
+            "nan")
+    return out
+
+
+def measure(n_points: int = 500, quick: bool = False) -> dict[str, Any]:
+    """Run the comparison; return rows (one per method) and the settings."""
+    model = MeshOscillator()
+    options = model.validate_options({})
+    system = model.system(model.validate_params({}), options)
+    coefs = system.coefficients()
+    grid = np.linspace(*GRID, n_points)
+    sweep_wall, ref = _sweep(system, grid, 1e-3)
+    reg = {w: regions(ref[w], ref[f"sep_{w}"], linear_amplitude(coefs, grid[None])[0],
+                      options["region_tolerance"], options["onset_separation"])
+           for w in ("up", "down")}
+    rows = []
+    methods = [("perturbation, 2nd order, closed-form separation", 2, "closed_form", 5),
+               ("perturbation, 1st order", 1, "closed_form", 5),
+               ("perturbation, 2nd order, numerical separation", 2, "numerical", 1)]
+    for label, order, sep, repeat in methods:
+        perturbation.frequency_response(coefs, grid, order=order, separation=sep,
+                                        parallel=False)  # compile / load once
+        wall, res = _best(lambda o=order, s=sep: perturbation.frequency_response(
+            coefs, grid, order=o, separation=s, parallel=False), 1 if quick else repeat)
+        amp = {"up": res.path("up")[0], "down": res.path("down")[0]}
+        rows.append({"method": label, "wall_s": wall, "us_per_point": wall / n_points * 1e6,
+                     "speedup_vs_sweep": sweep_wall / wall, **_errors(amp, ref, reg)})
+    rows.append({"method": f"numerical sweeps up + down (settle {ref['settle_periods']} "
+                           "periods)", "wall_s": sweep_wall,
+                 "us_per_point": sweep_wall / n_points * 1e6, "speedup_vs_sweep": 1.0,
+                 **_errors(ref, ref, reg)})
+    if not quick:
+        tight_wall, tight = _sweep(system, grid, 1e-6)
+        rows.append({"method": f"numerical sweeps, tighter settle ({tight['settle_periods']} "
+                               "periods): error of the sweep itself", "wall_s": tight_wall,
+                     "us_per_point": tight_wall / n_points * 1e6,
+                     "speedup_vs_sweep": sweep_wall / tight_wall, **_errors(ref, tight, reg)})
+    counts = {f"points_r{r}": int(sum((reg[w] == r).sum() for w in ("up", "down")))
+              for r in (1, 2, 3, 4)}
+    return {"rows": rows, "n_points": n_points, "grid": list(GRID), "system": "seed Fig. 4",
+            "region_points": counts, "sweep_status": ref["status"],
+            "sweep_steps": ref["steps"]}
+
+
+def markdown(result: dict[str, Any]) -> str:
+    """The result as a markdown table."""
+    lines = [f"{result['n_points']}-point frequency response, Omega in {result['grid']} "
+             f"({result['system']}); relative amplitude error against the sweep per region "
+             f"(max / rms; points per region, up + down: {result['region_points']})", "",
+             "| method | wall [s] | us / point | speed-up vs sweep | region 1 | region 2 "
+             "| region 3 | region 4 |", "|---|---|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        cells = [f"{r[f'max_r{k}']:.2g} / {r[f'rms_r{k}']:.2g}" for k in (1, 2, 3, 4)]
+        lines.append(f"| {r['method']} | {r['wall_s']:.4g} | {r['us_per_point']:.4g} | "
+                     f"{r['speedup_vs_sweep']:.4g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def run(out: str | Path | None = "gearuq_bench", quick: bool = False) -> dict[str, Any]:
+    """Measure, print the table and write ``mesh_oscillator_bench.{json,md}`` into ``out``.
+
+    Parameters
+    ----------
+    out : path or None
+        Output folder (created); ``None`` writes nothing.
+    quick : bool
+        100 frequencies, no repeated timings and no tight reference sweep (~10 s).
+    """
+    result = measure(100 if quick else 500, quick=quick)
+    text = markdown(result)
+    print(text)
+    if out is not None:
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "mesh_oscillator_bench.json").write_text(json.dumps(result, indent=1))
+        (folder / "mesh_oscillator_bench.md").write_text(text + "\n")
+    result["markdown"] = text
+    return result
