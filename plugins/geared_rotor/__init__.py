@@ -42,6 +42,11 @@ _PARAMETERS = (
     _P("pitch_seed", "1", 2020.0, 0.0, 2.0**32 - 1.0,
        "realisation of the random pitch deviations: its integer part seeds "
        "numpy.random.default_rng (as in mesh_excitation)"),
+    _P("pitch_phase_pinion", "rad", 0.0, 0.0, 2.0 * math.pi,
+       "phase of the pinion's once-per-revolution sine; used only with the option "
+       "pitch_phases='parameters' (default: drawn from pitch_seed)"),
+    _P("pitch_phase_wheel", "rad", 0.0, 0.0, 2.0 * math.pi,
+       "phase of the wheel's sine; used only with pitch_phases='parameters'"),
     _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
        "parabolic tip relief e_max on pinion and wheel (seed Eq. 12); 0: unmodified"),
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
@@ -71,6 +76,8 @@ _OUTPUTS = (
     Output("bearing_acceleration_y", "m s-2", _SBT, "shaft acceleration at the bearing, y"),
     Output("bearing_acceleration_z", "m s-2", _SBT, "shaft acceleration at the bearing, z"),
     Output("dte_rms", "m", _S, "RMS of the DTE about its mean over the long period"),
+    Output("dte_mesh_band_rms", "m", _S, "RMS of the DTE orders >= f_m / 2 (mesh harmonics "
+           "and their sidebands: the part the mesh dynamics shapes)"),
     Output("dte_mean", "m", _S, "mean DTE (static transmission error of the rotor)"),
     Output("dte_ptp", "m", _S, "peak-to-peak DTE over the long period"),
     Output("mesh_force_rms", "N", _S, "RMS of the mesh force about its mean"),
@@ -98,6 +105,10 @@ _OPTIONS = (
     _O("n_pts", 20, "LTCA points per line of contact", kind=int, lower=2, upper=200),
     _O("n_sidebands", 3, "sidebands +-i f_s labelled around each mesh harmonic", kind=int,
        lower=0, upper=14),
+    _O("pitch_phases", "seed", "sine phases of the pitch deviations: drawn with the scatter "
+       "from pitch_seed, or taken from pitch_phase_pinion / pitch_phase_wheel (smooth inputs "
+       "for surrogates; the scatter still comes from pitch_seed)",
+       choices=("seed", "parameters")),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),

@@ -47,8 +47,12 @@ def compliance_model(pair: Any) -> Any:
     return ComplianceModel(pair, bore_ratio=_SEAT_DIAMETER / pair.df1)
 
 
-def sample_deviations(pair: Any, values: dict[str, float]) -> Any:
-    """Flank deviations of one sample: pitch realisation (or ISO grade) and tip relief."""
+def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed") -> Any:
+    """Flank deviations of one sample: pitch realisation (or ISO grade) and tip relief.
+
+    ``phases="parameters"`` replaces the germ's two sine phases by the sample's
+    ``pitch_phase_pinion`` and ``pitch_phase_wheel`` (the scatter stays the germ's).
+    """
     from gearuq.gears.deviations import (
         FlankDeviations,
         cumulative_pitch_from_germ,
@@ -56,7 +60,9 @@ def sample_deviations(pair: Any, values: dict[str, float]) -> Any:
         pitch_deviation_germ,
     )
 
-    germ = pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"]))
+    germ = list(pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"])))
+    if phases == "parameters":
+        germ[0], germ[2] = values["pitch_phase_pinion"], values["pitch_phase_wheel"]
     grade = int(values["iso_grade"])
     fp = []
     for phase, normals, d in ((germ[0], germ[1], pair.d1), (germ[2], germ[3], pair.d2)):
@@ -86,7 +92,8 @@ def _cached(model: Any, key: tuple, build: Any) -> Any:
 
 
 _LTCA_KEYS = ("torque", "pitch_amplitude", "pitch_sigma", "iso_grade", "pitch_seed",
-              "tip_relief_amount", "tip_relief_length")
+              "pitch_phase_pinion", "pitch_phase_wheel", "tip_relief_amount",
+              "tip_relief_length")
 _ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping",
                "damping_ratio", "backlash")
 
@@ -103,9 +110,11 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -
     setup = _cached(model, ("setup", ppc, n_pts),
                     lambda: ltca_setup(pair, compliance=compliance_model(pair),
                                        positions_per_cycle=ppc, n_pts=n_pts))
-    lkey = ("ltca", ppc, n_pts) + tuple(values[k] for k in _LTCA_KEYS)
+    lkey = ("ltca", ppc, n_pts, options["pitch_phases"]) + tuple(
+        values[k] for k in _LTCA_KEYS)
     excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
-        setup, values["torque"], deviations=sample_deviations(pair, values)))
+        setup, values["torque"],
+        deviations=sample_deviations(pair, values, options["pitch_phases"])))
     H = options["n_mesh_harmonics"] * excitation.n_cycles
     rkey = ("rotor", H, options["cutoff_factor"], options["moment_arm"]) + lkey + tuple(
         values[k] for k in _ROTOR_KEYS)
@@ -169,6 +178,8 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
     grid = np.arange(prob.prep.n_time) * T / prob.prep.n_time
     scalars = {
         "dte_rms": _rms(ch["dte"]), "dte_mean": float(ch["dte"][0].real),
+        "dte_mesh_band_rms": float(math.sqrt(2.0 * np.sum(
+            np.abs(ch["dte"][prob.excitation.n_cycles // 2:]) ** 2))),
         "dte_ptp": float(np.ptp(synthesize(ch["dte"], grid, T))),
         "mesh_force_rms": _rms(sol.force), "mesh_force_min": sol.min_force,
         "bearing1_acceleration_y_rms": _rms(ch["bearing 1 acceleration y"]),
