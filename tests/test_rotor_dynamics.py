@@ -278,3 +278,24 @@ def test_bad_inputs_raise():
     with pytest.raises(ValueError, match="stiffness"):
         MeshExcitation(np.arange(4.0), np.array([1.0, -1.0, 1.0, 1.0]), np.zeros(4), 1.0, 1,
                        np.zeros(4))
+
+
+def test_a_load_the_ltca_cannot_carry_raises_with_the_positions():
+    from gearuq.rotor.excitation import _check_ltca
+
+    with pytest.raises(ValueError, match=r"torque=300.0 N m: .* 1 position\(s\) \(tau = 0.5"):
+        _check_ltca(np.array([0, 1, 0]), np.array([0.0, 0.5, 1.0]), 300.0)
+    _check_ltca(np.zeros(3, dtype=int), np.array([0.0, 0.5, 1.0]), 300.0)  # converged: silent
+
+
+def test_ltca_tangent_equals_an_independent_finite_difference():
+    """The LTCA's analytic dP/dSTE against a central difference of two more LTCA runs."""
+    from gearuq.gears.ltca import ltca_setup
+
+    setup = ltca_setup(PAIR, positions_per_cycle=4, n_pts=8)
+    analytic = MeshExcitation.from_setup(setup, 1000.0)
+    fd = MeshExcitation.from_setup(setup, 1000.0, tangent="finite_difference")
+    np.testing.assert_allclose(analytic.stiffness, fd.stiffness, rtol=1e-6)
+    # the linearised law passes through the static state: k (STE - e) = P
+    np.testing.assert_allclose(analytic.stiffness * (analytic.ste - analytic.error),
+                               analytic.normal_force, rtol=1e-12)

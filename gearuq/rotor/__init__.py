@@ -7,7 +7,12 @@
 - :mod:`gearuq.rotor.mesh`: :class:`HelicalMeshElement` (12-DOF mesh along the normal LOA)
 - :mod:`gearuq.rotor.assembly`: :class:`Rotor` (global M, K, C, G; statics)
 - :mod:`gearuq.rotor.modal`: real and complex modes, Campbell data
-- :mod:`gearuq.rotor.examples`: ``*_example()`` rotors (Friswell 5.9.1, the seed-002 pair)
+- :mod:`gearuq.rotor.examples`: ``friswell_example()``, ``seed002_rotor()``
+- :mod:`gearuq.rotor.excitation`: :class:`MeshExcitation` (LTCA -> tangent k(t), e(t))
+- :mod:`gearuq.rotor.reduction`: modal reduction with static correction
+- :mod:`gearuq.rotor.harmonic_balance`: periodic steady state (AFT for contact loss)
+- :mod:`gearuq.rotor.time_integration`: reduced model on ``solve_batch``, Newmark full model
+- :mod:`gearuq.rotor.geared`: :class:`GearedRotorProblem` (rotor + excitation + torque)
 
 Theory and checks: docs/theory/geared_rotor.md.
 """
@@ -30,6 +35,16 @@ _LAZY = {
     "undamped_modes": "gearuq.rotor.modal",
     "complex_modes": "gearuq.rotor.modal",
     "campbell": "gearuq.rotor.modal",
+    "friswell_example": "gearuq.rotor.examples",
+    "seed002_rotor": "gearuq.rotor.examples",
+    "MeshExcitation": "gearuq.rotor.excitation",
+    "reduce_rotor": "gearuq.rotor.reduction",
+    "prepare_excitation": "gearuq.rotor.harmonic_balance",
+    "solve_periodic": "gearuq.rotor.harmonic_balance",
+    "integrate_reduced": "gearuq.rotor.time_integration",
+    "newmark_full": "gearuq.rotor.time_integration",
+    "GearedRotorProblem": "gearuq.rotor.geared",
+    "torque_load": "gearuq.rotor.geared",
 }
 
 __all__ = sorted(_LAZY)
