@@ -343,3 +343,22 @@ def test_approximate_solution_follows_time_response():
                         settle_tolerance=1e-5)
     diff = np.abs(ds["u"] - ds["u_perturbation"]).max().item()
     assert diff < 0.03 * np.abs(ds["u"]).max().item()
+
+
+def test_onset_of_contact_loss_closed_forms():
+    """The onsets found on the traced curves satisfy Eq. 37 (first order, closed form) and
+    the corrected Eq. 36 (second order: amplitude at the onset for the response phase)."""
+    from gearuq_plugins.mesh_oscillator.perturbation import onset_amplitude, onset_first_order
+
+    c = coefficients(mu=0.0082, a00=2 / 3, a01=2 / 75, a20=0.25, a30=-1 / 24, e1=0.1)
+    grid = np.linspace(0.85, 1.1, 101)
+    first = frequency_response(c[None], grid, order=1)
+    assert first.n_onsets[0] == 2
+    np.testing.assert_allclose(first.onsets[0, :2, 0], onset_first_order(c)[0], atol=1e-9)
+    np.testing.assert_allclose(first.onsets[0, :2, 1], 1.0, atol=1e-9)
+    second = frequency_response(c[None], grid, order=2)
+    on = second.onsets[0, :second.n_onsets[0]]
+    assert on.shape[0] == 2
+    for _omega, a, gam in on:
+        assert a == pytest.approx(onset_amplitude(c, gam)[0], rel=1e-8)
+        assert a < 1.0  # quadratic stiffness and e_1 bring the onset below a = 1

@@ -150,3 +150,43 @@ def frequency_response(coefs: np.ndarray, grids: np.ndarray, *, order: int = 2,
         amplitude=sol[0], phase=sol[1], position=sol[2], stable=sol[3].astype(np.int8),
         separation=sol[4], count=sol[5], up=up, down=down, onsets=onsets,
         n_onsets=n_onsets, status=status, n_points=n_points)
+
+
+def onset_first_order(coefs: np.ndarray) -> np.ndarray:
+    """Frequencies where total contact loss starts, first order (seed Eq. 37), shape (n, 2).
+
+    With ``alpha_{2,0} = e_1 = 0`` at first order, contact is lost at ``a = 1``; Eq. 27 with
+    ``a = 1``, ``Delta_0 = 0`` gives ``sigma = 3/8 alpha_{3,0} -+ sqrt(F^2/4 - mu^2)`` with
+    ``F = |q_1 e^{-i rho_1} - alpha_{0,1}|`` (the load harmonic taken at ``Omega = 1``).
+    NaN where the forcing cannot reach ``a = 1`` (``F/2 < mu``). The principal parametric
+    term ``alpha_{1,2}`` is not included (the seed's Eq. 37 has none).
+    """
+    c = np.atleast_2d(coefs)
+    force = np.abs(c[:, sf.C_Q1] * np.exp(-1j * c[:, sf.C_R1]) - c[:, sf.C_A01])
+    disc = force**2 / 4.0 - c[:, sf.C_MU] ** 2
+    root = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+    centre = 1.0 + 0.375 * c[:, sf.C_A30]
+    return np.stack([centre - root, centre + root], axis=1)
+
+
+def onset_amplitude(coefs: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+    """Amplitude at the onset of total contact loss for a response phase ``gamma`` (Eq. 36).
+
+    Contact is lost when ``R = |a e^{i gamma} - e_1 e^{i psi_1}|`` reaches
+    ``1 - alpha_{2,0} a^2 / 2`` (Eq. 35 at ``tau = pi``). With the quadratic mean shift of
+    Eq. 28 this is the quartic ``alpha20^2/4 a^4 - (1 + alpha20) a^2 + 2 e1 cos(gamma - psi1)
+    a + 1 - e1^2 = 0`` (the seed prints ``alpha_{2,0} a / 2`` and a quadratic instead; see
+    docs/theory/mesh_oscillator.md); the smallest positive root is returned (NaN if none).
+    """
+    c = np.atleast_2d(coefs)
+    gamma = np.broadcast_to(np.asarray(gamma, dtype=float), (c.shape[0],))
+    out = np.full(c.shape[0], np.nan)
+    for i, row in enumerate(c):
+        a20, e1 = row[sf.C_A20], row[sf.C_E1]
+        poly = [a20**2 / 4.0, 0.0, -(1.0 + a20), 2.0 * e1 * np.cos(gamma[i] - row[sf.C_PSI1]),
+                1.0 - e1**2]
+        roots = np.roots(poly)
+        real = roots[(np.abs(roots.imag) < 1e-10) & (roots.real > 0)].real
+        if real.size:
+            out[i] = real.min()
+    return out
