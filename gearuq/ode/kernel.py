@@ -126,6 +126,8 @@ def _make_kernel(METHOD: int, EVENTS: int, DIGEST: int):
 
     def kernel(rhs, switch, Y0, P, T0, TE, save_in, OUT, rtol, atol_in, max_step, first_step,
                max_steps, fixed_h, n_switch, status_out, counts):
+        # One long loop on purpose (see the docstring of _make_kernel): per sample, set up the
+        # work arrays, then step: trial step, event location, error test, outputs.
         if DIGEST < 0:  # never true (pruned): DIGEST only keys the on-disk cache
             return
         for sample in range(Y0.shape[0]):
@@ -145,7 +147,7 @@ def _make_kernel(METHOD: int, EVENTS: int, DIGEST: int):
             # With frozen sides, p is extended by the side (+1/-1, 0 unknown) of every switching
             # function at the step start, so that the rhs can pick its branch from them.
             n_side = n_switch if FROZEN else 0
-            work = np.zeros(8 * n + (NK + 7) * n + 11 * ns + npar + n_side)
+            work = np.zeros(8 * n + (NK + 7) * n + 12 * ns + npar + n_side)
             zero = np.int64(0)
             y = view1(work, zero, n)
             f = view1(work, n, n)
@@ -164,7 +166,9 @@ def _make_kernel(METHOD: int, EVENTS: int, DIGEST: int):
             gb = view1(work, o + 4 * ns, ns)
             gw = view1(work, o + 5 * ns, ns)
             gs = view2(work, o + 6 * ns, np.int64(5), ns)  # samples of g within a step
-            p = view1(work, o + 11 * ns, npar + n_side)
+            # last non-zero side (+1.0 / -1.0, 0.0 unknown) of each switching function
+            side = view1(work, o + 11 * ns, ns)
+            p = view1(work, o + 12 * ns, npar + n_side)
             for i in range(n):
                 y[i] = y0[i]
                 atol[i] = atol_in[i]
@@ -172,8 +176,7 @@ def _make_kernel(METHOD: int, EVENTS: int, DIGEST: int):
                 p[i] = p_in[i]
             te = view1(te_in, zero, nt)
             out = view2(out_in, zero, nt, save_in.size)
-            save = save_in.copy()
-            side = np.zeros(ns, dtype=np.int64)  # last non-zero side of each switching function
+            save = save_in
 
             n_acc = 0
             n_rej = 0
