@@ -107,6 +107,20 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                    keep_chunks=args.keep_chunks) or 0)
 
 
+def _cmd_compile(args: argparse.Namespace) -> int:
+    from gearuq import registry
+
+    names = args.names or registry.list_models()
+    for name in names:
+        model = registry.get_model(name)
+        precompile = getattr(model, "precompile", None)
+        if precompile is None:
+            print(f"{name:<18} nothing to compile")
+            continue
+        print(f"{name:<18} compiled or loaded from the cache in {precompile():.1f} s", flush=True)
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "memory":
         from gearuq.bench_memory import run as run_memory
@@ -172,10 +186,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default: gearuq_<name>)")
     p.set_defaults(func=_cmd_study)
 
+    p = sub.add_parser("compile", help="compile the models' kernels once (numba cache)",
+                       description="Compile, or load from the on-disk numba cache, what a "
+                                   "default call of each model needs, so that no later first "
+                                   "call pays it (optional: first calls compile on demand).")
+    p.add_argument("names", nargs="*", help="models (default: all registered)")
+    p.set_defaults(func=_cmd_compile)
+
     p = sub.add_parser("bench", help="work-precision benchmarks",
                        description="Speed against error, side by side in one run.")
-    p.add_argument("what", choices=["integrator", "surrogate", "memory"],
+    p.add_argument("what", choices=["integrator", "startup", "surrogate", "memory"],
                    help="integrator: work-precision of the batched ODE solver on helical_pair; "
+                        "startup: first-call times from an empty and a filled compile cache; "
                         "surrogate: PCE / Sobol-MC speed against error on analytic benchmarks; "
                         "memory: peak RSS and wall time of Monte Carlo against sample count")
     p.add_argument("--out", default="gearuq_bench", help="output folder")

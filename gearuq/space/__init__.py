@@ -21,6 +21,7 @@ The correlation matrix of a space is that of the underlying standard normals; ra
 (Spearman, Kendall) or Pearson targets are converted on request (``correlation_type``).
 """
 
+from gearuq import _chaospy  # noqa: F401 - first chaospy import, logging left as it was
 from gearuq.space.copula import CORRELATION_TYPES
 from gearuq.space.marginals import KINDS, Marginal
 from gearuq.space.parameter_space import ParameterSpace
