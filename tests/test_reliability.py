@@ -613,3 +613,42 @@ def test_entry_point_bad_input():
         failure_probability(model, space, ["g", "g"], method="form")
     with pytest.raises(ValueError, match="confidence"):
         failure_probability(model, space, "g", confidence=1.5)
+
+
+# =========================================================================== benchmark
+def test_bench_rows_table_and_docs_section(tmp_path):
+    from gearuq import bench_reliability as bench
+    from gearuq.testing.reliability_problems import OFFSET_PF, reliability_problems
+
+    rows = bench.cases(quick=True)
+    labels = {(p, label) for p, label, _, _ in rows}
+    assert ("parabola", "FORM") in labels and ("jump", "AK-MCS") in labels
+    assert all(m != "akmcs" for p, _, m, _ in rows if p == "linear_100d")
+    p = reliability_problems()["offset"]
+    form = bench._summarise("offset", "FORM", "form", OFFSET_PF,
+                            [bench._one(p, "form", {}, 1)])
+    mc = bench._summarise("offset", "crude MC", "mc", OFFSET_PF,
+                          [bench._one(p, "mc", {"n_samples": 2000}, 1)])
+    assert form["error"] < 1e-6 and form["runs"] == 6
+    assert form["saving"] == pytest.approx(100 * (1 - OFFSET_PF) / OFFSET_PF / 6)
+    assert mc["bound"] == 1 and mc["runs_10pct"] == pytest.approx(mc["mc_runs_10pct"])
+    text = bench.markdown([form, mc], quick=True, n_seeds=1)
+    assert "| offset | 3.398e-06 | FORM |" in text and "(bound)" in text
+    doc = tmp_path / "benchmarks.md"
+    doc.write_text("# Benchmarks\n\n## other\n\nkeep me\n")
+    bench.update_docs(doc, text)
+    bench.update_docs(doc, text.replace("FORM", "FORM again"))
+    out = doc.read_text()
+    assert out.count("## `gearuq bench reliability`") == 1 and "keep me" in out
+    assert "FORM again" in out and out.count("| offset | 3.398e-06 | FORM") == 1
+
+
+@pytest.mark.bench
+def test_bench_reliability_quick(tmp_path):
+    from gearuq import bench_reliability as bench
+
+    res = bench.run(tmp_path, quick=True)
+    by = {(r["problem"], r["row"]): r for r in res["rows"]}
+    assert by[("offset", "IS")]["saving"] > 100
+    assert by[("offset", "subset")]["saving"] > 100
+    assert by[("linear_100d", "FORM")]["error"] < 1e-6
