@@ -248,3 +248,18 @@ def test_ltca_force_deflection_source():
     assert ex.mean_deflection[0] == pytest.approx(table.deflection[2].mean(), rel=0.02)
     assert ex.stiffness[0] == pytest.approx(mean_tangent, rel=0.03)
     assert 0.0 < ex.alpha[0, 0, 1] < 0.5  # the excitation harmonic of a perfect pair
+
+
+def test_long_separation_is_flagged_not_dropped():
+    """A sweep path out of contact for more than max_separation of the period gets status 17
+    (the theory assumes short separations); its numbers are kept."""
+    model = MeshOscillator()
+    kw = {"outputs": ["amplitude_down", "separation_down"], "frequency_min": 0.86,
+          "frequency_max": 1.1, "n_frequencies": 25}
+    ok = model.response({}, **kw)
+    worst = ok["separation_down"].values.max()
+    assert ok["status"].item() == 0 and 0.3 < worst < 0.5
+    flagged = model.response({}, max_separation=0.3, **kw)
+    assert flagged["status"].item() == 17
+    assert "separation_beyond_validity" in flagged["status"].attrs["flag_meanings"]
+    np.testing.assert_array_equal(flagged["amplitude_down"], ok["amplitude_down"])

@@ -231,9 +231,12 @@ def test_backlash_contact_loss_band():
     lin = model.response(p, outputs=["linear_amplitude"], frequencies=grid)
     inside = (grid > band[0]) & (grid < band[1])
     np.testing.assert_array_equal(lin["linear_amplitude"].values[0] > 1.0, inside)
-    pert = model.response(p, outputs=["amplitude_up"], frequencies=grid)
-    onset = pert["onset_frequency_ratio"].values[0]
-    np.testing.assert_allclose(onset, band, atol=4e-3)  # O(eps^2) error of the linear part
+    onsets = {order: model.response(p, outputs=["amplitude_up"], frequencies=grid, order=order)
+              ["onset_frequency_ratio"].values[0] for order in (1, 2)}
+    # the linear part is exact up to O(eps^2) (first order) and O(eps^3) (second order):
+    # measured 4.4e-3 / 1.0e-2 and 1.3e-4 / 4.1e-4
+    np.testing.assert_allclose(onsets[2], band, atol=1e-3)
+    assert np.all(np.abs(onsets[1] - band) > np.abs(onsets[2] - band))
     sweep = model.response(p, outputs=["amplitude_up", "amplitude_down"], frequencies=grid,
                            method="sweep", points_per_period=64)
     for which, edge in (("up", band[0]), ("down", band[1])):

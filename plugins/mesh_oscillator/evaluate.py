@@ -20,6 +20,7 @@ from gearuq_plugins.mesh_oscillator.model import (
     BRANCHES,
     STATUS_CURVE,
     STATUS_MEANINGS,
+    STATUS_SEPARATION,
     MeshOscillator,
     System,
 )
@@ -100,6 +101,9 @@ def _perturbation(model, system, grids, options, out, extra, coords, status):
         out[f"amplitude_{which}"] = res.path(which)
         out[f"separation_{which}"] = np.maximum(-res.path(which, "separation")[..., sf.S_D0],
                                                 0.0)
+    worst = np.fmax(np.nanmax(out["separation_up"], axis=1, initial=0.0),
+                    np.nanmax(out["separation_down"], axis=1, initial=0.0))
+    status[(status == 0) & (worst > options["max_separation"])] = STATUS_SEPARATION
     out["branch_amplitude"], out["branch_phase"], stable = _branches(res)
     out["branch_stable"] = stable.astype(np.int8)
     out["n_branches"] = res.count.astype(np.int16)

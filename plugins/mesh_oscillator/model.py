@@ -115,7 +115,9 @@ _EXPANSION_OUTPUTS = {"mean_deflection", "deflection_scale", "natural_frequency"
 BRANCHES = ("lower", "middle", "upper")
 
 STATUS_CURVE = 16
-STATUS_MEANINGS = {STATUS_CURVE: "perturbation_curve_incomplete"}
+STATUS_SEPARATION = 17
+STATUS_MEANINGS = {STATUS_CURVE: "perturbation_curve_incomplete",
+                   STATUS_SEPARATION: "separation_beyond_validity"}
 
 
 def _check_frequencies(value: Any) -> np.ndarray:
@@ -172,6 +174,9 @@ _OPTIONS = (
     Option("onset_separation", 0.02, "largest fraction of the period out of contact still "
            "counted as the onset (region 3) rather than developed contact loss (region 4)",
            lower=0.0, upper=1.0),
+    Option("max_separation", 0.5, "perturbation: a sweep path out of contact for more than "
+           "this fraction of the period is flagged (status 17): the theory assumes short "
+           "separations", lower=0.0, upper=1.0),
 )
 
 

@@ -286,7 +286,13 @@ def _margin_roots(mean: float, z: np.ndarray, osc: np.ndarray, roots: np.ndarray
             for r in (_root_in(mean, z, lo, x), _root_in(mean, z, x, hi)):
                 roots[n_r] = r % (2.0 * math.pi)
                 n_r += 1
-    roots[:n_r] = np.sort(roots[:n_r])
+    for i in range(1, n_r):  # insertion sort: at most 8 values (np.sort costs seconds of
+        key = roots[i]        # compilation for nothing here)
+        k = i - 1
+        while k >= 0 and roots[k] > key:
+            roots[k + 1] = roots[k]
+            k -= 1
+        roots[k + 1] = key
     return n_r
 
 
@@ -356,37 +362,35 @@ def separation_numerical(a: float, gam: float, c: np.ndarray, s: np.ndarray) -> 
     mean0 = margin_phasors(a, gam, c, 0.0, z)
     _oscillation_samples(z, osc)
     a00 = c[C_A00]
-    losses = _separation_integrals(mean0, z, osc, acc)
-    x_hi = -acc[0] / two_pi
-    x = 0.0
-    if x_hi > 0.0 and a00 != 0.0:
-        x_lo = 0.0
-        f_lo = x_hi  # phi(0) = F(0) - 0
-        losses = _separation_integrals(mean0 + a00 * x_hi, z, osc, acc)
-        f_hi = -acc[0] / two_pi - x_hi
-        side = 0
-        x = x_hi
-        for _ in range(N_SEP_PASSES):
-            if f_hi == f_lo or x_hi - x_lo <= 1e-15:
-                break
-            x = (x_lo * f_hi - x_hi * f_lo) / (f_hi - f_lo)
-            losses = _separation_integrals(mean0 + a00 * x, z, osc, acc)
-            fx = -acc[0] / two_pi - x
-            if abs(fx) <= 1e-15:
-                break
-            if fx > 0.0:
-                x_lo, f_lo = x, fx
-                if side == 1:
-                    f_hi *= 0.5
-                side = 1
-            else:
-                x_hi, f_hi = x, fx
-                if side == -1:
-                    f_lo *= 0.5
-                side = -1
+    # one call site of the (large) integrals in a loop keeps the compiled code small:
+    # pass 0 evaluates F(0), pass 1 F(F(0)), then Illinois steps on phi(x) = F(x) - x
+    x = x_lo = f_lo = x_hi = f_hi = 0.0
+    side = 0
+    losses = 0
+    for it in range(N_SEP_PASSES + 2):
         losses = _separation_integrals(mean0 + a00 * x, z, osc, acc)
-    elif x_hi > 0.0:
-        x = x_hi
+        fx = -acc[0] / two_pi - x
+        if it == 0:
+            if fx <= 0.0 or a00 == 0.0:  # in contact throughout, or no mean shift
+                break
+            f_lo = fx
+            x = x_hi = fx
+            continue
+        if it == 1:
+            f_hi = fx
+        elif fx > 0.0:
+            x_lo, f_lo = x, fx
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        else:
+            x_hi, f_hi = x, fx
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+        if abs(fx) <= 1e-15 or f_hi == f_lo or x_hi - x_lo <= 1e-15:
+            break  # acc holds the integrals at the final x
+        x = (x_lo * f_hi - x_hi * f_lo) / (f_hi - f_lo)
     s[S_D0] = acc[0] / two_pi
     # H = sum Delta_r cos(r theta - nu_r): Delta_r cos nu_r = (1/pi) int H cos(r theta) etc.
     s[S_D1] = math.hypot(acc[1], acc[2]) / math.pi
