@@ -226,6 +226,9 @@ class MeshOscillator(Model):
     time_units = "1"
     time_long_name = "nondimensional time T = omega_n t"
     options = _OPTIONS
+    #: the perturbation runs sample blocks in threads and the sweeps use the threaded
+    #: integrator: engines evaluate serially by default
+    internally_parallel = True
 
     def __init__(self, force: Any = None, *, load_harmonic_scaling: str = "constant",
                  nominal: Mapping[str, float] | None = None) -> None:
