@@ -121,7 +121,23 @@ def _cmd_compile(args: argparse.Namespace) -> int:
     return 0
 
 
+BUILTIN_BENCHES = ("integrator", "startup", "surrogate", "memory", "reliability")
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
+    from gearuq import registry
+
+    if args.what == "list":
+        for name in (*BUILTIN_BENCHES, *registry.list_benchmarks()):
+            print(name)
+        return 0
+    if args.what not in BUILTIN_BENCHES:
+        registry.get_benchmark(args.what)(args.out, quick=args.quick)
+        return 0
+    if args.what == "reliability":
+        from gearuq.bench_reliability import main as run_reliability
+
+        return int(run_reliability(quick=args.quick, out=args.out) or 0)
     if args.what == "memory":
         from gearuq.bench_memory import run as run_memory
 
@@ -195,11 +211,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="work-precision benchmarks",
                        description="Speed against error, side by side in one run.")
-    p.add_argument("what", choices=["integrator", "startup", "surrogate", "memory"],
+    p.add_argument("what", metavar="WHAT",
                    help="integrator: work-precision of the batched ODE solver on helical_pair; "
                         "startup: first-call times from an empty and a filled compile cache; "
                         "surrogate: PCE / Sobol-MC speed against error on analytic benchmarks; "
-                        "memory: peak RSS and wall time of Monte Carlo against sample count")
+                        "memory: peak RSS and wall time of Monte Carlo against sample count; "
+                        "reliability: every failure-probability method side by side; or a "
+                        "benchmark a plugin registers (`gearuq bench list`)")
     p.add_argument("--out", default="gearuq_bench", help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer samples and tolerances")
     p.set_defaults(func=_cmd_bench)

@@ -168,3 +168,30 @@ def describe_studies() -> list[StudyInfo]:
         except ModelLoadError as exc:
             rows.append(StudyInfo(name, eps[name].value, error=str(exc)))
     return rows
+
+
+# =========================================================================== benchmarks
+BENCH_GROUP = "gearuq.benchmarks"
+
+
+def list_benchmarks() -> list[str]:
+    """Benchmarks that plugins register under the ``gearuq.benchmarks`` entry-point group.
+
+    Each is a function ``run(out, quick=False)`` that measures speed against error side by
+    side in one run and writes its table into ``out``; ``gearuq bench NAME`` runs it next to
+    the built-in benchmarks of the generic engines.
+    """
+    return sorted(ep.name for ep in entry_points(group=BENCH_GROUP))
+
+
+def get_benchmark(name: str) -> Callable[..., Any]:
+    """The run function of the plugin benchmark ``name`` (see :func:`list_benchmarks`)."""
+    eps = {ep.name: ep for ep in entry_points(group=BENCH_GROUP)}
+    if name not in eps:
+        raise ValueError(f"unknown benchmark {name!r}; registered: "
+                         f"{', '.join(sorted(eps)) or 'none'}")
+    try:
+        return eps[name].load()
+    except Exception as exc:  # noqa: BLE001 - report which benchmark is broken and why
+        raise ModelLoadError(f"benchmark {name!r} ({eps[name].value}) failed to import: "
+                             f"{type(exc).__name__}: {exc}") from exc
