@@ -90,10 +90,8 @@ def sweep(model: gearuq.Model, speeds: np.ndarray) -> xr.Dataset:
 def campbell(model: gearuq.Model, speeds: np.ndarray) -> xr.Dataset:
     """Damped natural frequencies (mean mesh stiffness, nominal bearings) over speed."""
     from gearuq.rotor.modal import campbell as campbell_data
-    from gearuq_plugins.geared_rotor.physics import problem_for
 
-    values = {p.name: p.nominal for p in model.parameters} | {"torque": TORQUE}
-    prob = problem_for(model, values, model.validate_options({}))
+    prob = model.rotor_problem({"torque": TORQUE})
     C = prob.full_damping()
     return campbell_data(prob.rotor, speeds * math.pi / 30.0, n_modes=24, damping=C,
                          excitation_orders=(30.0, 60.0, 90.0))

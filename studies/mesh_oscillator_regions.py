@@ -163,8 +163,7 @@ def gear_tables(pair, amount, quick, torques=(5, 15, 30, 50, 75, 100, 150, 200, 
 
 def gear_comparison(quick: bool) -> dict:
     """Seed Figs. 1-3 analog; returns alpha_01 at 50 and 250 N m for both gears."""
-    from gearuq_plugins.mesh_oscillator import MeshOscillator
-    from gearuq_plugins.mesh_oscillator.expansion import mean_deflection
+    from gearuq_plugins.mesh_oscillator import MeshOscillator, mean_deflection
 
     pair = example_spur_pair()
     torques = np.linspace(40.0, 260.0, 12 if quick else 23)
@@ -345,11 +344,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="coarser grids, fewer samples")
     args = parser.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
-    from gearuq_plugins.mesh_oscillator import bench
-
     fig4 = fig4_analog(args.quick)
     gears = gear_comparison(args.quick)
-    table = bench.run(out=OUT, quick=args.quick)
+    table = gearuq.registry.get_benchmark("mesh_oscillator")(out=OUT, quick=args.quick)
     (OUT / "speed_error.md").write_text(table["markdown"] + "\n")
     rel = reliability(args.quick)
     print("\n== seed Fig. 4 analog")

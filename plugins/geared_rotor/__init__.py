@@ -172,6 +172,20 @@ class GearedRotor(Model):
             "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 2.0**32 - 1.0},
         })
 
+    def rotor_problem(self, params: dict[str, float] | None = None, **options: Any) -> Any:
+        """The :class:`gearuq.rotor.geared.GearedRotorProblem` of one parameter set.
+
+        For analyses beyond the plugin's outputs (modal and Campbell data, sweeps along one
+        branch): the seed rotor with the LTCA excitation of ``params`` (missing names take
+        their nominal values), built exactly as :meth:`response` builds it.
+        """
+        from gearuq_plugins.geared_rotor.physics import problem_for
+
+        values = {p.name: p.nominal for p in self.parameters} | dict(params or {})
+        checked = self.validate_params({k: [v] for k, v in values.items()})
+        return problem_for(self, {k: float(v[0]) for k, v in checked.items()},
+                           self.validate_options(options))
+
     def _evaluate(self, params, t, outputs, **options):
         from gearuq_plugins.geared_rotor.physics import evaluate
 

@@ -14,6 +14,7 @@ integration), :mod:`.model` and :mod:`.evaluate` (the plugin), :mod:`.bench` (sp
 error), :mod:`.derivation` (symbolic derivation, needs sympy).
 """
 
+from gearuq_plugins.mesh_oscillator.expansion import mean_deflection
 from gearuq_plugins.mesh_oscillator.forces import (
     ContactSegment,
     ForceDeflection,
@@ -34,4 +35,5 @@ __all__ = [
     "PolynomialForce",
     "SegmentForce",
     "TableFamily",
+    "mean_deflection",
 ]
