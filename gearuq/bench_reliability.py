@@ -77,7 +77,7 @@ _NOTES = {
     ("parabola", "FORM, 6 starts"): "2 design points found; series FORM in pf_multi",
     ("jump", "FORM"): "discontinuous g: FD gradient meaningless at the jump",
     ("jump", "SORM (Tvedt)"): "discontinuous g",
-    ("jump", "AK-MCS"): "discontinuous g: seed-dependent (confidently wrong, or 200+ runs)",
+    ("jump", "AK-MCS"): "discontinuous g: U stays < 2 along the jump, stops at max_runs",
     ("offset", "AK-MCS"): "population-limited: Pf 3e-6 needs ~1e8 points",
     ("four_branch", "FORM"): "fails: series system, FORM sees one branch",
     ("four_branch", "SORM (Tvedt)"): "fails: series system, one branch (and its kink)",
@@ -233,12 +233,20 @@ def update_docs(path: Path, table: str) -> None:
         text = before + block + after
     else:
         text = (text.rstrip("\n") + "\n\n## `gearuq bench reliability`\n\n"
-                "Rare-event methods against crude Monte Carlo on exact references; reading "
-                "and method notes in docs/reliability.md.\n\n" + block + "\n")
+                "Rare-event methods against crude Monte Carlo on exact references; method "
+                "notes in [reliability.md](reliability.md).\n\n" + block + "\n")
     path.write_text(text)
 
 
-def main(quick: bool = False, out: str = "gearuq_bench", docs: str | None = None) -> int:
-    """Entry for ``gearuq bench reliability``: run, print, write; return 0."""
+def main(quick: bool = False, out: str = "gearuq_bench", docs: str | None = "auto") -> int:
+    """Entry for ``gearuq bench reliability``: run, print, write; return 0.
+
+    ``docs="auto"`` updates ``docs/benchmarks.md`` when run from a source checkout (the file
+    exists relative to the working directory); ``None`` leaves the docs alone.
+    """
+    if docs == "auto":
+        docs = "docs/benchmarks.md" if Path("docs/benchmarks.md").is_file() else None
     run(Path(out), quick=quick, docs=docs)
+    if docs is not None:
+        print(f"reliability table written into {docs}")
     return 0

@@ -27,7 +27,8 @@ Run: ``python studies/helical_pair_rare_events.py [--out DIR] [--full]``. The de
 few minutes (1e4 Monte Carlo runs, subset simulation with 500 samples per level, AK-MCS with at
 most 150 runs); ``--full`` runs 1e5 Monte Carlo runs, three subset seeds with 1000 per level
 and AK-MCS up to 400 runs (about half an hour on 2 cores). Writes netCDF reports, a JSON
-summary and ``pf_vs_model_runs.png`` into ``--out``.
+summary and ``pf_vs_model_runs.png`` into ``--out`` (and the Monte Carlo chunk store
+``mc_store_N``, which a rerun reuses).
 """
 
 from __future__ import annotations
@@ -73,15 +74,21 @@ class LogMargin:
         return np.log(self.limit / np.maximum(mesh_force, 1.0))
 
 
-def crude_monte_carlo(model: Any, space: Any, n: int, seed: int) -> dict[str, Any]:
-    """Peak force of ``n`` random samples; Pf and its running estimate at every margin."""
+def crude_monte_carlo(model: Any, space: Any, n: int, seed: int, store: Path
+                      ) -> dict[str, Any]:
+    """Peak force of ``n`` random samples; Pf and its running estimate at every margin.
+
+    The samples stream to ``store`` (10^5 x 801 instants would be 640 MB in memory); the
+    result is read back lazily and ``gearuq.reliability`` counts failures chunk by chunk. A
+    rerun with the same seed reuses the stored chunks.
+    """
     t0 = time.perf_counter()
     ds = gearuq.monte_carlo(model, space, TAU, n_samples=n, rng=seed, outputs=["mesh_force"],
-                            executor="serial", **OPTIONS)
+                            executor="serial", store=store, **OPTIONS)
     wall = time.perf_counter() - t0
     modes = [LimitState.upper("mesh_force", f, name=k) for k, f in MARGINS.items()]
     rel = gearuq.reliability(ds, modes, system=False)
-    peak = ds["mesh_force"].max("time").values
+    peak = ds["mesh_force"].max("time").values  # one chunk at a time (dask)
     ok = ds["status"].values == 0
     running = {}
     for key, limit in MARGINS.items():
@@ -129,7 +136,8 @@ def figure(mc: dict[str, Any], subset: dict[str, list], ak: Any, path: Path) -> 
     import matplotlib.pyplot as plt
 
     colours = {"check": "tab:blue", "1e-4": "tab:orange", "1e-6": "tab:green"}
-    fig, ax = plt.subplots(figsize=(8.5, 5.5))
+    fig, ax = plt.subplots(figsize=(12.0, 5.8))
+    no_failure_until = 0
     for key, limit in MARGINS.items():
         c = colours[key]
         count, fails = mc["running"][key]
@@ -141,15 +149,16 @@ def figure(mc: dict[str, Any], subset: dict[str, list], ak: Any, path: Path) -> 
         if has.any():
             ax.plot(n[has], (k / n)[has], color=c, lw=1.5, label=f"{label}: crude MC")
             ax.fill_between(n[has], lo[has], up[has], color=c, alpha=0.15)
-        none = ~has
-        if none.any():  # no failure yet: only the upper end of the interval is informative
-            ax.plot(n[none], up[none], color=c, lw=1.2, ls=":",
-                    label=f"{label}: crude MC, no failure yet (upper bound)")
+        no_failure_until = max(no_failure_until, int(n[~has].max()) if (~has).any() else 0)
         for i, rep in enumerate(subset[key]):
             pf, pl, pu = (float(rep[v]) for v in ("pf", "pf_lower", "pf_upper"))
-            ax.errorbar(int(rep["n_model_runs"]), pf, yerr=[[pf - pl], [pu - pf]], fmt="o",
-                        color=c, capsize=4, label=f"{label}: subset simulation" if i == 0
-                        else None)
+            ax.errorbar(int(rep["n_model_runs"]) * (1 + 0.04 * i), pf,
+                        yerr=[[pf - pl], [pu - pf]], fmt="o", color=c, capsize=4,
+                        label=f"{label}: subset simulation" if i == 0 else None)
+    if no_failure_until:  # the bound depends on n only: one line for every limit
+        n = np.geomspace(50, no_failure_until, 40)
+        ax.plot(n, wilson_interval(0, n.astype(int))[1], color="0.35", lw=1.2, ls=":",
+                label="crude MC upper bound while no failure is seen (any F)")
     runs = ak["iteration_model_runs"].values
     hist = ak["iteration_pf"].values
     good = hist > 0
@@ -165,7 +174,7 @@ def figure(mc: dict[str, Any], subset: dict[str, list], ak: Any, path: Path) -> 
     ax.set_ylabel("P_f = P(max mesh force over tau in [100, 200] >= F) [-]")
     ax.set_title("helical_pair rare events: failure probability against model runs")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="lower left", ncol=2)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -201,6 +210,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--full", action="store_true",
                         help="1e5 MC runs, 3 subset seeds x 1000 per level, AK-MCS 400 runs")
     parser.add_argument("--seed", type=int, default=2024)
+    parser.add_argument("--replot", action="store_true",
+                        help="redraw the figure from the saved reports and the Monte Carlo store")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     n_mc = 100_000 if args.full else 10_000
@@ -209,7 +220,14 @@ def main(argv: list[str] | None = None) -> int:
     space = engineering_space()
     t0 = time.perf_counter()
     print(f"crude Monte Carlo, {n_mc} runs ...", flush=True)
-    mc = crude_monte_carlo(model, space, n_mc, args.seed)
+    mc = crude_monte_carlo(model, space, n_mc, args.seed, args.out / f"mc_store_{n_mc}")
+    if args.replot:
+        ss = {k: [gearuq.load(p) for p in sorted(args.out.glob(f"subset_{k}_*.nc"))]
+              for k in MARGINS}
+        ak = gearuq.load(args.out / "akmcs_check.nc")
+        figure(mc, ss, ak, args.out / "pf_vs_model_runs.png")
+        print(f"redrawn: {args.out / 'pf_vs_model_runs.png'}")
+        return 0
     print("subset simulation ...", flush=True)
     ss = subset_runs(model, space, seeds, 1000 if args.full else 500)
     print("AK-MCS ...", flush=True)

@@ -290,7 +290,10 @@ def _report(ev: LimitStateEvaluator, st: _State, s: Mapping[str, Any], seed: int
     pf, bound = k / n, False
     if k == 0:
         pf, bound, status = upper, True, 4
-        message = message or "no population point classified as failed: pf is an upper bound"
+        message = message or (
+            "no population point classified as failed: pf_upper bounds the population "
+            "estimate, but cannot cover a failure region the surrogate has not found (check "
+            "with a larger n_initial or another method)")
     hist = np.array(history)
     misclassified = float(np.sum(stats.norm.sf(u[np.isfinite(u)])))
     extra = {

@@ -118,7 +118,8 @@ MC_SETTINGS = (
     Option("rule", "random", "sampling rule", choices=("random", "lhs", "sobol", "halton")),
     Option("replicates", 1, "independent randomised designs; >= 2 gives a Student-t interval "
            "valid for LHS and QMC designs", lower=1),
-    Option("batch_size", 100_000, "largest design evaluated at once (random rule)", lower=1),
+    Option("batch_size", 20_000, "largest design evaluated at once (random rule; bounds the "
+           "memory of time-dependent outputs)", lower=1),
 )
 
 
@@ -259,8 +260,10 @@ class LimitStateEvaluator:
         fp = {"engine": self.engine, "tag": tag, "seed": self.seed,
               "limit_state": self.limit_state.to_json(), **self.extra_fingerprint}
         try:
+            # small designs (a gradient, an MCMC step) are one chunk; large ones chunk by the
+            # driver's default (at most 64 MB of result per chunk)
             ds = evaluate_chunks(self.model, x, self.request, executor=self.executor,
-                                 chunk_size=self.chunk_size if self.chunk_size else n,
+                                 chunk_size=self.chunk_size or (n if n <= 4096 else None),
                                  store=store, progress=False, fingerprint=fp)
         except RuntimeError as exc:  # every sample failed: flag them, keep going
             self.errors.append(f"{tag}: {str(exc).split(chr(10))[0][:300]}")
