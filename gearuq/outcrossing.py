@@ -299,7 +299,7 @@ def first_passage(
     dt = np.diff(t)
     k_grid = k_half = k_herm = 0
     n = 0
-    sums = np.zeros(4)  # for the zero-crossing period: sum y, y^2, v, v^2 (all instants)
+    sums = np.zeros(2)  # within-sample squared deviations of y and y' (zero-crossing period)
     for a, b in blocks:
         v = _values(y, a, b, valid, sign)
         grid_fail = (v >= u).any(axis=1)
@@ -310,7 +310,10 @@ def first_passage(
             d = _values(dy, a, b, valid, sign)
             between = hermite_crossing(v[:, :-1], v[:, 1:], d[:, :-1], d[:, 1:], dt, u)
             k_herm += int((grid_fail | between.any(axis=1)).sum())
-            sums += [v.sum(), (v * v).sum(), d.sum(), (d * d).sum()]
+            # deviations from each sample's own time mean: the period is a property of the
+            # time history, not of the scatter between samples
+            sums += [np.sum((v - v.mean(axis=1, keepdims=True)) ** 2),
+                     np.sum((d - d.mean(axis=1, keepdims=True)) ** 2)]
     lo, up = wilson_interval(k_grid, n, confidence)
     data: dict[str, Any] = {
         "pf_grid": ((), k_grid / n, {"units": "1", "long_name":
@@ -361,9 +364,7 @@ def _continuous_estimates(ds: xr.Dataset, output: str, derivative: str, level: f
     valid, _ = _blocks(ds, [output])
     p0 = float(np.mean(v0[valid] >= sign * level))
     pf_rice = 1.0 - (1.0 - p0) * math.exp(-integral)
-    m = n * len(t)
-    var_y = sums[1] / m - (sums[0] / m) ** 2
-    var_v = sums[3] / m - (sums[2] / m) ** 2
+    var_y, var_v = sums[0], sums[1]
     period = 2 * math.pi * math.sqrt(var_y / var_v) if var_v > 0 else math.inf
     step = float(np.max(dt))
     return {
@@ -372,11 +373,13 @@ def _continuous_estimates(ds: xr.Dataset, output: str, derivative: str, level: f
         "pf_hermite_lower": ((), float(lo), {"units": "1"}),
         "pf_hermite_upper": ((), float(up), {"units": "1"}),
         "pf_rice": ((), pf_rice, {"units": "1", "long_name":
-                    "Poisson-Rice: 1 - (1 - P(y(t0) >= u)) exp(-int nu+ dt)"}),
+                    "Poisson-Rice: 1 - (1 - P(y(t0) >= u)) exp(-int nu+ dt); conservative when "
+                    "crossings cluster (a sample near the level crosses many times)"}),
         "expected_crossings": ((), integral, {"units": "1", "long_name":
                                "int nu+ dt over the window"}),
         "period": ((), period, {"units": str(ds["time"].attrs.get("units", "")), "long_name":
-                   "mean zero-crossing period 2 pi sqrt(var y / var y')"}),
+                   "mean zero-crossing period 2 pi sqrt(var y / var y'), variances over time "
+                   "within each sample"}),
         "points_per_period": ((), period / step, {"units": "1", "long_name":
                               "period / largest step of the grid"}),
         "peak_loss": ((), 0.5 * (math.pi * step / period) ** 2, {"units": "1", "long_name":

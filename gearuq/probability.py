@@ -547,8 +547,7 @@ def _mode_variables(mode: Any) -> list[str]:
 
 
 def _band_modes(
-    blk: xr.Dataset, band: Band, valid: np.ndarray, time_dep_window: bool, n_t: int,
-    first_sample: int,
+    blk: xr.Dataset, band: Band, valid: np.ndarray, n_t: int, first_sample: int,
 ) -> list[tuple[str, dict[str, Any], np.ndarray]]:
     """Failure indicators ``(n_valid_in_block, n_t)`` of each mode produced by ``band``."""
     da = blk[band.output]
@@ -793,7 +792,7 @@ def reliability(
         found = []
         for mode in modes:
             if isinstance(mode, Band):
-                found += _band_modes(blk, mode, v, has_time, n_t, start)
+                found += _band_modes(blk, mode, v, n_t, start)
             else:
                 found += _limit_state_mode(blk, mode, v, time_coord, n_t, start)
         counts.add_block(found, int(v.sum()))
