@@ -12,30 +12,47 @@ from typing import Any
 from gearuq._version import __version__
 
 _LAZY = {
+    # models, studies, registry
     "list_models": "gearuq.registry",
     "get_model": "gearuq.registry",
     "register_model": "gearuq.registry",
     "describe_models": "gearuq.registry",
+    "list_studies": "gearuq.registry",
+    "get_study": "gearuq.registry",
     "Model": "gearuq.model",
     "Parameter": "gearuq.model",
     "Output": "gearuq.model",
+    "Option": "gearuq.model",
+    "Request": "gearuq.model",
     "FunctionModel": "gearuq.model",
+    # parameter space
     "ParameterSpace": "gearuq.space",
+    # engines
     "monte_carlo": "gearuq.engines.montecarlo",
+    "estimate_mean": "gearuq.engines.montecarlo",
     "polynomial_chaos": "gearuq.engines.pce",
     "PolynomialChaos": "gearuq.engines.pce",
+    "compare_mc_surrogate": "gearuq.engines.pce",
     "sobol_indices": "gearuq.engines.sensitivity",
+    "sobol_analysis": "gearuq.engines.sensitivity",
     "morris_screening": "gearuq.engines.sensitivity",
-    "reliability": "gearuq.reliability",
-    "Band": "gearuq.reliability",
+    "failure_probability": "gearuq.engines.failure",
+    # reliability, limit states, fitting
+    "reliability": "gearuq.probability",
+    "Band": "gearuq.probability",
+    "LimitState": "gearuq.limitstate",
+    "SeriesSystem": "gearuq.limitstate",
+    "ParallelSystem": "gearuq.limitstate",
+    "cut_set_system": "gearuq.limitstate",
     "fit_distributions": "gearuq.fitting",
+    # I/O
     "save": "gearuq.io",
     "load": "gearuq.io",
 }
 
 _SUBMODULES = {
-    "model", "registry", "space", "ode", "engines", "reliability", "fitting", "signal",
-    "execution", "io", "plot", "cli", "gears", "testing",
+    "model", "registry", "space", "ode", "engines", "probability", "limitstate", "outcrossing",
+    "fitting", "signal", "execution", "io", "plot", "cli", "gears", "rotor", "testing",
 }
 
 __all__ = ["__version__", *_LAZY]

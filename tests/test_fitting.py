@@ -10,7 +10,7 @@ import xarray as xr
 from scipy import stats
 
 from gearuq.fitting import FAMILIES, ad_statistic, fit_distributions, ks_statistic
-from gearuq.reliability import Band
+from gearuq.probability import Band
 
 N_LARGE = 5000
 
