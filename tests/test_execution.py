@@ -238,7 +238,7 @@ def test_second_identical_run_waits_and_shares(tmp_path):
 
 # ------------------------------------------------------------------------------ streaming
 STREAM = """
-import resource, sys
+import sys
 import numpy as np
 import gearuq
 from gearuq.engines.montecarlo import monte_carlo
@@ -246,12 +246,17 @@ from gearuq.engines.montecarlo import monte_carlo
 def wide(a, t):
     return np.sin(a[:, None] * t[None, :])
 
-def current_rss():
+def _status(key):
     with open("/proc/self/status") as fh:
-        return next(int(x.split()[1]) * 1024 for x in fh if x.startswith("VmRSS:"))
+        return next(int(x.split()[1]) * 1024 for x in fh if x.startswith(key))
+
+def current_rss():
+    return _status("VmRSS:")
 
 def peak_rss():
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    # VmHWM, not ru_maxrss: a child forked from a large test process inherits the parent's
+    # ru_maxrss across exec, VmHWM belongs to this process's own memory map
+    return _status("VmHWM:")
 
 model = gearuq.FunctionModel(wide, [("a", "1", 1.0)], ["y"], name="wide", time_dependent=True)
 space = gearuq.ParameterSpace.normal(a=(1.0, 0.2))
@@ -397,19 +402,23 @@ def test_engines_consume_a_stored_result_chunk_by_chunk(tmp_path):
 
 
 HELICAL_STREAM = """
-import resource, sys
+import sys
 import numpy as np
 import gearuq
+
+def hwm():
+    with open("/proc/self/status") as fh:
+        return next(int(x.split()[1]) * 1024 for x in fh if x.startswith("VmHWM:"))
 
 if __name__ == "__main__":
     model = gearuq.get_model("helical_pair")
     tau = np.linspace(0.0, 200.0, 21)
     model.response({}, tau[:2], outputs=["p1"])  # compile outside the measurement
-    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    base = hwm()
     ds = gearuq.monte_carlo(model, model.default_space(), tau, n_samples=200_000, rng=1,
                             store=sys.argv[1], progress=False)
     rel = gearuq.reliability(ds, {"p1": (-300.0, 300.0)})
-    print("RESULT", ds.nbytes, base, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+    print("RESULT", ds.nbytes, base, hwm())
 """
 
 
