@@ -21,6 +21,7 @@ and data files read at run time.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.metadata
 import pickle
@@ -106,9 +107,12 @@ def source_digest(cls: type) -> dict[str, Any]:
     return {"sha256": h.hexdigest(), "files": len(files), "package": folder.name}
 
 
+@functools.lru_cache(maxsize=64)
 def _distribution(module_name: str) -> tuple[str | None, str | None]:
     top = module_name.split(".")[0]
-    try:
+    if top in ("gearuq", "gearuq_plugins"):  # both ship in the gearuq distribution
+        return "gearuq", __version__
+    try:  # scans every installed distribution (~0.7 s), hence the cache
         names = importlib.metadata.packages_distributions().get(top, [])
     except Exception:  # noqa: BLE001 - metadata is informational
         names = []
@@ -125,7 +129,7 @@ def model_fingerprint(model: Any) -> dict[str, Any]:
     from gearuq.model import FunctionModel
 
     cls = type(model)
-    dist, dist_version = _distribution(cls.__module__)
+    dist, dist_version = _distribution(cls.__module__.split(".")[0])
     fp: dict[str, Any] = {
         "gearuq_version": __version__,
         "model": model.name,
