@@ -15,6 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import matplotlib
 import numpy as np
 import xarray as xr
 from matplotlib.axes import Axes
@@ -285,6 +286,11 @@ def plot_reliability_curves(
     tcoord = ds["time"] if "time" in ds.coords else None
     positives: list[float] = []
     drawn = []
+    modes_shown = [str(m) for m in ds["mode"].values]
+    component = [m for m in modes_shown if m != "system"]
+    # distinct colours for every component (tab10 repeats after ten); the series system black
+    cmap = matplotlib.colormaps["tab10" if len(component) <= 10 else "tab20"]
+    colours = {m: cmap(i % cmap.N) for i, m in enumerate(component)} | {"system": "k"}
     for m in ds["mode"].values:
         one = ds.sel(mode=m)
         tt = _values(one["time"]) if tcoord is not None else np.arange(one[quantity].size)
@@ -307,7 +313,8 @@ def plot_reliability_curves(
         label = str(m)
         if not np.any(np.isfinite(y)):
             label += " (pf = 0 throughout)" if quantity != "r" else " (no finite value)"
-        (line,) = ax.plot(tt, y, lw=1.2, label=label)
+        (line,) = ax.plot(tt, y, lw=1.8 if str(m) == "system" else 1.2,
+                          color=colours[str(m)], label=label)
         drawn.append((line, tt, lo, hi))
     floor = min(positives) / 10.0 if (log and positives) else None
     for line, tt, lo, hi in drawn:
@@ -392,8 +399,9 @@ def plot_fit(
     if data.size == 0:
         raise ValueError("no finite samples to plot")
     fig, ax = _fig_ax(ax)
-    ax.hist(data, bins=bins, density=True, color="0.8", edgecolor="0.5", lw=0.5,
-            label=f"samples (n={data.size})")
+    # one filled step outline instead of a Rectangle per bin: same picture, ~10x faster to draw
+    ax.hist(data, bins=bins, density=True, histtype="stepfilled", facecolor="0.8",
+            edgecolor="0.5", lw=0.5, label=f"samples (n={data.size})")
     span = np.ptp(data) or max(abs(float(data[0])), 1.0)
     grid = np.linspace(data.min() - 0.1 * span, data.max() + 0.1 * span, 400)
     for rank, entry in enumerate(list(fits.ranking)[:top], start=1):
