@@ -145,14 +145,20 @@ def get_study(name: str) -> Callable[..., int]:
     ModelLoadError
         The study's module failed to import (the message names it and the cause).
     """
-    eps = {ep.name: ep for ep in entry_points(group=STUDY_GROUP)}
+    return _load_named(STUDY_GROUP, name, "study")
+
+
+def _load_named(group: str, name: str, kind: str) -> Any:
+    """Load entry point ``name`` of ``group``; unknown names list the registered ones, an
+    import failure names the entry point and its cause."""
+    eps = {ep.name: ep for ep in entry_points(group=group)}
     if name not in eps:
-        raise ValueError(f"unknown study {name!r}; registered: "
+        raise ValueError(f"unknown {kind} {name!r}; registered: "
                          f"{', '.join(sorted(eps)) or 'none'}")
     try:
         return eps[name].load()
-    except Exception as exc:  # noqa: BLE001 - report which study is broken and why
-        raise ModelLoadError(f"study {name!r} ({eps[name].value}) failed to import: "
+    except Exception as exc:  # noqa: BLE001 - report which entry point is broken and why
+        raise ModelLoadError(f"{kind} {name!r} ({eps[name].value}) failed to import: "
                              f"{type(exc).__name__}: {exc}") from exc
 
 
@@ -186,12 +192,4 @@ def list_benchmarks() -> list[str]:
 
 def get_benchmark(name: str) -> Callable[..., Any]:
     """The run function of the plugin benchmark ``name`` (see :func:`list_benchmarks`)."""
-    eps = {ep.name: ep for ep in entry_points(group=BENCH_GROUP)}
-    if name not in eps:
-        raise ValueError(f"unknown benchmark {name!r}; registered: "
-                         f"{', '.join(sorted(eps)) or 'none'}")
-    try:
-        return eps[name].load()
-    except Exception as exc:  # noqa: BLE001 - report which benchmark is broken and why
-        raise ModelLoadError(f"benchmark {name!r} ({eps[name].value}) failed to import: "
-                             f"{type(exc).__name__}: {exc}") from exc
+    return _load_named(BENCH_GROUP, name, "benchmark")

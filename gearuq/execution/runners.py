@@ -126,6 +126,22 @@ def _future_outcome(fut: Any) -> Outcome:
                                "".join(traceback.format_exception(exc, limit=5)))
 
 
+def _run_on(executor: cf.Executor, name: str, model: Model, tasks: list[Task],
+            request: Request, store_path: str | None) -> Iterator[tuple[Task, Outcome]]:
+    """Submit every task to a concurrent.futures executor with the pickled model; yield
+    ``(task, outcome)`` as they complete; cancel what is left if the caller stops early."""
+    payload = _serialise_model(model, name)
+    key = hashlib.sha256(payload).hexdigest()
+    futures = {executor.submit(_payload_task, key, payload, t, request, store_path): t
+               for t in tasks}
+    try:
+        for fut in cf.as_completed(futures):
+            yield futures[fut], _future_outcome(fut)
+    finally:
+        for fut in futures:
+            fut.cancel()
+
+
 # =========================================================================== runners
 class Runner:
     """Runs chunk tasks; yields ``(task, outcome)`` as they complete."""
@@ -205,17 +221,9 @@ class ProcessRunner(Runner):
     def run(self, model, tasks, request, store_path=None):
         if self.mp_context == "spawn":
             check_main_guard("processes")
-        payload = _serialise_model(model, self.name)
-        key = hashlib.sha256(payload).hexdigest()
-        pool = self._get_pool()
-        futures = {pool.submit(_payload_task, key, payload, t, request, store_path): t
-                   for t in tasks}
         try:
-            for fut in cf.as_completed(futures):
-                yield futures[fut], _future_outcome(fut)
+            yield from _run_on(self._get_pool(), self.name, model, tasks, request, store_path)
         finally:
-            for fut in futures:
-                fut.cancel()
             if getattr(self._pool, "_broken", False):
                 self.close(abort=True)  # a broken pool cannot be reused
 
@@ -240,16 +248,7 @@ class FuturesRunner(Runner):
         self.n_workers = int(getattr(executor, "_max_workers", 1) or 1)
 
     def run(self, model, tasks, request, store_path=None):
-        payload = _serialise_model(model, self.name)
-        key = hashlib.sha256(payload).hexdigest()
-        futures = {self.executor.submit(_payload_task, key, payload, t, request, store_path): t
-                   for t in tasks}
-        try:
-            for fut in cf.as_completed(futures):
-                yield futures[fut], _future_outcome(fut)
-        finally:
-            for fut in futures:
-                fut.cancel()
+        yield from _run_on(self.executor, self.name, model, tasks, request, store_path)
 
 
 class DaskRunner(Runner):
