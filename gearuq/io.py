@@ -6,6 +6,7 @@ import hashlib
 import json
 import os
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,24 @@ from gearuq._version import __version__
 
 #: Attribute that marks a file as a gearuq result.
 MARKER = "gearuq_version"
+
+
+#: Held around every netCDF file operation of gearuq (see :func:`netcdf_lock`).
+_NETCDF_LOCK = threading.RLock()
+
+
+def netcdf_lock() -> threading.RLock:
+    """The process-wide lock around gearuq's netCDF reads and writes.
+
+    HDF5 as built into the netCDF4 wheels is not thread-safe, and xarray's netCDF4 backend
+    holds its own lock only while it fetches a file handle, not while it reads attributes or
+    defines variables. Two threads of one process inside HDF5 at once (dask workers with
+    ``processes=False`` writing chunks while the driver loads another) crash the interpreter,
+    so every save, load, store open and direct ``netCDF4`` call in gearuq holds this lock for
+    its whole duration. It is re-entrant. Data read later from a lazily opened result goes
+    through xarray's own per-read lock.
+    """
+    return _NETCDF_LOCK
 
 
 def _safe_attr(value: Any) -> Any:
@@ -151,7 +170,8 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
     fd, tmp = tempfile.mkstemp(suffix=".nc.tmp", dir=path.parent)
     os.close(fd)
     try:
-        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        with netcdf_lock():
+            ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     finally:
@@ -169,7 +189,7 @@ def _locate_read_error(path: Path, exc: Exception) -> IntegrityError:
     import netCDF4
 
     try:
-        with netCDF4.Dataset(path) as nc:
+        with netcdf_lock(), netCDF4.Dataset(path) as nc:
             for name, var in nc.variables.items():
                 try:
                     var[...]
@@ -232,11 +252,12 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
 
         limit_chunk_cache()
     try:
-        handle = xr.open_dataset(path, engine="netcdf4", decode_times=False,
-                                 decode_timedelta=False, chunks={} if lazy else None)
-        ds = handle if lazy else handle.load()
-        if not lazy:
-            handle.close()
+        with netcdf_lock():
+            handle = xr.open_dataset(path, engine="netcdf4", decode_times=False,
+                                     decode_timedelta=False, chunks={} if lazy else None)
+            ds = handle if lazy else handle.load()
+            if not lazy:
+                handle.close()
     except AttributeError as exc:  # HDF5 checks its metadata: a damaged attribute
         raise IntegrityError(f"{path} is corrupt: its attributes cannot be read ({exc})"
                              ) from exc

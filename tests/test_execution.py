@@ -175,6 +175,39 @@ def test_saved_attribute_edit_is_reported(tmp_path):
         gearuq.load(path)
 
 
+THREADED_IO = """
+import sys, threading
+from pathlib import Path
+import numpy as np, xarray as xr
+import gearuq
+
+def work(k):
+    ds = xr.Dataset({f"v{i}": (("sample", "time"), np.random.default_rng(k).random((5, 50)))
+                     for i in range(20)})
+    for j in range(15):
+        back = gearuq.load(gearuq.save(ds, Path(sys.argv[1]) / f"{k}_{j}.nc"))
+        assert float(back["v3"].sum()) == float(ds["v3"].sum())
+
+threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+for t in threads:
+    t.start()
+for t in threads:
+    t.join()
+print("OK")
+"""
+
+
+def test_saves_and_loads_from_threads_of_one_process(tmp_path):
+    # dask workers with processes=False write chunks in threads while the driver loads others;
+    # HDF5 is not thread-safe and without gearuq's lock this script crashes (segmentation
+    # fault, bus error or "NetCDF: HDF error" in 3 of 3 trials), so it runs in a subprocess
+    script = tmp_path / "threaded_io.py"
+    script.write_text(THREADED_IO)
+    proc = subprocess.run([sys.executable, str(script), str(tmp_path)], capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0 and proc.stdout.strip() == "OK", proc.stderr[-2000:]
+
+
 SLOW_RUN = """
 import sys, time
 import numpy as np

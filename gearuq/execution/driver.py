@@ -45,6 +45,7 @@ from gearuq.execution.runners import (
 )
 from gearuq.execution.store import ChunkStore, write_chunk
 from gearuq.execution.tasks import ChunkResult, failed_like, group_failures, inputs_of
+from gearuq.io import netcdf_lock
 from gearuq.model import STATUS_MODEL_ERROR, Model, Request
 
 __all__ = ["evaluate_chunks", "default_chunk_size", "chunk_bounds", "estimate_bytes_per_sample",
@@ -527,7 +528,7 @@ def _finish(ds: xr.Dataset, run: _Run, runner: Runner, reason: str, chunk_size: 
 def _chunk_attr(store: ChunkStore, index: int, name: str) -> str | None:
     import netCDF4
 
-    with netCDF4.Dataset(store.chunk_path(index)) as nc:
+    with netcdf_lock(), netCDF4.Dataset(store.chunk_path(index)) as nc:
         return getattr(nc, name, None)
 
 

@@ -32,6 +32,7 @@ import numpy as np
 import xarray as xr
 
 from gearuq._version import __version__
+from gearuq.io import netcdf_lock
 
 __all__ = ["ChunkStore", "StoreMismatchError", "StoreLockedError", "IntegrityError",
            "write_chunk", "file_sha256", "jsonable"]
@@ -340,12 +341,13 @@ class ChunkStore:
         """The chunks ``indices`` as one lazily loaded Dataset (dask arrays, one per chunk)."""
         limit_chunk_cache()
         paths = [str(self.chunk_path(i)) for i in indices]
-        ds = xr.open_mfdataset(
-            paths, engine="netcdf4", combine="nested", concat_dim="sample",
-            data_vars="minimal", coords="minimal", compat="override", join="override",
-            combine_attrs="override", decode_times=False, decode_timedelta=False,
-            chunks={}, parallel=False,
-        )
+        with netcdf_lock():
+            ds = xr.open_mfdataset(
+                paths, engine="netcdf4", combine="nested", concat_dim="sample",
+                data_vars="minimal", coords="minimal", compat="override", join="override",
+                combine_attrs="override", decode_times=False, decode_timedelta=False,
+                chunks={}, parallel=False,
+            )
         for v in ds.variables.values():
             v.attrs.pop("checksum", None)
         ds.attrs.pop("checksum", None)
@@ -366,9 +368,10 @@ def limit_chunk_cache() -> None:
     """
     import netCDF4
 
-    size, nelems, preemption = netCDF4.get_chunk_cache()
-    if size > CHUNK_CACHE_BYTES:
-        netCDF4.set_chunk_cache(CHUNK_CACHE_BYTES, nelems, preemption)
+    with netcdf_lock():
+        size, nelems, preemption = netCDF4.get_chunk_cache()
+        if size > CHUNK_CACHE_BYTES:
+            netCDF4.set_chunk_cache(CHUNK_CACHE_BYTES, nelems, preemption)
 
 
 def _chmod_default(path: Path) -> None:
