@@ -36,14 +36,42 @@ def test_four_branch_within_interval():
     np.testing.assert_allclose(rep["level_probability"][:2], 0.1, atol=0.01)
 
 
-def test_offset_within_interval_at_5000_runs():
-    """Pf = 3.4e-6 with <= ~5000 runs. Subset simulation's CoV there is ~0.5 (measured over 20
-    seeds: 0.56), so the estimate is within its interval but not within 15 % in general."""
+@pytest.mark.parametrize("mcmc", ["mma", "acs"])
+def test_offset_within_interval_at_5000_runs(mcmc):
+    """Pf = 3.4e-6 with <= ~5500 runs. Subset simulation's CoV there is 0.4-0.75 (measured
+    over 40 seeds: 0.75 modified Metropolis, 0.44 aCS), so the estimate is within its
+    interval but not within 15 % in general."""
     rep = failure_probability(rp.offset_model(), rp.offset_space(), "g", method="subset",
-                              rng=13, executor="serial")
+                              rng=13, executor="serial", mcmc=mcmc)
     assert int(rep["n_model_runs"]) <= 5500
     assert float(rep["pf_lower"]) <= rp.OFFSET_PF <= float(rep["pf_upper"])
-    assert 0.3 < float(rep["cov_pf"]) < 0.8
+    assert 0.2 < float(rep["cov_pf"]) < 0.8
+    if mcmc == "acs":  # aCS steers the acceptance of each level towards 0.44
+        acceptance = rep["level_acceptance"].values[:-1]
+        assert np.all((acceptance > 0.25) & (acceptance < 0.65)), acceptance
+
+
+def _offset_estimates(mcmc: str, seeds: range) -> tuple[np.ndarray, float]:
+    pf, runs = [], []
+    for seed in seeds:
+        rep = failure_probability(rp.offset_model(), rp.offset_space(), "g", method="subset",
+                                  rng=seed, executor="serial", mcmc=mcmc)
+        pf.append(float(rep["pf"]))
+        runs.append(int(rep["n_model_runs"]))
+    return np.array(pf), float(np.mean(runs))
+
+
+def test_both_samplers_unbiased_and_acs_more_efficient():
+    """Over 30 seeds both chain samplers are unbiased on Pf = 3.4e-6 (mean within 3 standard
+    errors), and adaptive conditional sampling needs fewer model runs for a given CoV
+    (CoV^2 x runs; measured over 40 seeds: 1.1e3 against 2.8e3 for modified Metropolis)."""
+    work = {}
+    for mcmc in ("acs", "mma"):
+        pf, runs = _offset_estimates(mcmc, range(100, 130))
+        se = pf.std(ddof=1) / math.sqrt(pf.size)
+        assert abs(pf.mean() - rp.OFFSET_PF) < 3 * se, (mcmc, pf.mean(), se)
+        work[mcmc] = (pf.std(ddof=1) / pf.mean()) ** 2 * runs
+    assert work["acs"] < 0.8 * work["mma"], work
 
 
 def test_first_passage_of_a_time_dependent_response():

@@ -1,4 +1,4 @@
-"""Subset simulation (Au and Beck 2001) with the modified Metropolis algorithm.
+"""Subset simulation (Au and Beck 2001): modified Metropolis or adaptive conditional sampling.
 
 The failure probability is a product of conditional probabilities of nested events
 ``F_1 > F_2 > ... > F_m = F`` with ``F_i = {G <= b_i}``:
@@ -6,9 +6,12 @@ The failure probability is a product of conditional probabilities of nested even
 1. level 0: ``N`` independent standard normal samples; the threshold ``b_1`` is the
    ``p0``-quantile of ``G`` (the ``N p0``-th smallest value);
 2. the ``N p0`` samples below the threshold seed Markov chains of length ``1/p0`` that stay in
-   ``F_i`` (modified Metropolis: each component of a candidate is accepted with probability
-   ``min(1, phi(xi_j)/phi(u_j))`` under a normal proposal of width ``proposal_std``; the
-   candidate is kept if ``G <= b_i``, else the chain repeats its state);
+   ``F_i``. ``mcmc="mma"`` (default), modified Metropolis: each component of a candidate is
+   accepted with probability ``min(1, phi(xi_j)/phi(u_j))`` under a normal proposal of width
+   ``proposal_std``. ``mcmc="acs"``, adaptive conditional sampling (Papaioannou et al.
+   2015): the candidate ``rho u + sqrt(1 - rho^2) xi`` keeps the standard normal invariant,
+   its width adapted to an acceptance of 0.44 (see :class:`_Sampler`). Either way the
+   candidate is kept if ``G <= b_i``, else the chain repeats its state;
 3. repeat until the threshold reaches 0; then ``pf = prod p_i * P(G <= 0 | F_{m-1})``.
 
 Each conditional probability is the fraction of the level's samples below the next threshold,
@@ -60,8 +63,11 @@ SETTINGS = (
     Option("n_per_level", 1000, "samples per level N (N p0 chains of length 1/p0)", lower=2),
     Option("p0", 0.1, "conditional probability per level, in (0, 0.5]", kind="any",
            check=_check_p0),
-    Option("proposal_std", 1.0, "width of the component-wise normal proposal", lower=1e-3,
-           upper=10.0),
+    Option("mcmc", "mma", "Markov chain sampler: 'mma' modified Metropolis (Au and Beck "
+           "2001) or 'acs' adaptive conditional sampling (Papaioannou et al. 2015)",
+           choices=("mma", "acs")),
+    Option("proposal_std", 1.0, "width of the component-wise normal proposal of 'mma'",
+           lower=1e-3, upper=10.0),
     Option("max_levels", 25, "largest number of conditional levels", lower=1),
 )
 
@@ -113,6 +119,24 @@ def _mcmc_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float, 
     return u_new, g_new, accepted
 
 
+def _acs_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
+              sigma: np.ndarray, rng: np.random.Generator, tag: str
+              ) -> tuple[np.ndarray, np.ndarray, int]:
+    """One conditional-sampling step of every chain (Papaioannou et al. 2015, Alg. 2).
+
+    The candidate ``rho u + sqrt(1 - rho^2) xi`` leaves the standard normal invariant, so it
+    is kept whenever it stays inside ``G <= b``; there is no component-wise rejection.
+    """
+    rho = np.sqrt(1.0 - sigma**2)
+    cand = rho * u + sigma * rng.standard_normal(u.shape)
+    res = ev.evaluate(cand, tag)
+    ok = (res["status"] == 0) & (res["g"] <= b)
+    u_new, g_new = u.copy(), g.copy()
+    u_new[ok] = cand[ok]
+    g_new[ok] = res["g"][ok]
+    return u_new, g_new, int(ok.sum())
+
+
 def _threshold(g: np.ndarray, n_seeds: int) -> float:
     """The ``n_seeds``-th smallest value (NaN = failed runs sort last)."""
     return float(np.sort(np.where(np.isfinite(g), g, np.inf))[n_seeds - 1])
@@ -122,7 +146,8 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
                ) -> xr.Dataset:
     """Subset simulation; see the module docstring."""
     t0 = time.perf_counter()
-    n, p0, sigma = s["n_per_level"], s["p0"], s["proposal_std"]
+    n, p0 = s["n_per_level"], s["p0"]
+    sampler = _Sampler(s["mcmc"], s["proposal_std"])
     n_seeds = max(1, int(round(n * p0)))
     n_states = int(math.ceil(n / n_seeds))
     rng0 = np.random.default_rng(np.random.SeedSequence([seed, 0]))
@@ -150,27 +175,59 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
                        "an upper bound (the product of the levels so far)")
             break
         order = np.argsort(np.where(np.isfinite(g), g, np.inf), kind="stable")[:n_seeds]
-        u, g, chains, acc = _grow_chains(ev, u[order], g[order], b, sigma, n_states, n,
+        u, g, chains, acc = _grow_chains(ev, u[order], g[order], b, sampler, n_states, n,
                                          seed, level + 1)
         levels[-1]["acceptance"] = acc
     return _report(ev, s, seed, confidence, levels, status, message, t0)
 
 
+class _Sampler:
+    """The chain sampler and its adapted scale (``lambda`` of aCS, kept from level to level).
+
+    aCS adapts after every lockstep batch of chains (a batch of ``N p0`` candidates, where
+    the paper adapts after each group of ``p_a N p0`` chains run one after another): ``ln
+    lambda += (a - 0.44)/sqrt(i)`` with ``a`` the batch's acceptance rate and ``i`` the batch
+    count of the level; ``sigma_j = min(1, lambda s_j)`` with ``s_j`` the spread of the
+    level's seeds in component ``j``.
+    """
+
+    TARGET_ACCEPTANCE = 0.44
+
+    def __init__(self, kind: str, proposal_std: float) -> None:
+        self.kind = kind
+        self.proposal_std = proposal_std
+        self.scale = 0.6  # initial lambda of Papaioannou et al.
+
+    def grow(self, ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
+             rng: np.random.Generator, tag: str, seeds_spread: np.ndarray, batch: int
+             ) -> tuple[np.ndarray, np.ndarray, int]:
+        if self.kind == "mma":
+            return _mcmc_step(ev, u, g, b, self.proposal_std, rng, tag)
+        sigma = np.minimum(1.0, self.scale * seeds_spread)
+        u_new, g_new, accepted = _acs_step(ev, u, g, b, sigma, rng, tag)
+        rate = accepted / max(u.shape[0], 1)
+        self.scale *= math.exp((rate - self.TARGET_ACCEPTANCE) / math.sqrt(batch))
+        return u_new, g_new, accepted
+
+
 def _grow_chains(ev: LimitStateEvaluator, seeds_u: np.ndarray, seeds_g: np.ndarray, b: float,
-                 sigma: float, n_states: int, n: int, seed: int, level: int
+                 sampler: _Sampler, n_states: int, n: int, seed: int, level: int
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Grow ``len(seeds)`` chains of ``n_states`` states (seed included) inside ``G <= b``.
 
     The chains advance in lockstep, one batch (one design) per step.
     """
     n_chains = seeds_u.shape[0]
+    spread = seeds_u.std(axis=0, ddof=1) if n_chains > 1 else np.ones(seeds_u.shape[1])
+    spread = np.where(spread > 0, spread, 1.0)
     states_u = [seeds_u]
     states_g = [seeds_g]
     accepted, tried = 0, 0
     for step in range(1, n_states):
         rng = np.random.default_rng(np.random.SeedSequence([seed, level, step]))
         tag = f"subset/level{level}/step{step}"
-        u_new, g_new, acc = _mcmc_step(ev, states_u[-1], states_g[-1], b, sigma, rng, tag)
+        u_new, g_new, acc = sampler.grow(ev, states_u[-1], states_g[-1], b, rng, tag, spread,
+                                         step)
         states_u.append(u_new)
         states_g.append(g_new)
         accepted += acc
