@@ -32,7 +32,8 @@ def netcdf_lock() -> threading.RLock:
     ``processes=False`` writing chunks while the driver loads another) crash the interpreter,
     so every save, load, store open and direct ``netCDF4`` call in gearuq holds this lock for
     its whole duration. It is re-entrant. Data read later from a lazily opened result goes
-    through xarray's own per-read lock.
+    through xarray's own per-read lock only: a user thread computing such a result while
+    another thread of the same process saves or loads a file is not guarded by this lock.
     """
     return _NETCDF_LOCK
 
