@@ -47,7 +47,28 @@ __all__ = ["LimitState", "System", "SeriesSystem", "ParallelSystem", "cut_set_sy
            "as_limit_state"]
 
 
-class LimitState:
+class _GFunction:
+    """What a limit state and a system share: ``g`` over the result, reduced per sample."""
+
+    def values(self, ds: xr.Dataset) -> xr.DataArray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
+        """One ``g`` per sample: the first-passage value ``min_t g(t)`` for time-dependent g.
+
+        NaN where any instant of ``g`` is NaN (a NaN is neither safe nor failed).
+        """
+        g = self.values(ds)
+        if "time" in g.dims:
+            g = g.min("time", skipna=False)
+        return np.asarray(g.transpose("sample").values, dtype=float)
+
+    def fails(self, ds: xr.Dataset) -> xr.DataArray:
+        """Boolean failure indicator ``g <= 0`` over sample (and time)."""
+        return self.values(ds) <= 0.0
+
+
+class LimitState(_GFunction):
     """A limit-state function ``g`` of result variables; failure where ``g <= 0``.
 
     Parameters
@@ -230,20 +251,6 @@ class LimitState:
             g = xr.DataArray(np.asarray(g, dtype=float), dims=ref.dims, coords=ref.coords)
         return g.astype(float).rename(self.name)
 
-    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
-        """One ``g`` per sample: the first-passage value ``min_t g(t)`` for time-dependent g.
-
-        NaN where any instant of ``g`` is NaN (a NaN is neither safe nor failed).
-        """
-        g = self.values(ds)
-        if "time" in g.dims:
-            g = g.min("time", skipna=False)
-        return np.asarray(g.transpose("sample").values, dtype=float)
-
-    def fails(self, ds: xr.Dataset) -> xr.DataArray:
-        """Boolean failure indicator ``g <= 0`` over sample (and time)."""
-        return self.values(ds) <= 0.0
-
 
 # --------------------------------------------------------------------------- helpers
 def _identity(**kw: Any) -> Any:
@@ -303,7 +310,7 @@ def _json_num(v: float) -> Any:
 
 
 # =========================================================================== systems
-class System:
+class System(_GFunction):
     """A system of limit states, combined per instant.
 
     Parameters
@@ -380,17 +387,6 @@ class System:
         g = stacked.min("_component", skipna=False) if self.kind == "series" \
             else stacked.max("_component", skipna=False)
         return g.rename(self.name)
-
-    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
-        """First-passage system ``g`` per sample (``min_t`` of the per-instant system g)."""
-        g = self.values(ds)
-        if "time" in g.dims:
-            g = g.min("time", skipna=False)
-        return np.asarray(g.transpose("sample").values, dtype=float)
-
-    def fails(self, ds: xr.Dataset) -> xr.DataArray:
-        """Boolean failure indicator over sample (and time)."""
-        return self.values(ds) <= 0.0
 
     def combine(self, leaf_values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """System ``g`` from per-leaf scalar values, and the governing leaf of each sample.
