@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import platform
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +37,8 @@ TAU_END = 200.0
 N_OUT = 201
 
 
-def _machine() -> str:
+def machine_description() -> str:
+    """CPU model, logical core count and Python version, for benchmark reports."""
     import os
 
     cpu = platform.processor() or platform.machine()
@@ -50,7 +52,8 @@ def _machine() -> str:
     return f"{cpu}, {os.cpu_count()} logical cores, Python {platform.python_version()}"
 
 
-def _timed(fn, repeat: int = 1) -> tuple[float, Any]:
+def best_time(fn: Callable[[], Any], repeat: int = 1) -> tuple[float, Any]:
+    """Best wall time of ``repeat`` calls of ``fn`` and the last call's result."""
     best, out = np.inf, None
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -146,7 +149,7 @@ def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
     gearuq_run("dopri5", 1e-3, False, idx=[0])
     gearuq_run("dopri5", 1e-3, True, idx=[0], frozen=True)
     gearuq_run("dop853", 1e-3, True, idx=[0], frozen=True)
-    t_ref, ref_res = _timed(lambda: gearuq_run("dop853", 1e-12, True))
+    t_ref, ref_res = best_time(lambda: gearuq_run("dop853", 1e-12, True))
     ref = ref_res.y
     scipy_idx = list(range(min(n_scipy, n_samples)))
     scipy_ref = _scipy_loop(prob, scipy_idx, t_eval, "DOP853", 1e-12, 1e-14)
@@ -164,7 +167,7 @@ def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
                 ("gearuq DOPRI5 + events (re-take)", "dopri5", True, False),
                 ("gearuq DOPRI5 no events", "dopri5", False, False),
                 ("gearuq DOP853 + events (frozen sides)", "dop853", True, True)):
-            sec, res = _timed(lambda m=meth, e=events, r=rtol, f=frozen: gearuq_run(m, r, e,
+            sec, res = best_time(lambda m=meth, e=events, r=rtol, f=frozen: gearuq_run(m, r, e,
                                                                                    frozen=f),
                               repeat=2)
             add(label, rtol, sec, n_samples, res.y, ref,
@@ -174,24 +177,25 @@ def integrator_table(model_name: str = "helical_pair", *, n_samples: int = 32,
         if rtol < 1e-8:  # RK45 in Python needs minutes per sample there
             continue
         if "rhs_numpy" in prob:
-            sec, y = _timed(lambda r=rtol: _scipy_loop(prob, scipy_idx, t_eval, "RK45", r,
+            sec, y = best_time(lambda r=rtol: _scipy_loop(prob, scipy_idx, t_eval, "RK45", r,
                                                        r * 1e-2, numpy_rhs=True))
             add("scipy RK45 loop", rtol, sec, len(scipy_idx), y, ref[scipy_idx])
-        sec, y = _timed(lambda r=rtol: _scipy_loop(prob, scipy_idx, t_eval, "RK45", r, r * 1e-2))
+        sec, y = best_time(lambda r=rtol: _scipy_loop(prob, scipy_idx, t_eval, "RK45", r, r * 1e-2))
         add("scipy RK45 loop, numba rhs", rtol, sec, len(scipy_idx), y, ref[scipy_idx])
     for label, go in _numbalsoda_solvers(prob).items():
         go(scipy_idx[:1], t_eval, 1e-3, 1e-5)  # compile the cfunc path
         for rtol in rtols:
-            sec, y = _timed(lambda r=rtol, g=go: g(list(range(n_samples)), t_eval, r, r * 1e-2))
+            sec, y = best_time(lambda r=rtol, g=go: g(list(range(n_samples)), t_eval, r, r * 1e-2))
             add(label, rtol, sec, n_samples, y, ref)
     # the parallel throughput actually used by studies
-    sec, res = _timed(lambda: gearuq_run("dopri5", 1e-6, True, parallel=True, frozen=True),
+    sec, res = best_time(lambda: gearuq_run("dopri5", 1e-6, True, parallel=True, frozen=True),
                       repeat=2)
     parallel_row = {"method": "gearuq DOPRI5 + events (frozen sides), all cores", "rtol": 1e-6,
                     "time_per_sample": sec / n_samples, "error": _error(res.y, ref)}
     return {"rows": rows, "parallel": parallel_row, "reference_time_per_sample": t_ref / n_samples,
             "reference_vs_scipy_dop853": ref_check, "n_samples": n_samples,
-            "machine": _machine(), "model": model_name, "tau_end": TAU_END, "n_out": N_OUT}
+            "machine": machine_description(), "model": model_name, "tau_end": TAU_END,
+            "n_out": N_OUT}
 
 
 def matched_error_ratios(rows: list[dict[str, Any]], baseline: str = "scipy RK45 loop",
@@ -311,7 +315,7 @@ def startup_table(n_samples: int = 10_000) -> dict[str, Any]:
         cache = Path(tmp)
         pre = _first_call(cache, 1, "precompile")
         rows.append({"case": "after precompile", "n_samples": 1, **_first_call(cache, 1)})
-    return {"rows": rows, "precompile": pre, "machine": _machine()}
+    return {"rows": rows, "precompile": pre, "machine": machine_description()}
 
 
 def render_startup(result: dict[str, Any]) -> str:

@@ -9,14 +9,14 @@ behaviour and is reported as such). The model is compiled once before timing (nu
 from __future__ import annotations
 
 import json
-import os
-import platform
 import shutil
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 from typing import Any
+
+from gearuq.bench import machine_description
 
 __all__ = ["run"]
 
@@ -53,17 +53,6 @@ row["peak_rss"] = hwm()
 row["baseline_rss"] = base
 print("ROW " + json.dumps(row))
 """
-
-
-def _machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next(line.split(":", 1)[1].strip() for line in fh
-                       if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
 
 
 def run(out: str | Path = "gearuq_bench", quick: bool = False,
@@ -117,7 +106,8 @@ def _fmt(row: dict[str, Any]) -> str:
 def render_markdown(rows: list[dict[str, Any]], n_time: int) -> str:
     """The measured table as Markdown."""
     gb = 2**30
-    lines = [f"Machine: {_machine()}. helical_pair, seed Table 2 space, tau in [0, 200] at "
+    lines = [f"Machine: {machine_description()}. helical_pair, seed Table 2 space, "
+             "tau in [0, 200] at "
              f"{n_time} instants; 'all' = every output (43 time series + 6 scalars).", "",
              "| samples | outputs | store | result | wall time | per sample | peak RSS |",
              "|---:|---|---|---:|---:|---:|---:|"]

@@ -25,20 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from gearuq.bench import best_time
 from gearuq_plugins.mesh_oscillator import perturbation, sweeps, timedomain
 from gearuq_plugins.mesh_oscillator.evaluate import linear_amplitude, regions
 from gearuq_plugins.mesh_oscillator.model import MeshOscillator
 
 GRID = (0.85, 1.10)
-
-
-def _best(fn, repeat: int) -> tuple[float, Any]:
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def _sweep(system, grid, tolerance: float) -> tuple[float, dict]:
@@ -90,7 +82,7 @@ def measure(n_points: int = 500, quick: bool = False) -> dict[str, Any]:
     for label, order, sep, repeat in methods:
         perturbation.frequency_response(coefs, grid, order=order, separation=sep,
                                         parallel=False)  # compile / load once
-        wall, res = _best(lambda o=order, s=sep: perturbation.frequency_response(
+        wall, res = best_time(lambda o=order, s=sep: perturbation.frequency_response(
             coefs, grid, order=o, separation=s, parallel=False), 1 if quick else repeat)
         amp = {"up": res.path("up")[0], "down": res.path("down")[0]}
         rows.append({"method": label, "wall_s": wall, "us_per_point": wall / n_points * 1e6,
