@@ -51,7 +51,7 @@ from gearuq.engines.common import (
     resolve_seed,
     space_json,
 )
-from gearuq.model import Model
+from gearuq.model import Model, Request
 from gearuq.space import ParameterSpace
 
 __all__ = ["sobol_indices", "morris_screening", "saltelli_design", "sobol_analysis",
@@ -416,6 +416,19 @@ def sobol_from_chaos(pce: Any, outputs: str | Iterable[str] | None = None, *,
 
 
 # =========================================================================== pipeline
+def _evaluate_design(model: Model, design: Mapping[str, np.ndarray], layout: dict[str, Any],
+                     request: Request, engine: str, **execution: Any) -> xr.Dataset:
+    """Run a sensitivity design through the chunked, storable path; its layout (the
+    structure the analysis needs) goes into the store fingerprint and the result attrs."""
+    from gearuq.execution import evaluate_chunks
+
+    model.validate_params(design)
+    ds = evaluate_chunks(model, design, request, fingerprint={"engine": engine, **layout},
+                         **execution)
+    ds.attrs.update(layout)
+    return ds
+
+
 def sobol_indices(
     model: Model | str,
     space: ParameterSpace | Mapping[str, Any] | None,
@@ -508,14 +521,9 @@ def sobol_indices(
         out = sobol_from_chaos(pce, names, second_order=second_order, confidence=confidence)
         out.attrs["n_base"] = n_base
     else:
-        from gearuq.execution import evaluate_chunks
-
         design, layout = saltelli_design(space, n_base, second_order=second_order, rng=seed)
-        model.validate_params(design)
-        ds = evaluate_chunks(model, design, request, executor=executor, store=store,
-                             chunk_size=chunk_size, progress=progress,
-                             fingerprint={"engine": "sobol_indices", **layout})
-        ds.attrs.update(layout)
+        ds = _evaluate_design(model, design, layout, request, "sobol_indices", executor=executor,
+                              store=store, chunk_size=chunk_size, progress=progress)
         out = sobol_analysis(ds, outputs=names, space=space, estimator=estimator,
                              n_bootstrap=n_bootstrap, confidence=confidence, rng=seed)
     out.attrs.update(provenance("sobol_indices", model, request, space, seed, method=method))
@@ -669,8 +677,6 @@ def morris_screening(
         ``mu_star_conf`` and ``rank`` (1 = largest ``mu_star``); attrs
         ``n_model_evaluations`` = ``n_trajectories (D + 1)`` and provenance.
     """
-    from gearuq.execution import evaluate_chunks
-
     wall0 = time.perf_counter()
     model, space = resolve_model_and_space(model, space)
     _require_independent(space, "morris_screening")
@@ -678,11 +684,8 @@ def morris_screening(
     _output_dims(model, list(request.outputs))
     seed = resolve_seed(rng)
     design, layout = morris_design(space, n_trajectories, num_levels=num_levels, rng=seed)
-    model.validate_params(design)
-    ds = evaluate_chunks(model, design, request, executor=executor, store=store,
-                         chunk_size=chunk_size, progress=progress,
-                         fingerprint={"engine": "morris_screening", **layout})
-    ds.attrs.update(layout)
+    ds = _evaluate_design(model, design, layout, request, "morris_screening", executor=executor,
+                          store=store, chunk_size=chunk_size, progress=progress)
     out = morris_analysis(ds, outputs=list(request.outputs), space=space,
                           num_levels=layout["num_levels"], n_bootstrap=n_bootstrap,
                           confidence=confidence, rng=seed)
