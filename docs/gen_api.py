@@ -20,16 +20,14 @@ SECTIONS = {
     "gearuq.model": "Models, studies and registry",
     "gearuq.space": "Parameter space",
     "gearuq.engines": "Engines",
-    "gearuq.probability": "Reliability, limit states and fitting",
-    "gearuq.limitstate": "Reliability, limit states and fitting",
-    "gearuq.outcrossing": "Reliability, limit states and fitting",
+    "gearuq.failure": "Reliability, limit states and fitting",
     "gearuq.fitting": "Reliability, limit states and fitting",
     "gearuq.io": "I/O",
 }
 ORDER = ["Models, studies and registry", "Parameter space", "Engines",
          "Reliability, limit states and fitting", "I/O", "Other"]
 #: Public modules listed with their own ``__all__`` below the top-level names.
-MODULES = ["gearuq.model", "gearuq.execution", "gearuq.ode", "gearuq.signal", "gearuq.plot",
+MODULES = ["gearuq.model", "gearuq.failure", "gearuq.execution", "gearuq.ode", "gearuq.signal", "gearuq.plot",
            "gearuq.testing", "gearuq.gears", "gearuq.rotor", "gearuq.io"]
 
 

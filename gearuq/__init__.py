@@ -36,14 +36,14 @@ _LAZY = {
     "sobol_indices": "gearuq.engines.sensitivity",
     "sobol_analysis": "gearuq.engines.sensitivity",
     "morris_screening": "gearuq.engines.sensitivity",
-    "failure_probability": "gearuq.engines.failure",
+    "failure_probability": "gearuq.failure.api",
     # reliability, limit states, fitting
-    "reliability": "gearuq.probability",
-    "Band": "gearuq.probability",
-    "LimitState": "gearuq.limitstate",
-    "SeriesSystem": "gearuq.limitstate",
-    "ParallelSystem": "gearuq.limitstate",
-    "cut_set_system": "gearuq.limitstate",
+    "reliability": "gearuq.failure.samples",
+    "Band": "gearuq.failure.modes",
+    "LimitState": "gearuq.failure.modes",
+    "SeriesSystem": "gearuq.failure.modes",
+    "ParallelSystem": "gearuq.failure.modes",
+    "cut_set_system": "gearuq.failure.modes",
     "fit_distributions": "gearuq.fitting",
     # I/O
     "save": "gearuq.io",
@@ -51,7 +51,7 @@ _LAZY = {
 }
 
 _SUBMODULES = {
-    "model", "registry", "space", "ode", "engines", "probability", "limitstate", "outcrossing",
+    "model", "registry", "space", "ode", "engines", "failure",
     "fitting", "signal", "execution", "io", "plot", "cli", "gears", "rotor", "testing",
 }
 

@@ -1,6 +1,6 @@
 """``gearuq bench reliability``: speed against error of every reliability method, side by side.
 
-Every method of :func:`gearuq.engines.failure.failure_probability` runs on the problems of
+Every method of :func:`gearuq.failure_probability` runs on the problems of
 :mod:`gearuq.testing.reliability_problems` (exact or quadrature references), in one run:
 
 * the **error** is the relative error of Pf against the reference (mean of the absolute
@@ -88,7 +88,7 @@ _NOTES = {
 
 def _one(problem: dict[str, Any], method: str, settings: dict[str, Any], seed: int
          ) -> dict[str, Any]:
-    from gearuq.engines.failure import failure_probability
+    from gearuq.failure.api import failure_probability
 
     t0 = time.perf_counter()
     with warnings.catch_warnings():

@@ -95,7 +95,8 @@ def _sens_rows(name, model, space, exact, mc_ns, pce_cases, estimator):
 def _pf_rows(name, model, space, exact, mc_ns, pce_cases, n_surrogate):
     from gearuq.engines.montecarlo import monte_carlo
     from gearuq.engines.pce import polynomial_chaos
-    from gearuq.probability import Band, reliability
+    from gearuq.failure.modes import Band
+    from gearuq.failure.samples import reliability
 
     band = Band("g", lower=0.0)
     rows = []

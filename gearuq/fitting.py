@@ -49,7 +49,8 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from gearuq.probability import Band, wilson_interval
+from gearuq.failure.intervals import wilson_interval
+from gearuq.failure.modes import Band
 
 __all__ = [
     "FAMILIES",
@@ -441,7 +442,7 @@ def fit_distributions(
     threshold : float, (lower, upper) or Band, optional
         Failure definition for the tail probability: with ``tail="upper"`` failure is
         ``x > threshold``, ``"lower"``: ``x < threshold``, ``"two-sided"``: outside
-        ``(lower, upper)``. A :class:`~gearuq.probability.Band` (its limits and ``absolute``
+        ``(lower, upper)``. A :class:`~gearuq.failure.modes.Band` (its limits and ``absolute``
         flag) may be given instead, then ``tail`` is ignored.
     tail : {"upper", "lower", "two-sided"}
         See ``threshold``.

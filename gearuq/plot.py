@@ -253,7 +253,7 @@ def plot_reliability_curves(
     ----------
     rel_ds : Dataset
         Dims ``mode`` and ``time``; variables ``r``, ``pf``, ``pf_lower``, ``pf_upper``,
-        ``beta`` (as produced by :mod:`gearuq.probability`). A dataset without ``mode`` is
+        ``beta`` (as produced by :func:`gearuq.reliability`). A dataset without ``mode`` is
         drawn as one curve.
     quantity : {"r", "pf", "beta"}
         What to draw. Bands: ``pf`` uses ``[pf_lower, pf_upper]``; ``r`` uses

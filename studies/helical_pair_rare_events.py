@@ -43,9 +43,9 @@ from typing import Any
 import numpy as np
 
 import gearuq
-from gearuq.engines.failure import failure_probability
-from gearuq.limitstate import LimitState
-from gearuq.probability import wilson_interval
+from gearuq.failure.api import failure_probability
+from gearuq.failure.intervals import wilson_interval
+from gearuq.failure.modes import LimitState
 
 #: Limits on the peak mesh force [N]: a Monte Carlo check, ~1e-4 and ~1e-6.
 MARGINS = {"check": 200e3, "1e-4": 300e3, "1e-6": 390e3}
@@ -133,7 +133,7 @@ def grid_check(model: Any, space: Any, seed: int, n: int = 2000) -> Any:
     """Does the 801-instant grid resolve first passage? Checked exactly on the pinion's
     radial displacement ``p1``, whose derivative ``dp1`` the model provides (``mesh_force``
     has none): per-sample Hermite reconstruction between instants and the Rice rate."""
-    from gearuq.outcrossing import first_passage
+    from gearuq.failure.outcrossing import first_passage
 
     ds = gearuq.monte_carlo(model, space, TAU, n_samples=n, rng=seed + 1,
                             outputs=["p1", "dp1"], executor="serial", **OPTIONS)

@@ -11,7 +11,7 @@ Compared, in one run:
   Wilson 95 % interval, model evaluations and wall time;
 - PCE surrogates (least squares of degree 1..4, 1..6 with ``--full``, and sparse hybrid LARS)
   fitted on ``2 x basis`` Sobol' points, then sampled 10^6 times through the same
-  ``gearuq.probability.reliability`` (wall time = model runs + fit + surrogate sampling);
+  ``gearuq.reliability`` (wall time = model runs + fit + surrogate sampling);
 - against a reference Monte Carlo run of ``--n-ref`` samples (default 2 x 10^4 so the default
   run stays near 3 minutes on 2 cores; ``--full`` uses 10^5).
 
@@ -32,7 +32,8 @@ from matplotlib.ticker import NullFormatter
 
 import gearuq
 from gearuq.engines.pce import polynomial_chaos
-from gearuq.probability import Band, reliability
+from gearuq.failure.modes import Band
+from gearuq.failure.samples import reliability
 
 DOFS = ["x_p", "y_p", "z_p", "theta_py", "theta_pz", "x_g", "y_g", "z_g", "theta_gy",
         "theta_gz"]

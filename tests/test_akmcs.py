@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gearuq.engines.akmcs import learning_function_u
-from gearuq.engines.failure import failure_probability
+from gearuq.failure.api import failure_probability
+from gearuq.failure.methods.akmcs import learning_function_u
 from gearuq.testing import reliability_problems as rp
 from gearuq.testing.problems import FOUR_BRANCH_PF, four_branch_model, standard_normal_space
 

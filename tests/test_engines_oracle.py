@@ -6,7 +6,8 @@ import pytest
 from scipy.stats import lognorm, norm
 
 import gearuq
-from gearuq.probability import Band, wilson_interval
+from gearuq.failure.intervals import wilson_interval
+from gearuq.failure.modes import Band
 from gearuq_plugins.linear_oscillator import closed_form
 
 M, K, C, OMEGA = 1.0, 1.0e4, 20.0, 80.0  # linear_oscillator nominal values

@@ -9,8 +9,8 @@ import pytest
 import xarray as xr
 from scipy import stats
 
+from gearuq.failure.modes import Band
 from gearuq.fitting import FAMILIES, ad_statistic, fit_distributions, ks_statistic
-from gearuq.probability import Band
 
 N_LARGE = 5000
 

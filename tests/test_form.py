@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from gearuq.engines.failure import failure_probability
-from gearuq.engines.form import curvatures, sorm_probabilities
+from gearuq.failure.api import failure_probability
+from gearuq.failure.methods.form import curvatures, sorm_probabilities
 from gearuq.model import FunctionModel, Parameter
 from gearuq.space import ParameterSpace
 from gearuq.testing import reliability_problems as rp

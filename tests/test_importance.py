@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from gearuq.engines.failure import failure_probability
-from gearuq.engines.importance import mixture_log_weights
+from gearuq.failure.api import failure_probability
+from gearuq.failure.methods.importance import mixture_log_weights
 from gearuq.testing import reliability_problems as rp
 from gearuq.testing.problems import standard_normal_space
 

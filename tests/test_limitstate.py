@@ -8,14 +8,15 @@ import pytest
 import xarray as xr
 from scipy import stats
 
-from gearuq.limitstate import (
+from gearuq.failure.modes import (
+    Band,
     LimitState,
     ParallelSystem,
     SeriesSystem,
     as_limit_state,
     cut_set_system,
 )
-from gearuq.probability import Band, reliability
+from gearuq.failure.samples import reliability
 
 
 def _ds(n: int = 40_000, seed: int = 0, time: np.ndarray | None = None) -> xr.Dataset:

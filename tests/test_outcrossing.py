@@ -11,8 +11,8 @@ import pytest
 import xarray as xr
 
 from gearuq.engines.montecarlo import monte_carlo
-from gearuq.limitstate import LimitState
-from gearuq.outcrossing import first_passage, hermite_crossing, phi2, rice_rate
+from gearuq.failure.modes import LimitState
+from gearuq.failure.outcrossing import first_passage, hermite_crossing, phi2, rice_rate
 from gearuq.space import ParameterSpace
 from gearuq.testing import reliability_problems as rp
 

@@ -13,8 +13,8 @@ import gearuq
 from gearuq.engines.pce import PolynomialChaos, multi_indices, polynomial_chaos
 from gearuq.engines.pce.basis import basis_matrix
 from gearuq.engines.pce.regression import greedy_path
+from gearuq.failure.modes import Band
 from gearuq.model import Option
-from gearuq.probability import Band
 from gearuq.testing.problems import (
     FOUR_BRANCH_PF,
     ISHIGAMI_MEAN,

@@ -1,4 +1,4 @@
-"""Tests of gearuq.probability (the module behind ``gearuq.reliability``): intervals, beta,
+"""Tests of gearuq.failure.samples (the module behind ``gearuq.reliability``): intervals, beta,
 bands, limit states, system and first-passage estimates, streaming, design labels, and the
 one entry point ``failure_probability`` with its report form."""
 
@@ -11,16 +11,16 @@ import pytest
 import xarray as xr
 from scipy import stats
 
-from gearuq.model import FunctionModel
-from gearuq.probability import (
-    Band,
+from gearuq.failure.intervals import (
     beta_from_pf,
     clopper_pearson_interval,
     mean_value_beta,
     pf_from_beta,
-    reliability,
     wilson_interval,
 )
+from gearuq.failure.modes import Band
+from gearuq.failure.samples import reliability
+from gearuq.model import FunctionModel
 
 Z975 = stats.norm.isf(0.025)
 
@@ -435,7 +435,7 @@ def test_reliability_is_the_function_and_probability_the_module():
     res = gearuq.reliability(ds, Band("y", upper=1.0))
     assert float(res["pf"].sel(mode="y")) == 0.5
     assert gearuq.Band is Band
-    module = importlib.import_module("gearuq.probability")
+    module = importlib.import_module("gearuq.failure.samples")
     assert module.reliability is reliability
     # one name each: the function is never shadowed by a module of the same name
     assert not importlib.util.find_spec("gearuq.reliability")
@@ -445,7 +445,7 @@ def test_reliability_is_the_function_and_probability_the_module():
 # =========================================================================== limit states
 def test_limit_state_boundary_fails_where_band_limit_is_safe():
     """g = max(x, 0) with x ~ N(0, 1): P(g <= 0) = 0.5; a band [0, inf) on g says 0."""
-    from gearuq.limitstate import LimitState
+    from gearuq.failure.modes import LimitState
 
     rng = np.random.default_rng(21)
     x = rng.standard_normal(20_000)
@@ -460,7 +460,7 @@ def test_limit_state_boundary_fails_where_band_limit_is_safe():
 
 
 def test_limit_state_and_system_modes_match_counts():
-    from gearuq.limitstate import LimitState, ParallelSystem, SeriesSystem
+    from gearuq.failure.modes import LimitState, ParallelSystem, SeriesSystem
 
     rng = np.random.default_rng(22)
     n = 5000
@@ -479,7 +479,7 @@ def test_streamed_result_equals_in_memory_bit_for_bit(tmp_path):
     chunk at a time and gives exactly the in-memory numbers."""
 
     import gearuq
-    from gearuq.limitstate import LimitState
+    from gearuq.failure.modes import LimitState
 
     def response(a, b, t):
         return {"y": a[:, None] * np.sin(t[None, :] + b[:, None]),
@@ -503,7 +503,7 @@ def test_streamed_result_equals_in_memory_bit_for_bit(tmp_path):
 
 
 def test_blocks_follow_the_stored_chunks(tmp_path):
-    from gearuq.probability import _sample_blocks
+    from gearuq.failure.samples import sample_blocks as _sample_blocks
 
     ds = _dataset({"y": np.zeros((10, 2))}, time=[0.0, 1.0]).chunk({"sample": 4})
     assert _sample_blocks(ds, ["y"], 10, 2) == [(0, 4), (4, 8), (8, 10)]
@@ -555,7 +555,7 @@ def _offset():
 def test_crude_mc_reports_a_bound_never_zero():
     """g = 4.5 - x1 (Pf = 3.4e-6) with 10^4 runs: no failure, pf is the Wilson upper bound
     (flagged), not 0."""
-    from gearuq.engines.failure import failure_probability
+    from gearuq.failure.api import failure_probability
     from gearuq.testing.reliability_problems import OFFSET_PF
 
     model, space = _offset()
@@ -569,7 +569,7 @@ def test_crude_mc_reports_a_bound_never_zero():
 
 @pytest.mark.parametrize("rule", ["lhs", "sobol"])
 def test_replicated_designs_give_a_real_interval(rule):
-    from gearuq.engines.failure import failure_probability
+    from gearuq.failure.api import failure_probability
     from gearuq.testing.problems import FOUR_BRANCH_PF, four_branch_model, standard_normal_space
 
     rep = failure_probability(four_branch_model(), standard_normal_space(2), "g", method="mc",
@@ -581,7 +581,7 @@ def test_replicated_designs_give_a_real_interval(rule):
 
 
 def test_one_report_form_for_every_method():
-    from gearuq.engines.failure import failure_probability
+    from gearuq.failure.api import failure_probability
 
     model, space = _offset()
     common = {"pf", "pf_lower", "pf_upper", "cov_pf", "beta", "beta_lower", "beta_upper",
@@ -600,8 +600,8 @@ def test_one_report_form_for_every_method():
 
 
 def test_entry_point_bad_input():
-    from gearuq.engines.failure import failure_probability
-    from gearuq.limitstate import LimitState
+    from gearuq.failure.api import failure_probability
+    from gearuq.failure.modes import LimitState
 
     model, space = _offset()
     with pytest.raises(ValueError, match=r"unknown output\(s\) 'nope'.*valid outputs: g"):

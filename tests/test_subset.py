@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from gearuq.engines.failure import failure_probability
-from gearuq.engines.subset import chain_correlation_factor, level_cov
-from gearuq.limitstate import LimitState
+from gearuq.failure.api import failure_probability
+from gearuq.failure.methods.subset import chain_correlation_factor, level_cov
+from gearuq.failure.modes import LimitState
 from gearuq.model import FunctionModel
 from gearuq.space import ParameterSpace
 from gearuq.testing import reliability_problems as rp

@@ -54,6 +54,8 @@ __all__ = [
     "parabola", "parabola_model", "parabola_pf", "PARABOLA_PF",
     "four_branch_components", "four_branch_components_model", "FOUR_BRANCH_PF",
     "jump", "jump_model", "JUMP_PF",
+    "exponential_sum_model", "exponential_sum_space", "EXPONENTIAL_SUM_LEVEL",
+    "EXPONENTIAL_SUM_PF", "nan_tail_model", "NAN_TAIL_PF",
     "random_phase", "random_phase_model", "random_phase_rate", "random_phase_first_passage",
     "gaussian_process", "gaussian_process_model", "gaussian_process_moments",
     "rice_rate_gaussian", "reliability_problems",
@@ -358,9 +360,57 @@ def rice_rate_gaussian(level: float, m0: float, m2: float) -> float:
 
 
 # =========================================================================== all of them
+# =========================================================================== curved tail
+#: Level of ``g = c - sum of eight Exp(1)``: Pf = P(Gamma(8, 1) >= c) = 5.2e-6.
+EXPONENTIAL_SUM_LEVEL = 27.0
+EXPONENTIAL_SUM_PF = float(stats.gamma.sf(EXPONENTIAL_SUM_LEVEL, 8))
+
+
+def _exponential_sum(level: float, **x: np.ndarray) -> np.ndarray:
+    return level - sum(np.asarray(v, dtype=float) for v in x.values())
+
+
+def exponential_sum_model(n: int = 8, level: float = EXPONENTIAL_SUM_LEVEL) -> FunctionModel:
+    """``g = level - sum(x_i)``, ``x_i`` i.i.d. Exp(1): in the standard normal space the
+    failure domain curves towards the origin (a curved tail). Exact ``Pf = Gamma(n).sf``."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(functools.partial(_exponential_sum, float(level)),
+                         [f"x{i + 1}" for i in range(n)], ["g"], name="exponential_sum",
+                         description=f"g = {level:g} - sum of {n} Exp(1)")
+
+
+def exponential_sum_space(n: int = 8) -> ParameterSpace:
+    """``n`` independent Exp(1) inputs (gamma, shape 1, scale 1)."""
+    from gearuq.space import ParameterSpace
+
+    return ParameterSpace({f"x{i + 1}": {"kind": "gamma", "shape": 1.0, "scale": 1.0}
+                           for i in range(n)})
+
+
+# =========================================================================== invalid runs
+#: ``P(x1 >= 3)``: the truth whatever the model returns where it fails.
+NAN_TAIL_PF = float(stats.norm.sf(3.0))
+
+
+def _nan_tail(x1: Any, x2: Any) -> np.ndarray:
+    g = 3.0 - np.asarray(x1, dtype=float) + 0.0 * np.asarray(x2, dtype=float)
+    return np.where(np.asarray(x1) > 3.2, np.nan, g)
+
+
+def nan_tail_model() -> FunctionModel:
+    """``g = 3 - x1``, but NaN where ``x1 > 3.2``: half the failure domain gives no answer.
+
+    A method that drops the NaN samples reports about half the true Pf ``Phi(-3)``."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(_nan_tail, ["x1", "x2"], ["g"], name="nan_tail",
+                         description="g = 3 - x1, NaN where x1 > 3.2")
+
+
 def reliability_problems() -> dict[str, dict[str, Any]]:
     """The static problems by name: ``{"model", "space", "limit_state", "pf", "source"}``."""
-    from gearuq.limitstate import LimitState, SeriesSystem
+    from gearuq.failure.modes import LimitState, SeriesSystem
     from gearuq.testing.problems import four_branch_model
 
     return {
@@ -385,6 +435,11 @@ def reliability_problems() -> dict[str, dict[str, Any]]:
                      "pf": PARABOLA_PF, "source": "1-D quadrature"},
         "jump": {"model": jump_model(), "space": standard_normal_space(2), "limit_state": "g",
                  "pf": JUMP_PF, "source": "exact"},
+        "exponential_sum": {"model": exponential_sum_model(), "space": exponential_sum_space(),
+                            "limit_state": "g", "pf": EXPONENTIAL_SUM_PF,
+                            "source": "exact (gamma tail)"},
+        "nan_tail": {"model": nan_tail_model(), "space": standard_normal_space(2),
+                     "limit_state": "g", "pf": NAN_TAIL_PF, "source": "exact"},
     }
 
 

@@ -166,7 +166,7 @@ VIB_OUTPUTS = [f"v{i + 1}" for i in range(10)]
 
 def _margin_bands(model: Any, tau: np.ndarray) -> tuple[list, list[dict[str, Any]]]:
     """Bands |v_i| <= MARGIN x the nominal design's largest vibration (one nominal run)."""
-    from gearuq.probability import Band
+    from gearuq.failure.modes import Band
 
     nominal = model.response({}, tau, outputs=VIB_OUTPUTS)
     bands, rows = [], []
@@ -182,7 +182,7 @@ def _tolerance_bands(model: Any, space: Any, tau: np.ndarray, seed: int, executo
                      rows: list[dict[str, Any]]) -> list:
     """Seed-style two-sided bands at tau = 200 from an independent pilot run."""
     import gearuq
-    from gearuq.probability import Band
+    from gearuq.failure.modes import Band
 
     pilot = gearuq.monte_carlo(model, space, tau, n_samples=N_PILOT, rule="random",
                                rng=seed + 1, outputs=VIB_OUTPUTS, executor=executor,
@@ -207,7 +207,7 @@ def _table3_rows(ds: Any, band_rows: list[dict[str, Any]], at_end: Any, margin_e
                  ) -> tuple[list[dict[str, Any]], dict[str, tuple]]:
     """Per DOF: tolerance-band Pf, beta, mean-value beta, best-fit family of |v(200)|."""
     import gearuq
-    from gearuq.probability import mean_value_beta
+    from gearuq.failure.intervals import mean_value_beta
 
     valid = ds["status"].values == 0
     families = ("lognormal", "rayleigh", "normal", "weibull", "gamma")
@@ -240,7 +240,7 @@ def _table3_rows(ds: Any, band_rows: list[dict[str, Any]], at_end: Any, margin_e
 
 def _margin_sweep(ds: Any, band_rows: list[dict[str, Any]]) -> list[tuple[float, float, float]]:
     """System first-passage Pf against margins: worst max_t |v_i| / nominal amplitude."""
-    from gearuq.probability import wilson_interval
+    from gearuq.failure.intervals import wilson_interval
 
     valid = ds["status"].values == 0
     worst = np.max([np.abs(ds[r["output"]].values[valid]).max(axis=1) / r["nominal_amplitude"]

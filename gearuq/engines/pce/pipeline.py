@@ -269,7 +269,7 @@ def compare_mc_surrogate(
     model, space, t
         As in :func:`polynomial_chaos`.
     bands
-        Failure modes (see :func:`gearuq.probability.reliability`); the outputs they name
+        Failure modes (see :func:`gearuq.reliability`); the outputs they name
         are fitted.
     n_mc : int
         Monte Carlo samples of the model (ignored when ``mc`` is given).
@@ -301,12 +301,13 @@ def compare_mc_surrogate(
         ``mc`` made with other options.
     """
     from gearuq.engines.montecarlo import monte_carlo
-    from gearuq.probability import _as_bands, reliability
+    from gearuq.failure.modes import as_bands
+    from gearuq.failure.samples import reliability
 
     model, space = resolve_model_and_space(model, space)
     fit_kw, options = _split_options(model, model_options, keywords)
     fit_kw.setdefault("order", 2)
-    band_list = _as_bands(bands)
+    band_list = as_bands(bands)
     outs = list(dict.fromkeys(b.output for b in band_list))
     request = model.prepare(t, outputs=outs, **options)  # once, before any evaluation
     if mc is None:

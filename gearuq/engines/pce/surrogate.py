@@ -465,20 +465,21 @@ class PolynomialChaos(Model):
         Evaluates the surrogate on ``space.sample(n_samples, "random", seed)`` (the fitted
         space unless another one with the same names is given, e.g. a shifted design for a
         what-if study; only at the instants ``time`` when given, which keeps 10^6 samples x
-        instants in memory) and passes the result to :func:`gearuq.probability.reliability`.
+        instants in memory) and passes the result to :func:`gearuq.reliability`.
         The interval is the sampling interval of the surrogate's Pf only; it does not include
         the surrogate error (see :func:`gearuq.engines.pce.compare_mc_surrogate`).
         ``rng=None`` draws a fresh seed, recorded in ``attrs["seed"]``.
         """
         from gearuq.engines.common import check_positive_int, resolve_seed
-        from gearuq.probability import _as_bands, reliability
+        from gearuq.failure.modes import as_bands
+        from gearuq.failure.samples import reliability
 
         self._require_fitted()
         sampling = self.space if space is None else space
         if sampling.names != self.space.names:
             raise ValueError(f"space names {sampling.names} differ from the surrogate's "
                              f"{self.space.names}")
-        band_list = _as_bands(bands)
+        band_list = as_bands(bands)
         outs = list(dict.fromkeys(b.output for b in band_list))
         n_samples = check_positive_int("n_samples", n_samples)
         seed = resolve_seed(rng)

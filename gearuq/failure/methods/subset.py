@@ -45,7 +45,8 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from gearuq.engines.failure import LimitStateEvaluator, failure_report
+from gearuq.failure.evaluator import LimitStateEvaluator
+from gearuq.failure.report import failure_report
 from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_subset", "chain_correlation_factor", "level_cov"]
@@ -254,7 +255,7 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
         spread = z * math.sqrt(math.log1p(max(cov, cov_upper) ** 2))
         lower, upper = pf * math.exp(-spread), pf * math.exp(spread)
     else:  # no sample of the last level failed: bound from the product of the others
-        from gearuq.probability import wilson_interval
+        from gearuq.failure.intervals import wilson_interval
 
         lower = 0.0
         upper = float(np.prod(p[:-1]) * wilson_interval(0, levels[-1]["n"], confidence)[1])

@@ -1,8 +1,11 @@
-"""Limit states ``g <= 0`` on model outputs, and systems of them (series, parallel, cut sets).
+"""Failure modes: allowed bands, limit states ``g <= 0`` and systems of them.
+
+A :class:`Band` is an allowed interval ``[lower, upper]`` on one output (the limits are safe;
+``absolute=True`` applies it to ``|value|``).
 
 A :class:`LimitState` is a function ``g`` of a result's variables (model outputs, or inputs)
 whose **failure side is inclusive**: a sample fails where ``g <= 0``. This differs on purpose
-from a :class:`~gearuq.probability.Band`, whose limits are safe: with ``g = max(x, 0)`` and
+from a :class:`Band`, whose limits are safe: with ``g = max(x, 0)`` and
 ``x`` standard normal, ``P(g <= 0) = 0.5`` and a limit state reports exactly that.
 
 Three ways to make one:
@@ -19,7 +22,7 @@ Time-dependent responses give ``g(t)`` over the output instants (optionally rest
 ``window``); engines that need one number per sample take the **first-passage** value
 ``min_t g(t)``: a sample fails in the window if it fails at any output instant. This is the
 limit state of the running maximum of the response; how far a time grid can be from the
-continuous-time answer is discussed in :mod:`gearuq.outcrossing`.
+continuous-time answer is discussed in :mod:`gearuq.failure.outcrossing`.
 
 Systems combine limit states per instant (then over time): a :class:`SeriesSystem` fails when
 any component fails (``g = min g_i``), a :class:`ParallelSystem` when all fail
@@ -33,18 +36,181 @@ Input that could mean two things is refused with the reason: a bare list of limi
 extra dims and no ``select``.
 """
 
+
 from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-__all__ = ["LimitState", "System", "SeriesSystem", "ParallelSystem", "cut_set_system",
-           "as_limit_state"]
+__all__ = ["Band", "LimitState", "System", "SeriesSystem", "ParallelSystem", "cut_set_system",
+           "as_limit_state", "as_bands"]
+
+
+# =========================================================================== Band
+class Band:
+    """Allowed interval on one model output: the limit state of a failure mode.
+
+    Parameters
+    ----------
+    output : str
+        Name of the output variable in the result Dataset.
+    lower, upper : float, optional
+        Closed band limits in the output's units; ``None`` (or -inf/+inf) leaves a side open.
+        At least one side must be given and ``lower < upper``.
+    name : str, optional
+        Label of the failure mode (default: the output name, with ``|...|`` for absolute bands).
+    absolute : bool
+        Apply the band to ``|value|`` (vibration amplitudes, signed deflections).
+    select : mapping, optional
+        ``xarray`` label selection applied to the output first, e.g. ``{"dof": "x1"}``. Dims
+        other than ``sample`` and ``time`` that remain after selection expand the band into one
+        mode per element, labelled ``"name[dof=x1]"``.
+
+    Notes
+    -----
+    A sample fails at an instant when ``value < lower`` or ``value > upper`` (``|value|`` when
+    ``absolute``); a value equal to a limit is safe.
+    """
+
+    __slots__ = ("output", "lower", "upper", "name", "absolute", "select")
+
+    def __init__(
+        self,
+        output: str,
+        lower: float | None = None,
+        upper: float | None = None,
+        *,
+        name: str | None = None,
+        absolute: bool = False,
+        select: Mapping[str, Any] | None = None,
+    ) -> None:
+        if not isinstance(output, str) or not output:
+            raise ValueError(f"Band: output must be a non-empty string, got {output!r}")
+        lo = -math.inf if lower is None else float(lower)
+        up = math.inf if upper is None else float(upper)
+        if math.isnan(lo) or math.isnan(up):
+            raise ValueError(f"Band on {output!r}: limits must not be NaN (lower={lower}, "
+                             f"upper={upper})")
+        if lo >= up:
+            raise ValueError(
+                f"Band on {output!r}: lower={lo:g} must be < upper={up:g}"
+            )
+        if lo == -math.inf and up == math.inf:
+            raise ValueError(f"Band on {output!r}: both sides open; give lower and/or upper")
+        if absolute and up <= 0:
+            raise ValueError(
+                f"Band on {output!r}: absolute band needs upper > 0 (|value| >= 0), got {up:g}"
+            )
+        if name is not None and (not isinstance(name, str) or not name):
+            raise ValueError(f"Band on {output!r}: name must be a non-empty string")
+        self.output = output
+        self.lower = lo
+        self.upper = up
+        self.absolute = bool(absolute)
+        self.select = dict(select) if select else {}
+        self.name = name if name is not None else (f"|{output}|" if absolute else output)
+
+    # ------------------------------------------------------------------ helpers
+    def __repr__(self) -> str:
+        parts = [repr(self.output)]
+        if self.lower > -math.inf:
+            parts.append(f"lower={self.lower!r}")
+        if self.upper < math.inf:
+            parts.append(f"upper={self.upper!r}")
+        parts.append(f"name={self.name!r}")
+        if self.absolute:
+            parts.append("absolute=True")
+        if self.select:
+            parts.append(f"select={self.select!r}")
+        return f"Band({', '.join(parts)})"
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Band):
+            return NotImplemented
+        return all(getattr(self, s) == getattr(other, s) for s in self.__slots__)
+
+    def __hash__(self) -> int:
+        return hash((self.output, self.lower, self.upper, self.name, self.absolute))
+
+    def describe(self) -> str:
+        """Human-readable safe set, e.g. ``"-1 <= |y| <= 2"``."""
+        v = f"|{self.output}|" if self.absolute else self.output
+        if self.lower > -math.inf and self.upper < math.inf:
+            return f"{self.lower:g} <= {v} <= {self.upper:g}"
+        if self.lower > -math.inf:
+            return f"{v} >= {self.lower:g}"
+        return f"{v} <= {self.upper:g}"
+
+    def fails(self, values: Any) -> np.ndarray:
+        """Boolean failure indicator of ``values`` (True = outside the band).
+
+        Raises
+        ------
+        ValueError
+            If ``values`` contains NaN (a NaN is neither safe nor failed).
+        """
+        v = np.asarray(values, dtype=float)
+        if np.isnan(v).any():
+            raise ValueError(
+                f"Band {self.name!r}: {int(np.isnan(v).sum())} NaN value(s); a NaN is neither "
+                "safe nor failed"
+            )
+        if self.absolute:
+            v = np.abs(v)
+        return (v < self.lower) | (v > self.upper)
+
+    def pf_from_distribution(self, dist: Any) -> float:
+        """Probability of leaving the band under a (frozen scipy) distribution of the output.
+
+        Uses ``cdf``/``sf`` tails separately so small probabilities keep full precision.
+        """
+        pf = 0.0
+        if self.absolute:
+            pf += float(dist.sf(self.upper)) + float(dist.cdf(-self.upper))
+            if self.lower > 0:
+                pf += float(dist.cdf(self.lower)) - float(dist.cdf(-self.lower))
+        else:
+            if self.upper < math.inf:
+                pf += float(dist.sf(self.upper))
+            if self.lower > -math.inf:
+                pf += float(dist.cdf(self.lower))
+        return min(max(pf, 0.0), 1.0)
+
+
+def as_bands(bands: Any) -> list[Band]:
+    if isinstance(bands, Band):
+        return [bands]
+    out: list[Band] = []
+    if isinstance(bands, Mapping):
+        for key, spec in bands.items():
+            if isinstance(spec, Band):
+                out.append(spec)
+            elif isinstance(spec, Mapping):
+                out.append(Band(key, **spec))
+            elif isinstance(spec, Sequence) and not isinstance(spec, str) and len(spec) == 2:
+                out.append(Band(key, spec[0], spec[1]))
+            else:
+                raise ValueError(
+                    f"bands[{key!r}]: expected (lower, upper), a Band or a dict of Band "
+                    f"arguments, got {spec!r}"
+                )
+    elif isinstance(bands, Iterable) and not isinstance(bands, str):
+        for b in bands:
+            if not isinstance(b, Band):
+                raise ValueError(f"bands: expected Band objects, got {type(b).__name__}")
+            out.append(b)
+    else:
+        raise ValueError(
+            "bands: expected a Band, a list of Bands or a dict {output: (lower, upper)}"
+        )
+    if not out:
+        raise ValueError("bands: empty; give at least one band")
+    return out
 
 
 class _GFunction:
@@ -165,7 +331,7 @@ class LimitState(_GFunction):
 
     @classmethod
     def from_band(cls, band: Any) -> LimitState:
-        """The limit state of a :class:`~gearuq.probability.Band` (leaving the band fails).
+        """The limit state of a :class:`Band` (leaving the band fails).
 
         ``g = min(value - lower, upper - value)`` (``|value|`` for absolute bands). Unlike the
         band, a value exactly on a limit now **fails**; for continuous outputs this changes
@@ -214,6 +380,16 @@ class LimitState(_GFunction):
                 f"limit state {self.name!r}: variable(s) {', '.join(map(repr, missing))} not "
                 f"in the result; available outputs: {', '.join(outs or map(str, ds.data_vars))}")
 
+    def _check_window_inside(self, t: np.ndarray, var: str) -> None:
+        """Refuse a window reaching outside the instants (a passage there would be missed)."""
+        t0, t1 = float(np.min(t)), float(np.max(t))
+        tol = 1e-9 * max(1.0, abs(t0), abs(t1))
+        if self.window[0] < t0 - tol or self.window[1] > t1 + tol:
+            raise ValueError(
+                f"limit state {self.name!r}: window [{self.window[0]:g}, {self.window[1]:g}] "
+                f"reaches outside the instants [{t0:g}, {t1:g}] of {var!r}; a first passage "
+                "in the part without instants would be missed. Extend t or narrow the window")
+
     def values(self, ds: xr.Dataset) -> xr.DataArray:
         """``g`` over ``sample`` (and ``time`` inside the window) as a DataArray.
 
@@ -240,6 +416,7 @@ class LimitState(_GFunction):
                     f"choose one element with select={{{extra[0]!r}: ...}} (or build a system "
                     "over the elements) - which element fails is otherwise ambiguous")
             if self.window is not None and "time" in da.dims:
+                self._check_window_inside(da["time"].values, var)
                 da = da.sel(time=slice(*self.window))
                 if da.sizes["time"] == 0:
                     raise ValueError(f"limit state {self.name!r}: window {self.window} holds "
@@ -482,7 +659,7 @@ class _SharedSeries(System):
 def as_limit_state(spec: Any) -> LimitState | System:
     """Turn a user's limit-state argument into a :class:`LimitState` or :class:`System`.
 
-    Accepts a LimitState, a System, a :class:`~gearuq.probability.Band` (leaving it fails,
+    Accepts a LimitState, a System, a :class:`Band` (leaving it fails,
     the limits included) or an output name (the output is ``g``).
 
     Raises
@@ -494,8 +671,6 @@ def as_limit_state(spec: Any) -> LimitState | System:
     """
     if isinstance(spec, (LimitState, System)):
         return spec
-    from gearuq.probability import Band
-
     if isinstance(spec, Band):
         return LimitState.from_band(spec)
     if isinstance(spec, str):

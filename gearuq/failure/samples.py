@@ -1,13 +1,13 @@
 """Probability from response samples: bands, limit states, instantaneous / system /
 first-passage estimates, binomial intervals and reliability indices.
 
-This is the module behind :func:`gearuq.reliability` (the function; the module is
-``gearuq.probability``). A failure mode is
+This is the module behind :func:`gearuq.reliability`: estimation from samples that already
+exist (a Monte Carlo result). A failure mode (:mod:`gearuq.failure.modes`) is
 
 * an allowed **band** ``[lower, upper]`` on one model output (either side may be open): a
   sample *fails* at an instant when its value lies outside the closed interval (values equal
   to a limit are safe); with ``absolute=True`` the band applies to ``|value|``;
-* or a **limit state** ``g <= 0`` (:mod:`gearuq.limitstate`; the boundary fails), or a
+* or a **limit state** ``g <= 0`` (the boundary fails), or a
   series / parallel / cut-set **system** of limit states.
 
 :func:`reliability` turns a Monte Carlo result Dataset (dims ``sample`` and optionally ``time``,
@@ -45,376 +45,15 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-__all__ = [
-    "Band",
-    "reliability",
-    "mean_value_beta",
-    "beta_from_pf",
-    "pf_from_beta",
-    "wilson_interval",
-    "clopper_pearson_interval",
-    "binomial_interval",
-    "INTERVAL_METHODS",
-]
+from gearuq.failure.intervals import (
+    binomial_interval,
+    interval_method,
+)
+from gearuq.failure.modes import Band, LimitState, System, as_bands
 
-#: Accepted names of the binomial confidence-interval methods.
-INTERVAL_METHODS = ("wilson", "clopper-pearson")
+__all__ = ["reliability", "SYSTEM_MODE", "sample_blocks", "valid_samples", "as_modes"]
 
 SYSTEM_MODE = "system"
-
-
-# =========================================================================== intervals
-def _check_counts(k: Any, n: Any, confidence: float) -> tuple[np.ndarray, np.ndarray, float]:
-    if not 0.0 < float(confidence) < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
-    k_arr = np.asarray(k, dtype=float)
-    n_arr = np.asarray(n, dtype=float)
-    k_arr, n_arr = np.broadcast_arrays(k_arr, n_arr)
-    if np.any(~np.isfinite(k_arr)) or np.any(~np.isfinite(n_arr)):
-        raise ValueError("k and n must be finite")
-    if np.any(n_arr < 1):
-        raise ValueError(f"n must be >= 1 (got min n = {np.min(n_arr):g})")
-    if np.any(k_arr < 0) or np.any(k_arr > n_arr):
-        raise ValueError("k must satisfy 0 <= k <= n")
-    return k_arr, n_arr, float(confidence)
-
-
-def wilson_interval(k: Any, n: Any, confidence: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
-    """Wilson score interval for a binomial proportion (vectorised).
-
-    Parameters
-    ----------
-    k : array_like
-        Number of "successes" (here: failures), ``0 <= k <= n``.
-    n : array_like
-        Number of trials (valid samples), ``n >= 1``; broadcast against ``k``.
-    confidence : float
-        Two-sided confidence level, e.g. 0.95.
-
-    Returns
-    -------
-    lower, upper : ndarray
-        Interval ends, exactly 0 where ``k = 0`` and exactly 1 where ``k = n``.
-
-    Notes
-    -----
-    With ``z = Phi^-1(1 - alpha/2)`` and ``p = k/n``::
-
-        centre = (p + z^2/(2n)) / (1 + z^2/n)
-        half   = z sqrt(p(1-p)/n + z^2/(4n^2)) / (1 + z^2/n)
-
-    Its coverage is close to nominal on average (it can dip below nominal for some ``p``),
-    which makes it the usual default for Monte Carlo failure probabilities.
-    """
-    k_arr, n_arr, conf = _check_counts(k, n, confidence)
-    z = stats.norm.isf((1.0 - conf) / 2.0)
-    p = k_arr / n_arr
-    denom = 1.0 + z * z / n_arr
-    centre = (p + z * z / (2.0 * n_arr)) / denom
-    half = z * np.sqrt(p * (1.0 - p) / n_arr + z * z / (4.0 * n_arr * n_arr)) / denom
-    lower = np.clip(centre - half, 0.0, 1.0)
-    upper = np.clip(centre + half, 0.0, 1.0)
-    lower = np.where(k_arr == 0, 0.0, lower)
-    upper = np.where(k_arr == n_arr, 1.0, upper)
-    return lower, upper
-
-
-def clopper_pearson_interval(
-    k: Any, n: Any, confidence: float = 0.95
-) -> tuple[np.ndarray, np.ndarray]:
-    """Clopper-Pearson ("exact") interval for a binomial proportion (vectorised).
-
-    Parameters
-    ----------
-    k, n, confidence
-        As in :func:`wilson_interval`.
-
-    Returns
-    -------
-    lower, upper : ndarray
-        ``lower = B^-1(alpha/2; k, n-k+1)`` (0 where ``k = 0``) and
-        ``upper = B^-1(1-alpha/2; k+1, n-k)`` (1 where ``k = n``), with ``B^-1`` the beta
-        quantile. For ``k = 0`` the upper end is ``1 - (alpha/2)^(1/n)``.
-
-    Notes
-    -----
-    The coverage is at least the nominal level for every ``p`` (conservative).
-    """
-    k_arr, n_arr, conf = _check_counts(k, n, confidence)
-    alpha = 1.0 - conf
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lower = stats.beta.ppf(alpha / 2.0, k_arr, n_arr - k_arr + 1.0)
-        upper = stats.beta.isf(alpha / 2.0, k_arr + 1.0, n_arr - k_arr)
-    lower = np.where(k_arr == 0, 0.0, lower)
-    upper = np.where(k_arr == n_arr, 1.0, upper)
-    return np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-
-
-def _interval_method(interval: str) -> str:
-    key = str(interval).strip().lower().replace("_", "-")
-    if key in ("cp", "exact"):
-        key = "clopper-pearson"
-    if key not in INTERVAL_METHODS:
-        raise ValueError(
-            f"interval {interval!r} unknown; valid: {', '.join(map(repr, INTERVAL_METHODS))}"
-        )
-    return key
-
-
-def binomial_interval(
-    k: Any, n: Any, confidence: float = 0.95, method: str = "wilson"
-) -> tuple[np.ndarray, np.ndarray]:
-    """Dispatch to :func:`wilson_interval` or :func:`clopper_pearson_interval` by name."""
-    if _interval_method(method) == "wilson":
-        return wilson_interval(k, n, confidence)
-    return clopper_pearson_interval(k, n, confidence)
-
-
-# =========================================================================== beta helpers
-def beta_from_pf(pf: Any) -> Any:
-    """Generalised reliability index ``beta = -Phi^-1(pf) = Phi^-1(1 - pf)``.
-
-    Computed with the normal inverse survival function, so it stays accurate for tiny ``pf``.
-    Returns ``+inf`` for ``pf = 0`` and ``-inf`` for ``pf = 1`` (:func:`reliability` never
-    reports those: it gives the one-sided bound from the confidence interval instead).
-    """
-    out = stats.norm.isf(np.asarray(pf, dtype=float))
-    return float(out) if np.ndim(out) == 0 else out
-
-
-def pf_from_beta(beta: Any) -> Any:
-    """Failure probability ``pf = Phi(-beta)`` of a generalised reliability index."""
-    out = stats.norm.sf(np.asarray(beta, dtype=float))
-    return float(out) if np.ndim(out) == 0 else out
-
-
-def mean_value_beta(samples: Any, lower: float | None = None, upper: float | None = None) -> Any:
-    """Mean-value (Cornell) reliability index of response samples.
-
-    ``beta_MV = (mu - lower) / sigma`` for a lower limit, ``(upper - mu) / sigma`` for an upper
-    limit and the minimum of both for a two-sided band, with ``mu`` the sample mean and
-    ``sigma`` the sample standard deviation (``ddof=1``).
-
-    .. warning::
-       This is the **mean-value (Cornell) index**, a second-moment measure. It equals the
-       generalised index ``Phi^-1(R)`` reported by :func:`reliability` only when the response
-       is normally distributed (and, for a two-sided band, only when the other side's
-       probability is negligible). Do not convert it with ``Phi(-beta)`` for skewed
-       responses such as vibration amplitudes.
-
-    Parameters
-    ----------
-    samples : array_like or xarray.DataArray
-        Response samples along axis 0 (or along dim ``sample`` for a DataArray); extra
-        axes/dims (e.g. ``time``) give one index each.
-    lower, upper : float, optional
-        Band limits; at least one is required.
-
-    Returns
-    -------
-    float, ndarray or xarray.DataArray
-        ``beta_MV``; a DataArray carries ``attrs["long_name"]`` naming it as the Cornell index.
-    """
-    if lower is None and upper is None:
-        raise ValueError("mean_value_beta: give lower and/or upper")
-    if lower is not None and upper is not None and lower >= upper:
-        raise ValueError(f"mean_value_beta: lower={lower!r} must be < upper={upper!r}")
-    if isinstance(samples, xr.DataArray):
-        dim = "sample" if "sample" in samples.dims else samples.dims[0]
-        if not bool(np.isfinite(samples).all()):
-            raise ValueError("mean_value_beta: samples contain non-finite values")
-        if samples.sizes[dim] < 2:
-            raise ValueError("mean_value_beta: at least 2 samples are needed")
-        mu = samples.mean(dim)
-        sigma = samples.std(dim, ddof=1)
-    else:
-        arr = np.asarray(samples, dtype=float)
-        if arr.ndim == 0 or arr.shape[0] < 2:
-            raise ValueError("mean_value_beta: at least 2 samples are needed")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(
-                f"mean_value_beta: samples contain {int(np.sum(~np.isfinite(arr)))} "
-                "non-finite value(s)"
-            )
-        mu = arr.mean(axis=0)
-        sigma = arr.std(axis=0, ddof=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sides = []
-        if lower is not None:
-            sides.append((mu - lower) / sigma)
-        if upper is not None:
-            sides.append((upper - mu) / sigma)
-        beta = sides[0] if len(sides) == 1 else np.minimum(sides[0], sides[1])
-    if isinstance(beta, xr.DataArray):
-        beta.attrs = {
-            "units": "1",
-            "long_name": "mean-value (Cornell) reliability index beta_MV = (mu - limit)/sigma",
-            "note": "equals Phi^-1(R) only for a normally distributed response",
-        }
-        return beta
-    return float(beta) if np.ndim(beta) == 0 else np.asarray(beta)
-
-
-# =========================================================================== Band
-class Band:
-    """Allowed interval on one model output: the limit state of a failure mode.
-
-    Parameters
-    ----------
-    output : str
-        Name of the output variable in the result Dataset.
-    lower, upper : float, optional
-        Closed band limits in the output's units; ``None`` (or -inf/+inf) leaves a side open.
-        At least one side must be given and ``lower < upper``.
-    name : str, optional
-        Label of the failure mode (default: the output name, with ``|...|`` for absolute bands).
-    absolute : bool
-        Apply the band to ``|value|`` (vibration amplitudes, signed deflections).
-    select : mapping, optional
-        ``xarray`` label selection applied to the output first, e.g. ``{"dof": "x1"}``. Dims
-        other than ``sample`` and ``time`` that remain after selection expand the band into one
-        mode per element, labelled ``"name[dof=x1]"``.
-
-    Notes
-    -----
-    A sample fails at an instant when ``value < lower`` or ``value > upper`` (``|value|`` when
-    ``absolute``); a value equal to a limit is safe.
-    """
-
-    __slots__ = ("output", "lower", "upper", "name", "absolute", "select")
-
-    def __init__(
-        self,
-        output: str,
-        lower: float | None = None,
-        upper: float | None = None,
-        *,
-        name: str | None = None,
-        absolute: bool = False,
-        select: Mapping[str, Any] | None = None,
-    ) -> None:
-        if not isinstance(output, str) or not output:
-            raise ValueError(f"Band: output must be a non-empty string, got {output!r}")
-        lo = -math.inf if lower is None else float(lower)
-        up = math.inf if upper is None else float(upper)
-        if math.isnan(lo) or math.isnan(up):
-            raise ValueError(f"Band on {output!r}: limits must not be NaN (lower={lower}, "
-                             f"upper={upper})")
-        if lo >= up:
-            raise ValueError(
-                f"Band on {output!r}: lower={lo:g} must be < upper={up:g}"
-            )
-        if lo == -math.inf and up == math.inf:
-            raise ValueError(f"Band on {output!r}: both sides open; give lower and/or upper")
-        if absolute and up <= 0:
-            raise ValueError(
-                f"Band on {output!r}: absolute band needs upper > 0 (|value| >= 0), got {up:g}"
-            )
-        if name is not None and (not isinstance(name, str) or not name):
-            raise ValueError(f"Band on {output!r}: name must be a non-empty string")
-        self.output = output
-        self.lower = lo
-        self.upper = up
-        self.absolute = bool(absolute)
-        self.select = dict(select) if select else {}
-        self.name = name if name is not None else (f"|{output}|" if absolute else output)
-
-    # ------------------------------------------------------------------ helpers
-    def __repr__(self) -> str:
-        parts = [repr(self.output)]
-        if self.lower > -math.inf:
-            parts.append(f"lower={self.lower!r}")
-        if self.upper < math.inf:
-            parts.append(f"upper={self.upper!r}")
-        parts.append(f"name={self.name!r}")
-        if self.absolute:
-            parts.append("absolute=True")
-        if self.select:
-            parts.append(f"select={self.select!r}")
-        return f"Band({', '.join(parts)})"
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Band):
-            return NotImplemented
-        return all(getattr(self, s) == getattr(other, s) for s in self.__slots__)
-
-    def __hash__(self) -> int:
-        return hash((self.output, self.lower, self.upper, self.name, self.absolute))
-
-    def describe(self) -> str:
-        """Human-readable safe set, e.g. ``"-1 <= |y| <= 2"``."""
-        v = f"|{self.output}|" if self.absolute else self.output
-        if self.lower > -math.inf and self.upper < math.inf:
-            return f"{self.lower:g} <= {v} <= {self.upper:g}"
-        if self.lower > -math.inf:
-            return f"{v} >= {self.lower:g}"
-        return f"{v} <= {self.upper:g}"
-
-    def fails(self, values: Any) -> np.ndarray:
-        """Boolean failure indicator of ``values`` (True = outside the band).
-
-        Raises
-        ------
-        ValueError
-            If ``values`` contains NaN (a NaN is neither safe nor failed).
-        """
-        v = np.asarray(values, dtype=float)
-        if np.isnan(v).any():
-            raise ValueError(
-                f"Band {self.name!r}: {int(np.isnan(v).sum())} NaN value(s); a NaN is neither "
-                "safe nor failed"
-            )
-        if self.absolute:
-            v = np.abs(v)
-        return (v < self.lower) | (v > self.upper)
-
-    def pf_from_distribution(self, dist: Any) -> float:
-        """Probability of leaving the band under a (frozen scipy) distribution of the output.
-
-        Uses ``cdf``/``sf`` tails separately so small probabilities keep full precision.
-        """
-        pf = 0.0
-        if self.absolute:
-            pf += float(dist.sf(self.upper)) + float(dist.cdf(-self.upper))
-            if self.lower > 0:
-                pf += float(dist.cdf(self.lower)) - float(dist.cdf(-self.lower))
-        else:
-            if self.upper < math.inf:
-                pf += float(dist.sf(self.upper))
-            if self.lower > -math.inf:
-                pf += float(dist.cdf(self.lower))
-        return min(max(pf, 0.0), 1.0)
-
-
-def _as_bands(bands: Any) -> list[Band]:
-    if isinstance(bands, Band):
-        return [bands]
-    out: list[Band] = []
-    if isinstance(bands, Mapping):
-        for key, spec in bands.items():
-            if isinstance(spec, Band):
-                out.append(spec)
-            elif isinstance(spec, Mapping):
-                out.append(Band(key, **spec))
-            elif isinstance(spec, Sequence) and not isinstance(spec, str) and len(spec) == 2:
-                out.append(Band(key, spec[0], spec[1]))
-            else:
-                raise ValueError(
-                    f"bands[{key!r}]: expected (lower, upper), a Band or a dict of Band "
-                    f"arguments, got {spec!r}"
-                )
-    elif isinstance(bands, Iterable) and not isinstance(bands, str):
-        for b in bands:
-            if not isinstance(b, Band):
-                raise ValueError(f"bands: expected Band objects, got {type(b).__name__}")
-            out.append(b)
-    else:
-        raise ValueError(
-            "bands: expected a Band, a list of Bands or a dict {output: (lower, upper)}"
-        )
-    if not out:
-        raise ValueError("bands: empty; give at least one band")
-    return out
 
 
 # =========================================================================== reliability
@@ -521,14 +160,12 @@ def _select_time(ds: xr.Dataset, time: Any) -> xr.Dataset:
 
 
 # =========================================================================== modes
-def _as_modes(bands: Any) -> list[Any]:
+def as_modes(bands: Any) -> list[Any]:
     """Bands, limit states and systems as a list of failure modes."""
-    from gearuq.limitstate import LimitState, System
-
     if isinstance(bands, (Band, LimitState, System)):
         return [bands]
     if isinstance(bands, Mapping):
-        return _as_bands(bands)
+        return as_bands(bands)
     if isinstance(bands, Iterable) and not isinstance(bands, str):
         out = list(bands)
         for b in out:
@@ -626,7 +263,7 @@ def _check_finite(values: np.ndarray, what: str, blk: xr.Dataset, valid: np.ndar
 _BLOCK_VALUES = 2**24
 
 
-def _sample_blocks(ds: xr.Dataset, names: Sequence[str], n: int, n_t: int
+def sample_blocks(ds: xr.Dataset, names: Sequence[str], n: int, n_t: int
                    ) -> list[tuple[int, int]]:
     """Sample ranges to process one at a time: the dask chunks of a lazily loaded result
     (one stored chunk at a time), else blocks of at most :data:`_BLOCK_VALUES` values."""
@@ -711,7 +348,7 @@ def reliability(
     bands : Band, LimitState, System, list of them, or dict
         Failure modes. A dict maps an output name to ``(lower, upper)`` (``None`` = open side),
         to a :class:`Band` or to a dict of :class:`Band` keyword arguments. A
-        :class:`~gearuq.limitstate.LimitState` or :class:`~gearuq.limitstate.System` fails
+        :class:`~gearuq.failure.modes.LimitState` or :class:`~gearuq.failure.modes.System` fails
         where its ``g <= 0`` (the boundary fails; a band's limits are safe).
     confidence : float
         Two-sided confidence level of the intervals.
@@ -760,14 +397,14 @@ def reliability(
     """
     if not isinstance(ds, xr.Dataset):
         raise ValueError(f"reliability: ds must be an xarray.Dataset, got {type(ds).__name__}")
-    method = _interval_method(interval)
+    method = interval_method(interval)
     if not 0.0 < float(confidence) < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
-    modes = _as_modes(bands)
+    modes = as_modes(bands)
     if "sample" not in ds.dims:
         raise ValueError("reliability: the Dataset has no 'sample' dimension")
     ds = _select_time(ds, time)
-    valid, status_note = _valid_samples(ds)
+    valid, status_note = valid_samples(ds)
     n_samples, n_valid = valid.size, int(valid.sum())
     used = list(dict.fromkeys(v for m in modes for v in _mode_variables(m)))
     missing = [o for o in used if o not in ds.variables]
@@ -784,7 +421,7 @@ def reliability(
     n_t = ds.sizes["time"] if has_time else 1
     counts = _Counts(n_t, system, first_passage and has_time)
     time_coord = ds["time"] if has_time else None
-    for start, stop in _sample_blocks(ds, used, n_samples, n_t):
+    for start, stop in sample_blocks(ds, used, n_samples, n_t):
         v = valid[start:stop]
         if not v.any() and counts.labels:
             continue
@@ -802,7 +439,7 @@ def reliability(
     return out
 
 
-def _valid_samples(ds: xr.Dataset) -> tuple[np.ndarray, str]:
+def valid_samples(ds: xr.Dataset) -> tuple[np.ndarray, str]:
     n_samples = int(ds.sizes["sample"])
     if n_samples == 0:
         raise ValueError("reliability: the Dataset has no samples")
@@ -900,7 +537,7 @@ def _grid_check(out: xr.Dataset, counts: _Counts, n_valid: int) -> None:
         "units": "1", "flag_values": np.array([0, 1], dtype=np.int8),
         "flag_meanings": "grid_resolves grid_too_coarse",
         "long_name": ("1 where the grid gap exceeds half the interval width: refine the time "
-                      "grid or use gearuq.outcrossing.first_passage with the derivative")})
+                      "grid or use gearuq.failure.outcrossing.first_passage with the derivative")})
 
 
 _RULE_VALIDITY = {

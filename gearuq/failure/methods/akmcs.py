@@ -10,7 +10,7 @@ until ``min U >= u_stop`` (2 by default: every point's sign is right with probab
 ``Phi(2) = 0.977`` or more); then, if the population's own coefficient of variation
 ``sqrt((1 - pf) / (n pf))`` is above ``target_cov``, the population grows and learning goes on.
 
-Systems (:class:`~gearuq.limitstate.System`) are learnt component by component (AK-SYS,
+Systems (:class:`~gearuq.failure.modes.System`) are learnt component by component (AK-SYS,
 Fauriat and Gayton 2014): one Kriging model per limit state, the system mean combined by
 min/max, and ``U`` taken from the component that governs each point. Kinks of a series system
 then live in the combination, not in a surrogate.
@@ -42,8 +42,9 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from gearuq.engines.failure import LimitStateEvaluator, failure_report
-from gearuq.limitstate import System
+from gearuq.failure.evaluator import LimitStateEvaluator
+from gearuq.failure.modes import System
+from gearuq.failure.report import failure_report
 from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_akmcs", "learning_function_u"]
@@ -270,7 +271,7 @@ def _population_cov(pf: float, n: int) -> float:
 def _report(ev: LimitStateEvaluator, st: _State, s: Mapping[str, Any], seed: int,
             confidence: float, history: list[tuple[int, float, float]], status: int,
             message: str, t0: float) -> xr.Dataset:
-    from gearuq.probability import wilson_interval
+    from gearuq.failure.intervals import wilson_interval
 
     if st.x_train.shape[0] < 2:
         return failure_report(ev, "akmcs", pf=math.nan, interval_kind="none",

@@ -34,6 +34,12 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
+from gearuq.failure.api import validate_settings
+from gearuq.failure.evaluator import LimitStateEvaluator
+from gearuq.failure.intervals import wilson_interval
+from gearuq.failure.methods.form import design_point_search
+from gearuq.failure.samples import sample_blocks, valid_samples
+
 __all__ = ["rice_rate", "first_passage", "phi2", "hermite_crossing"]
 
 RICE_METHODS = ("kde", "gaussian", "count")
@@ -60,10 +66,8 @@ def _signed(ds: xr.Dataset, output: str, derivative: str | None, side: str
 
 
 def _blocks(ds: xr.Dataset, names: list[str]) -> tuple[np.ndarray, list[tuple[int, int]]]:
-    from gearuq.probability import _sample_blocks, _valid_samples
-
-    valid, _ = _valid_samples(ds)
-    return valid, _sample_blocks(ds, names, valid.size, ds.sizes["time"])
+    valid, _ = valid_samples(ds)
+    return valid, sample_blocks(ds, names, valid.size, ds.sizes["time"])
 
 
 def _values(da: xr.DataArray, start: int, stop: int, valid: np.ndarray, sign: float
@@ -288,8 +292,6 @@ def first_passage(
         the worst relative peak a harmonic of period ``T`` loses between instants ``dt``
         apart. ``attrs["verdict"]`` says whether the grid resolves the first passage.
     """
-    from gearuq.probability import wilson_interval
-
     y, dy, sign = _signed(ds, output, derivative, side)
     u = sign * float(level)
     valid, blocks = _blocks(ds, [output] + ([derivative] if derivative else []))
@@ -353,8 +355,6 @@ def first_passage(
 def _continuous_estimates(ds: xr.Dataset, output: str, derivative: str, level: float,
                           side: str, rice: str, k_herm: int, n: int, sums: np.ndarray,
                           dt: np.ndarray, confidence: float, t: np.ndarray) -> dict[str, Any]:
-    from gearuq.probability import wilson_interval
-
     lo, up = wilson_interval(k_herm, n, confidence)
     rate = rice_rate(ds, output, level, derivative=derivative, method=rice, side=side)
     nu = rate["rate"].values
@@ -427,9 +427,6 @@ def phi2(
         expected_crossings`` and ``pf_poisson = 1 - (1 - pf_initial) exp(-expected
         crossings)``, ``n_model_runs``.
     """
-    from gearuq.engines.failure import LimitStateEvaluator, validate_settings
-    from gearuq.engines.form import design_point_search
-
     s = validate_settings("form", form_settings)
     times = np.atleast_1d(np.asarray(t, dtype=float))
     if times.ndim != 1 or not np.all(np.diff(times) > 0):

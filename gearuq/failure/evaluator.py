@@ -1,0 +1,266 @@
+"""The evaluator every failure-probability method shares: standard space <-> physical
+parameters, the limit state on model runs, and the run counts.
+
+Every method works in the independent standard normal space ``u`` of the
+:class:`~gearuq.space.ParameterSpace`: ``z = L u`` (``L`` the Cholesky factor of the Gaussian
+copula's correlation, identity when independent) and ``x_j = F_j^{-1}(Phi(z_j))``. Model runs
+go through :func:`gearuq.execution.evaluate_chunks` (chunked, failure-isolating, resumable with
+a store), and every run is counted.
+
+What a method must not hide is recorded here, once for all methods:
+
+* an **invalid run** (nonzero model status, or a limit state that is NaN or infinite on valid
+  outputs) is neither safe nor failed: its ``g`` is NaN, it is counted in ``n_invalid`` and its
+  reason kept in ``errors``; each method then widens its interval to cover both readings;
+* for a **time-dependent** limit state the first-passage value ``min_t g(t)`` is returned with
+  the same value on every other instant (``g_half``), from which each method estimates how
+  much first-passage probability the time grid itself can miss (the check of
+  :func:`gearuq.reliability`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import linalg, special
+
+from gearuq.engines.common import resolve_model_and_space
+from gearuq.execution import evaluate_chunks
+from gearuq.failure.modes import System, as_limit_state
+from gearuq.model import Model, Request
+from gearuq.space import ParameterSpace
+
+__all__ = ["LimitStateEvaluator", "STATUS_LIMIT_STATE_NONFINITE", "STATUS_ALL_FAILED"]
+
+#: Per-sample status given to a valid model run whose limit-state value is NaN or infinite.
+STATUS_LIMIT_STATE_NONFINITE = 3
+#: Per-sample status given to every sample of a design in which every model run failed.
+STATUS_ALL_FAILED = 4
+
+
+class LimitStateEvaluator:
+    """Evaluate a limit state at points of the standard normal space, counting model runs.
+
+    Parameters
+    ----------
+    model : Model or str
+    space : ParameterSpace or mapping
+    limit_state : LimitState, System, Band or output name
+    t : array_like, optional
+        Output instants (time-dependent limit states use ``min_t g(t)``).
+    model_options : mapping, optional
+        Declared model options.
+    executor, chunk_size :
+        As in :func:`gearuq.execution.evaluate_chunks`.
+    store : path-like, optional
+        Directory; every evaluation ``tag`` gets its own chunk store below it, so an
+        interrupted run resumes where it stopped.
+    engine : str
+        Name recorded in the stores' fingerprints.
+    seed : int, optional
+        Recorded in the stores' fingerprints.
+    fingerprint : mapping, optional
+        Extra entries of the stores' fingerprints (the method settings).
+    """
+
+    def __init__(self, model: Model | str, space: ParameterSpace | Mapping[str, Any],
+                 limit_state: Any, t: Any = None, *, model_options: Mapping[str, Any] | None
+                 = None, executor: Any = None, chunk_size: int | None = None,
+                 store: str | os.PathLike | None = None, engine: str = "failure_probability",
+                 seed: int | None = None, fingerprint: Mapping[str, Any] | None = None) -> None:
+        self.model, self.space = resolve_model_and_space(model, space)
+        self.limit_state = as_limit_state(limit_state)
+        known = set(self.model.output_names) | set(self.model.parameter_names)
+        unknown = [v for v in self.limit_state.variables if v not in known]
+        if unknown:
+            raise ValueError(
+                f"limit state {self.limit_state.name!r}: unknown output(s) "
+                f"{', '.join(map(repr, unknown))} of model {self.model.name!r}; valid outputs: "
+                f"{', '.join(self.model.output_names)}")
+        outputs = [v for v in self.limit_state.variables if v in self.model.output_names]
+        if not outputs:
+            raise ValueError(f"limit state {self.limit_state.name!r} reads no model output "
+                             f"(only inputs {list(self.limit_state.variables)})")
+        self.request: Request = self.model.prepare(t, outputs=outputs, **dict(model_options or {}))
+        self._check_window(self.request)
+        self.names = self.space.names
+        self.dim = self.space.dim
+        corr = self.space.correlation
+        self.chol = None if corr is None else np.linalg.cholesky(corr)
+        self.marginals = [self.space.marginal(n) for n in self.names]
+        self.parameters = [self.model.parameter(n) for n in self.names]
+        self.leaves = self.limit_state.leaves()
+        self.executor, self.chunk_size = executor, chunk_size
+        self.store = None if store is None else Path(store)
+        self.engine, self.seed = engine, seed
+        self.extra_fingerprint = dict(fingerprint or {})
+        self.n_runs = 0
+        self.n_invalid = 0
+        self.time_dependent = False
+        self.errors: list[str] = []
+
+    def _check_window(self, request: Request) -> None:
+        """Refuse a limit-state window that reaches outside the output instants."""
+        t = getattr(request, "t", None)
+        if t is None or np.size(t) == 0:
+            return
+        t = np.asarray(t, dtype=float)
+        t0, t1 = float(t.min()), float(t.max())
+        tol = 1e-9 * max(1.0, abs(t0), abs(t1))
+        for leaf in self.limit_state.leaves():
+            window = getattr(leaf, "window", None)
+            if window is None:
+                continue
+            if window[0] < t0 - tol or window[1] > t1 + tol:
+                raise ValueError(
+                    f"limit state {leaf.name!r}: window [{window[0]:g}, {window[1]:g}] reaches "
+                    f"outside the output instants [{t0:g}, {t1:g}]; a first passage over the "
+                    "part of the window without instants would be missed. Extend t or narrow "
+                    "the window")
+
+    # ------------------------------------------------------------------ maps
+    def to_correlated(self, u: np.ndarray) -> np.ndarray:
+        """Correlated standard normals ``z = L u``."""
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        return u if self.chol is None else u @ self.chol.T
+
+    def to_physical(self, u: Any) -> dict[str, np.ndarray]:
+        """Physical parameter values of standard normal points ``u`` (n, dim)."""
+        z = self.to_correlated(u)
+        return {n: m.from_normal(z[:, j]) for j, (n, m) in enumerate(
+            zip(self.names, self.marginals, strict=True))}
+
+    def to_standard(self, x: Mapping[str, Any]) -> np.ndarray:
+        """Standard normal points of physical values (inverse of :meth:`to_physical`)."""
+        cols = []
+        for n, m in zip(self.names, self.marginals, strict=True):
+            p = np.clip(np.asarray(m.cdf(np.asarray(x[n], dtype=float)), dtype=float), 0, 1)
+            cols.append(special.ndtri(p))
+        z = np.column_stack(cols)
+        if self.chol is None:
+            return z
+        return linalg.solve_triangular(self.chol, z.T, lower=True).T
+
+    def _range_mask(self, x: Mapping[str, np.ndarray]) -> np.ndarray:
+        n = len(next(iter(x.values())))
+        ok = np.ones(n, dtype=bool)
+        for name, par in zip(self.names, self.parameters, strict=True):
+            ok &= (x[name] >= par.lower) & (x[name] <= par.upper)
+        return ok
+
+    def in_range(self, u: Any) -> np.ndarray:
+        """Whether each point's physical values lie in the model's valid ranges."""
+        return self._range_mask(self.to_physical(u))
+
+    def _range_messages(self, u: np.ndarray, x: Mapping[str, np.ndarray]) -> list[str]:
+        out = []
+        for name, par in zip(self.names, self.parameters, strict=True):
+            bad = (x[name] < par.lower) | (x[name] > par.upper)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                out.append(f"parameter {name!r} = {x[name][i]:.6g} (u = {u[i]}) is "
+                           f"outside the model's valid range {par.range_text()}")
+        return out
+
+    def outside_range(self, u: Any) -> list[str]:
+        """Messages for points whose physical values leave the model's valid ranges."""
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        return self._range_messages(u, self.to_physical(u))
+
+    # ------------------------------------------------------------------ evaluation
+    def evaluate(self, u: Any, tag: str) -> dict[str, np.ndarray]:
+        """Run the model at points ``u`` (n, dim) and return the limit state.
+
+        Returns
+        -------
+        dict
+            ``g`` (n,) system / first-passage limit-state value (NaN where invalid),
+            ``g_half`` (n,) the same on every other output instant (equal to ``g`` for a
+            limit state without time), ``leaf`` (n, n_leaves) component values, ``status``
+            (n,) int (0 = ok), ``x`` the physical points.
+
+        Raises
+        ------
+        ValueError
+            If a point's physical value leaves the model's valid range (names the parameter,
+            the value and the range).
+        """
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        if u.shape[1] != self.dim or not np.all(np.isfinite(u)):
+            raise ValueError(f"evaluate: expected finite points of shape (n, {self.dim}), got "
+                             f"{u.shape}")
+        x = self.to_physical(u)  # mapped once: range check and model runs share it
+        if not self._range_mask(x).all():
+            bad = self._range_messages(u, x)
+            p_out = {k: v for k, v in self.space.check_range(self.model).items() if v > 0}
+            hint = (f"; the space puts probability {p_out} outside the valid range: truncate "
+                    "the marginal(s)" if p_out else "")
+            raise ValueError(f"{self.engine} ({tag}): {bad[0]}{hint}")
+        n = u.shape[0]
+        store = None if self.store is None else self.store / tag
+        fp = {"engine": self.engine, "tag": tag, "seed": self.seed,
+              "limit_state": self.limit_state.to_json(), **self.extra_fingerprint}
+        try:
+            # small designs (a gradient, an MCMC step) are one chunk; large ones chunk by the
+            # driver's default (at most 64 MB of result per chunk)
+            ds = evaluate_chunks(self.model, x, self.request, executor=self.executor,
+                                 chunk_size=self.chunk_size or (n if n <= 4096 else None),
+                                 store=store, progress=False, fingerprint=fp)
+        except RuntimeError as exc:  # every sample failed: flag them, keep going
+            self.errors.append(f"{tag}: {str(exc).split(chr(10))[0][:300]}")
+            self.n_runs += n
+            self.n_invalid += n
+            nan = np.full(n, np.nan)
+            return {"g": nan, "g_half": nan.copy(),
+                    "leaf": np.full((n, len(self.leaves)), np.nan),
+                    "status": np.full(n, STATUS_ALL_FAILED, dtype=np.int8), "x": x}
+        return self._limit_state_values(ds, x, n, tag)
+
+    def _limit_state_values(self, ds: xr.Dataset, x: dict[str, np.ndarray], n: int,
+                            tag: str) -> dict[str, np.ndarray]:
+        status = np.asarray(ds["status"].values).astype(np.int8)
+        leaf = np.column_stack([leaf.sample_values(ds) for leaf in self.leaves])
+        # per instant first, then over time: a parallel system of time-dependent components
+        # fails at an instant where all fail, which min over time per component cannot see
+        g_t = self.limit_state.values(ds)
+        if "time" in g_t.dims and g_t.sizes["time"] > 1:
+            self.time_dependent = True
+            g = np.asarray(g_t.min("time", skipna=False).transpose("sample").values, float)
+            g_half = np.asarray(g_t.isel(time=slice(0, None, 2)).min("time", skipna=False)
+                                .transpose("sample").values, float)
+        else:
+            if "time" in g_t.dims:
+                g_t = g_t.isel(time=0)
+            g = np.asarray(g_t.transpose("sample").values, dtype=float).copy()
+            g_half = g.copy()
+        nonfinite = (status == 0) & ~np.isfinite(g)
+        if nonfinite.any():  # NaN/inf on valid outputs: an invalid sample, never a silent drop
+            self.errors.append(f"{tag}: limit state non-finite (NaN or inf output) at "
+                               f"{int(nonfinite.sum())} sample(s) the model reported valid")
+            status[nonfinite] = STATUS_LIMIT_STATE_NONFINITE
+        invalid = status != 0
+        g[invalid] = np.nan
+        g_half[invalid] = np.nan
+        leaf[invalid] = np.nan
+        if invalid.any() and "failures" in ds.attrs:
+            groups = json.loads(ds.attrs["failures"])
+            self.errors += [f"{tag}: {len(grp['samples'])} sample(s): {grp['error'][:300]}"
+                            for grp in groups]
+        self.n_runs += n
+        self.n_invalid += int(invalid.sum())
+        return {"g": g, "g_half": g_half, "leaf": leaf, "status": status, "x": x}
+
+    def fingerprint_settings(self) -> dict[str, Any]:
+        """Description for provenance."""
+        return {"limit_state": self.limit_state.to_json(), "n_leaves": len(self.leaves)}
+
+    @property
+    def is_system(self) -> bool:
+        """Whether the limit state is a system of several components."""
+        return isinstance(self.limit_state, System)

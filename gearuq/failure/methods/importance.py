@@ -1,0 +1,365 @@
+"""Importance sampling around the design points of a multi-start FORM search.
+
+The sampling density in the independent standard normal space is a mixture of normals centred
+on the design points ``u*_k`` found by FORM from several starts, plus a **defensive**
+standard normal component of share ``defensive`` (Hesterberg 1995):
+
+    h(u) = a phi_d(u) + (1 - a) sum_k pi_k N(u; mu_k, Sigma_k),   mu_k = u*_k, Sigma_k = s^2 I.
+
+The defensive share bounds every weight, ``w = phi_d / h <= 1 / a``, so a failure region the
+design points miss still has a sampling density and the estimator stays unbiased whatever the
+search found. ``adapt`` cross-entropy steps then move each component's mean and covariance to
+the weighted failing samples of a pilot (Rubinstein and Kroese 2004; the covariance shrunk
+towards the identity), so that the density follows a curved failure domain; the pilot's runs
+are counted, its samples are not used in the estimate.
+
+The estimator is ``pf = mean(1[G(u_i) <= 0] w_i)`` over the estimation batches, its variance
+``var(1 w) / n``; the interval is ``pf +- z se`` (clipped at 0), and batches continue until the
+CoV reaches ``target_cov`` (or ``max_samples``).
+
+What the estimate cannot vouch for is said in its status (:mod:`gearuq.failure.report`):
+
+* ``weights_degenerate`` when one sample carries more than half the estimate or the effective
+  sample size of the failing samples is below 10 (typically a defensive draw in a failure
+  region the design points missed), or when the tail of the weights is heavy (generalised
+  Pareto shape ``k > 0.7`` fitted to the largest contributions, Vehtari et al. 2024: the
+  sample variance, hence the interval, is then not reliable);
+* ``failure_regions_may_be_missed`` when the multi-start search may have missed design
+  points: a design point reached by a single start, or a start that did not converge (the
+  Good-Turing estimate of the chance that one more start finds a new design point is the
+  fraction of starts that found a design point no other start found);
+* ``invalid_samples`` when model runs were invalid: the interval then runs from the lower end
+  reading them as safe to the upper end reading them as failed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import special, stats
+
+from gearuq.failure.evaluator import LimitStateEvaluator
+from gearuq.failure.methods.form import FORM_SETTINGS, form_design_points
+from gearuq.failure.report import Reason, failure_report
+from gearuq.model import Option
+
+__all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape"]
+
+
+def _check_starts(value: Any) -> Any:
+    if isinstance(value, str) and value == "auto":
+        return value
+    if isinstance(value, (bool, np.bool_)) or not float(value).is_integer() or int(value) < 1:
+        raise ValueError(f"n_starts must be 'auto' or an integer >= 1, got {value!r}")
+    return int(value)
+
+
+SETTINGS = (
+    Option("n_samples", 1000, "samples per batch (and of each adaptation pilot)", lower=2),
+    Option("target_cov", 0.05, "stop when the CoV of pf reaches this", lower=1e-6, upper=1.0),
+    Option("max_samples", 20_000, "largest number of importance samples (estimation batches)",
+           lower=2),
+    Option("sampling_std", 1.0, "standard deviation of each mixture component before adaptation",
+           lower=0.05, upper=10.0),
+    Option("weights", "probability", "mixture weights: proportional to Phi(-beta_k) or equal",
+           choices=("probability", "equal")),
+    Option("defensive", 0.1, "share of the defensive standard normal component (0 turns it off "
+           "and no weight bound holds)", lower=0.0, upper=0.9),
+    Option("adapt", 1, "cross-entropy adaptation steps of the mixture (each a pilot of "
+           "n_samples runs, not used in the estimate)", lower=0, upper=10),
+    Option("n_starts", "auto", "FORM starting points: 'auto' = the origin and 12 (d = 2) or 20 (d = 3) evenly "
+           "spread directions, the +- axes and 4 random directions (d = 4, 5), else 10 random "
+           "directions", kind="any",
+           check=_check_starts),
+) + tuple(o for o in FORM_SETTINGS if o.name in ("start_radius", "fd_step", "fd_scheme",
+                                                  "tol_u", "tol_g", "max_iter",
+                                                  "max_line_search", "distinct"))
+
+#: Generalised Pareto shape above which the weights' variance is not trusted.
+PARETO_LIMIT = 0.7
+
+
+class Mixture:
+    """Defensive Gaussian mixture in the standard normal space.
+
+    Parameters
+    ----------
+    means : ndarray (K, d)
+    covs : ndarray (K, d, d)
+    shares : ndarray (K,)
+        Component shares (sum 1), before the defensive share is set aside.
+    defensive : float
+        Share of the standard normal component.
+    """
+
+    def __init__(self, means: np.ndarray, covs: np.ndarray, shares: np.ndarray,
+                 defensive: float) -> None:
+        self.means = np.asarray(means, dtype=float)
+        self.covs = np.asarray(covs, dtype=float)
+        self.shares = np.asarray(shares, dtype=float) / np.sum(shares)
+        self.defensive = float(defensive)
+        self.chols = np.linalg.cholesky(self.covs)
+
+    @property
+    def log_mix(self) -> np.ndarray:
+        """Log shares of the components, the defensive one last."""
+        with np.errstate(divide="ignore"):
+            return np.log(np.append((1 - self.defensive) * self.shares, self.defensive))
+
+    def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` draws of ``h``."""
+        k = self.means.shape[0]
+        which = rng.choice(k + 1, size=n, p=np.exp(self.log_mix))
+        z = rng.standard_normal((n, self.means.shape[1]))
+        out = z.copy()  # the defensive component: standard normal
+        for j in range(k):
+            sel = which == j
+            out[sel] = self.means[j] + z[sel] @ self.chols[j].T
+        return out
+
+    def component_log_pdf(self, u: np.ndarray) -> np.ndarray:
+        """``log pi_j N_j(u)`` per component (n, K + 1), dimension constant dropped."""
+        cols = []
+        for j in range(self.means.shape[0]):
+            y = np.linalg.solve(self.chols[j], (u - self.means[j]).T).T
+            log_det = np.sum(np.log(np.diag(self.chols[j])))
+            cols.append(-0.5 * np.sum(y * y, axis=1) - log_det)
+        cols.append(-0.5 * np.sum(u * u, axis=1))
+        return np.column_stack(cols) + self.log_mix[None, :]
+
+    def log_weights(self, u: np.ndarray) -> np.ndarray:
+        """``log(phi_d(u) / h(u))``."""
+        return -0.5 * np.sum(u * u, axis=1) - special.logsumexp(self.component_log_pdf(u), axis=1)
+
+    def adapted(self, u: np.ndarray, omega: np.ndarray) -> Mixture:
+        """One cross-entropy step from samples ``u`` with weights ``omega = 1_F w``.
+
+        Each component's mean and covariance become the ``omega``-and-responsibility weighted
+        moments of the failing samples; the covariance is shrunk towards the identity by
+        ``d + 1`` pseudo-samples (few failing samples in many dimensions), its eigenvalues kept
+        in ``[0.05^2, 3^2]``. A component without failing samples is kept as it was.
+        """
+        d = u.shape[1]
+        lp = self.component_log_pdf(u)
+        resp = np.exp(lp - special.logsumexp(lp, axis=1, keepdims=True))[:, :-1]
+        means, covs, shares = self.means.copy(), self.covs.copy(), self.shares.copy()
+        for j in range(means.shape[0]):
+            wj = omega * resp[:, j]
+            total = wj.sum()
+            if not total > 0:
+                continue
+            ess = total**2 / np.sum(wj**2)
+            mu = (wj @ u) / total
+            c = u - mu
+            s = (c * wj[:, None]).T @ c / total
+            lam = (d + 1.0) / (ess + d + 1.0)
+            s = (1 - lam) * s + lam * np.eye(d)
+            val, vec = np.linalg.eigh(0.5 * (s + s.T))
+            covs[j] = (vec * np.clip(val, 0.05**2, 9.0)) @ vec.T
+            means[j], shares[j] = mu, total
+        return Mixture(means, covs, shares / shares.sum(), self.defensive)
+
+
+def mixture_log_weights(u: np.ndarray, centres: np.ndarray, mix: np.ndarray, sigma: float
+                        ) -> np.ndarray:
+    """``log(phi_d(u) / h(u))`` for the isotropic normal mixture ``h`` without a defensive
+    component (dimension constants cancel)."""
+    log_phi = -0.5 * np.sum(u * u, axis=1)
+    sq = ((u[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2)
+    comp = np.log(mix)[None, :] - 0.5 * sq / sigma**2 - u.shape[1] * math.log(sigma)
+    return log_phi - special.logsumexp(comp, axis=1)
+
+
+def pareto_shape(values: np.ndarray) -> float:
+    """Generalised Pareto shape ``k`` of the largest positive ``values`` (NaN if too few).
+
+    The tail is the largest ``M = min(n / 5, 3 sqrt(n))`` values above the next one
+    (Vehtari et al. 2024, Pareto smoothed importance sampling); ``k > 0.7``: the variance
+    estimate, and so a normal interval, cannot be trusted.
+    """
+    x = np.sort(np.asarray(values, dtype=float)[values > 0])
+    n = x.size
+    m = int(min(n / 5.0, 3.0 * math.sqrt(n)))
+    if m < 5:
+        return math.nan
+    threshold = x[-m - 1]
+    excess = x[-m:] - threshold
+    if not np.any(excess > 0):
+        return 0.0
+    k, _, _ = stats.genpareto.fit(excess, floc=0.0)
+    return float(k)
+
+
+def _starts(ev: LimitStateEvaluator, s: Mapping[str, Any]) -> dict[str, Any]:
+    n = s["n_starts"]
+    if n == "auto":
+        n = 13 if ev.dim == 2 else 21 if ev.dim == 3 else 2 * ev.dim + 5 if ev.dim <= 5 else 11
+    return {**s, "n_starts": n}
+
+
+def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float
+                   ) -> xr.Dataset:
+    """Importance sampling centred on the design points, defensive and adapted."""
+    t0 = time.perf_counter()
+    fs = _starts(ev, s)
+    found, starts = form_design_points(ev, fs, seed)
+    form_runs = ev.n_runs
+    if not found:
+        msg = "; ".join(r["error"] or "not converged" for r in starts)
+        failed = any(r["error"].startswith("model failed") for r in starts)
+        return failure_report(ev, "importance", pf=math.nan, interval_kind="none",
+                              confidence=confidence, settings=fs, seed=seed,
+                              wall_time=time.perf_counter() - t0, status=2 if failed else 1,
+                              message=f"FORM found no design point to centre on: {msg}")
+    betas = np.array([p["beta"] for p in found])
+    shares = stats.norm.sf(betas) if s["weights"] == "probability" else np.ones(len(found))
+    d = ev.dim
+    mix = Mixture(np.array([p["u"] for p in found]),
+                  np.repeat((s["sampling_std"] ** 2 * np.eye(d))[None], len(found), axis=0),
+                  shares, s["defensive"])
+    n_valid_pilot = 0
+    for a in range(s["adapt"]):
+        rng = np.random.default_rng(np.random.SeedSequence([seed, 13, a]))
+        u = mix.sample(s["n_samples"], rng)
+        res = ev.evaluate(u, f"importance/adapt{a}")
+        ok = res["status"] == 0
+        n_valid_pilot += int(ok.sum())
+        fail = ok & (res["g"] <= 0.0)
+        if fail.sum() >= 2:
+            omega = np.where(fail, np.exp(mix.log_weights(u)), 0.0)
+            mix = mix.adapted(u, omega)
+    adapt_runs = ev.n_runs - form_runs
+    batches: list[dict[str, np.ndarray]] = []
+    n_est, b = 0, 0
+    z = stats.norm.isf((1 - confidence) / 2)
+    while True:
+        rng = np.random.default_rng(np.random.SeedSequence([seed, 11, b]))
+        m = min(s["n_samples"], s["max_samples"] - n_est)
+        if m <= 0:
+            break
+        u = mix.sample(m, rng)
+        res = ev.evaluate(u, f"importance/batch{b}")
+        w = np.exp(mix.log_weights(u))
+        ok = res["status"] == 0
+        batches.append({"w": w, "fail": ok & (res["g"] <= 0.0), "invalid": ~ok,
+                        "gap": ok & (res["g"] <= 0.0) & ~(res["g_half"] <= 0.0)})
+        n_est += m
+        b += 1
+        est = _estimate(batches, z)
+        if est["cov"] <= s["target_cov"] or n_est >= s["max_samples"]:
+            break
+    return _report(ev, fs, seed, confidence, est, found, starts, mix,
+                   (form_runs, adapt_runs), t0)
+
+
+def _estimate(batches: list[dict[str, np.ndarray]], z: float) -> dict[str, float]:
+    w = np.concatenate([bt["w"] for bt in batches])
+    fail = np.concatenate([bt["fail"] for bt in batches])
+    invalid = np.concatenate([bt["invalid"] for bt in batches])
+    gap = np.concatenate([bt["gap"] for bt in batches])
+    c = np.where(fail, w, 0.0)
+    c_up = np.where(fail | invalid, w, 0.0)  # invalid read as failed
+    n = c.size
+    pf = float(c.mean())
+    se = float(c.std(ddof=1) / math.sqrt(n)) if n > 1 else math.inf
+    se_up = float(c_up.std(ddof=1) / math.sqrt(n)) if n > 1 else math.inf
+    positive = c[c > 0]
+    ess = float(positive.sum() ** 2 / np.sum(positive**2)) if positive.size else 0.0
+    share = float(positive.max() / positive.sum()) if positive.size else math.nan
+    return {"pf": pf, "se": se, "cov": se / pf if pf > 0 else math.inf, "n": n,
+            "n_fail": int(positive.size), "ess": ess, "max_share": share,
+            "n_invalid": int(invalid.sum()), "pf_invalid_failed": float(c_up.mean()),
+            "lower": max(pf - z * se, 0.0), "upper": float(c_up.mean()) + z * se_up,
+            "pareto_k": pareto_shape(c), "grid_gap": float(np.where(gap, w, 0.0).mean())}
+
+
+def _search_reasons(starts: list[dict[str, Any]], n_found: int) -> list[Reason]:
+    """Status 8 when the multi-start search may have missed design points."""
+    reached = [r["design_point"] for r in starts if r["converged"]]
+    counts = np.bincount(np.asarray(reached, dtype=int), minlength=n_found) if reached else \
+        np.zeros(n_found, dtype=int)
+    singles = int(np.sum(counts == 1))
+    lost = sum(1 for r in starts if not r["converged"])
+    if len(starts) == 1:
+        return [(8, "one FORM start: other design points, if any, were not looked for "
+                 "(n_starts='auto' or more)")]
+    if singles == 0 and lost == 0:
+        return []
+    parts = []
+    if singles:
+        parts.append(f"{singles} of {n_found} design point(s) were reached by one start only "
+                     f"(Good-Turing: a further start finds a new one with probability about "
+                     f"{singles / max(len(reached), 1):.2f})")
+    if lost:
+        parts.append(f"{lost} of {len(starts)} start(s) did not converge and may lead to "
+                     "a design point not found")
+    return [(8, "the design-point search may have missed failure regions: " + "; ".join(parts)
+             + "; raise n_starts or check with subset simulation")]
+
+
+def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
+            est: dict[str, float], found: list[dict[str, Any]], starts: list[dict[str, Any]],
+            mix: Mixture, runs: tuple[int, int], t0: float) -> xr.Dataset:
+    status, message, bound = 0, "", False
+    reasons: list[Reason] = []
+    pf, lower, upper = est["pf"], est["lower"], est["upper"]
+    if est["n_fail"] == 0:
+        status, bound = 4, True
+        pf = lower = math.nan
+        upper = max(upper, 3.0 / est["n"])
+        message = ("no importance sample failed: the design point(s) do not lead into the "
+                   "failure domain; pf_upper is a rough bound only")
+    elif est["max_share"] > 0.5 or est["ess"] < 10:
+        status = 3
+        message = (f"weights degenerate: one sample carries {est['max_share']:.0%} of the "
+                   f"estimate, effective sample size {est['ess']:.1f} of {est['n_fail']} failing "
+                   "samples; the interval is not trustworthy (a failure region the design "
+                   "points miss, or too narrow a density)")
+    elif est["pareto_k"] > PARETO_LIMIT:
+        status = 3
+        message = (f"heavy-tailed weights (generalised Pareto shape k = {est['pareto_k']:.2f} > "
+                   f"{PARETO_LIMIT}): the sample variance, and so the interval, is not reliable")
+    elif est["cov"] > s["target_cov"]:
+        status = 1
+        message = f"max_samples reached with CoV {est['cov']:.3f} > target {s['target_cov']}"
+    reasons += _search_reasons(starts, len(found))
+    if est["n_invalid"]:
+        reasons.append((6, f"{est['n_invalid']} of {est['n']} importance samples were invalid: "
+                        f"pf reads them as safe, as failed it would be "
+                        f"{est['pf_invalid_failed']:.4g}; the interval covers both"))
+    if not s["defensive"]:
+        reasons.append((8, "no defensive component: a failure region the design points miss "
+                        "has no sampling density and its probability is lost"))
+    form_runs, adapt_runs = runs
+    extra = {
+        "n_failures": ((), np.int64(est["n_fail"]), {"units": "1", "long_name":
+                       "failing importance samples"}),
+        "effective_sample_size": ((), est["ess"], {"units": "1", "long_name":
+                                  "(sum w)^2 / sum w^2 over failing samples"}),
+        "max_weight_share": ((), est["max_share"], {"units": "1", "long_name":
+                             "largest share of one sample in the pf estimate"}),
+        "pareto_k": ((), est["pareto_k"], {"units": "1", "long_name":
+                     "generalised Pareto shape of the largest contributions (> 0.7: the "
+                     "interval is not reliable)"}),
+        "n_form_runs": ((), np.int64(form_runs), {"units": "1", "long_name":
+                        "model runs of the FORM search (included in n_model_runs)"}),
+        "n_adaptation_runs": ((), np.int64(adapt_runs), {"units": "1", "long_name":
+                              "model runs of the adaptation pilots (included in "
+                              "n_model_runs, not in the estimate)"}),
+        "start_design_point": (("start",), np.array([r["design_point"] for r in starts]),
+                               {"units": "1", "long_name": "design point each FORM start "
+                                "reached (-1: did not converge)"}),
+    }
+    return failure_report(
+        ev, "importance", pf=pf, pf_lower=lower, pf_upper=upper, cov=est["cov"],
+        interval_kind="normal approximation pf +- z se of the importance-sampling estimator",
+        confidence=confidence, settings=s, seed=seed, wall_time=time.perf_counter() - t0,
+        status=status, message=message, reasons=reasons,
+        grid_gap=est["grid_gap"] if ev.time_dependent else math.nan, pf_is_upper_bound=bound,
+        design_points=found, extra=extra,
+        extra_attrs={"defensive_share": float(mix.defensive)})

@@ -1,0 +1,235 @@
+"""The one report form of every failure-probability method, and its status table.
+
+Every method returns the same labelled Dataset: ``pf``, its interval ``pf_lower``/``pf_upper``
+(what kind is in ``attrs["interval_kind"]``), ``cov_pf``, ``beta`` with its interval,
+``n_model_runs``, ``n_invalid``, ``wall_time``, a ``status`` flag with its reasons in words,
+the method settings and, where relevant, the design point(s) in physical and standard space
+with importance factors.
+
+``status`` 0 means the method vouches for its interval at the stated confidence. Any other value
+names what it could not vouch for (:data:`REPORT_STATUS`); several reasons can hold at once,
+``status`` is then the method's own (or the first found) and ``attrs["status_reasons"]`` lists
+them all. Two checks are made here for every method: invalid model runs (the interval must
+cover both readings of them) and, for a first-passage limit state, the time grid.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import linalg, stats
+
+from gearuq.engines.common import provenance
+from gearuq.failure.evaluator import LimitStateEvaluator
+
+__all__ = ["failure_report", "REPORT_STATUS", "STATUS_TEXT", "Reason"]
+
+#: Meaning of the report's ``status`` flag (short name).
+REPORT_STATUS = {
+    0: "ok",
+    1: "not_converged",
+    2: "model_failure",
+    3: "weights_degenerate",
+    4: "upper_bound_only",
+    5: "approximation_invalid",
+    6: "invalid_samples",
+    7: "time_grid_too_coarse",
+    8: "failure_regions_may_be_missed",
+}
+
+#: What each status says to a user, in words (docs/reliability.md has the table).
+STATUS_TEXT = {
+    0: "the interval holds the failure probability at the stated confidence",
+    1: "the method stopped before its accuracy target (iterations, samples or CoV target); "
+       "the estimate and interval are those reached so far",
+    2: "the model failed where the method needed it; no estimate",
+    3: "the importance weights are degenerate (a few samples carry the estimate): the "
+       "interval is not trustworthy",
+    4: "no failure was observed: pf is an upper bound, not an estimate",
+    5: "an approximation (SORM formula) is not valid for this limit state",
+    6: "some model runs were invalid (nonzero status, NaN or inf): the interval is widened to "
+       "cover both readings (all invalid safe, all invalid failed), pf counts them as safe",
+    7: "the output time grid may miss first passages between instants: refine t",
+    8: "the method may have missed part of the failure domain (design points or failure "
+       "regions it did not find): the estimate may be low",
+}
+
+#: A reason the method could not vouch for its answer: (status code, message in words).
+Reason = tuple[int, str]
+
+
+def _invalid_reason(ev: LimitStateEvaluator, reasons: Sequence[Reason]) -> list[Reason]:
+    if ev.n_invalid == 0 or any(code in (2, 6) for code, _ in reasons):
+        return []
+    return [(6, f"{ev.n_invalid} of {ev.n_runs} model runs were invalid; this method's "
+             "interval does not account for them")]
+
+
+def _grid_reason(grid_gap: float, pf: float, pf_upper: float) -> list[Reason]:
+    """Status 7 when the half-grid loss is larger than half the interval's upper width."""
+    if not (math.isfinite(grid_gap) and grid_gap > 0):
+        return []
+    width = pf_upper - pf if math.isfinite(pf_upper) and math.isfinite(pf) else 0.0
+    if grid_gap <= 0.5 * width:
+        return []
+    rel = grid_gap / pf if pf > 0 else math.inf
+    return [(7, f"dropping every other output instant loses {grid_gap:.3g} of pf "
+             f"({rel:.0%}), more than half the interval's width: the grid itself may miss "
+             "about as much; refine the output instants t (or check with "
+             "gearuq.failure.first_passage and the derivative output)")]
+
+
+def failure_report(
+    ev: LimitStateEvaluator,
+    method: str,
+    *,
+    pf: float,
+    pf_lower: float = math.nan,
+    pf_upper: float = math.nan,
+    cov: float = math.nan,
+    interval_kind: str,
+    confidence: float,
+    settings: Mapping[str, Any],
+    seed: int | None,
+    wall_time: float,
+    status: int = 0,
+    message: str = "",
+    reasons: Sequence[Reason] = (),
+    grid_gap: float = math.nan,
+    pf_is_upper_bound: bool = False,
+    design_points: Sequence[Mapping[str, Any]] | None = None,
+    extra: Mapping[str, tuple] | None = None,
+    extra_attrs: Mapping[str, Any] | None = None,
+) -> xr.Dataset:
+    """The one report form of every reliability method.
+
+    Parameters
+    ----------
+    ev : LimitStateEvaluator
+        Gives the model, space, limit state, run counts and errors.
+    method : str
+        Method name.
+    pf, pf_lower, pf_upper, cov : float
+        Estimate, interval (NaN when the method has none) and coefficient of variation.
+    interval_kind : str
+        What the interval is (recorded in the attrs).
+    design_points : list of dict, optional
+        Each with ``u`` (dim,), ``beta``; physical values, alpha and importance factors are
+        derived here.
+    extra : mapping, optional
+        Method-specific variables ``name -> (dims, values, attrs)``.
+
+    Returns
+    -------
+    xarray.Dataset
+        See the module docstring; scalars ``pf``, ``pf_lower``, ``pf_upper``, ``cov_pf``,
+        ``beta``, ``beta_lower``, ``beta_upper``, ``n_model_runs``, ``n_invalid``,
+        ``wall_time``, ``status``, ``pf_is_upper_bound``.
+    """
+    all_reasons: list[Reason] = ([(int(status), message or STATUS_TEXT[int(status)])]
+                                 if status else [])
+    all_reasons += [r for r in reasons if r[0]]
+    all_reasons += _invalid_reason(ev, all_reasons)
+    if ev.n_runs and ev.n_invalid == ev.n_runs and not any(c == 2 for c, _ in all_reasons):
+        all_reasons.insert(0, (2, f"all {ev.n_runs} model runs failed: no estimate is "
+                               "possible (see attrs errors)"))
+        pf = pf_lower = pf_upper = cov = math.nan
+        pf_is_upper_bound = False
+    all_reasons += _grid_reason(grid_gap, pf, pf_upper)
+    note = message if not status else ""  # information that is no reason (status 0)
+    status = all_reasons[0][0] if all_reasons else 0
+    message = "; ".join([m for m in (note,) if m] + [m for _, m in all_reasons])
+    beta, beta_lo, beta_up = (float(stats.norm.isf(p)) if np.isfinite(p) else math.nan
+                              for p in (pf, pf_upper, pf_lower))
+    flag = {"units": "1", "flag_values": np.array(sorted(REPORT_STATUS), dtype=np.int8),
+            "flag_meanings": " ".join(REPORT_STATUS[k] for k in sorted(REPORT_STATUS))}
+    data: dict[str, Any] = {
+        "pf": ((), float(pf), {"units": "1", "long_name": "failure probability estimate"}),
+        "pf_lower": ((), float(pf_lower), {"units": "1", "long_name":
+                     "lower end of the interval of pf (see attrs interval_kind)"}),
+        "pf_upper": ((), float(pf_upper), {"units": "1", "long_name":
+                     "upper end of the interval of pf (see attrs interval_kind)"}),
+        "cov_pf": ((), float(cov), {"units": "1", "long_name":
+                   "coefficient of variation of the pf estimator"}),
+        "beta": ((), beta, {"units": "1", "long_name": "generalised reliability index "
+                            "-Phi^-1(pf)"}),
+        "beta_lower": ((), beta_lo, {"units": "1", "long_name": "-Phi^-1(pf_upper)"}),
+        "beta_upper": ((), beta_up, {"units": "1", "long_name": "-Phi^-1(pf_lower)"}),
+        "n_model_runs": ((), np.int64(ev.n_runs), {"units": "1", "long_name":
+                         "model evaluations (samples) used, all stages included"}),
+        "n_invalid": ((), np.int64(ev.n_invalid), {"units": "1", "long_name":
+                      "model evaluations with nonzero status (counted, never dropped "
+                      "silently; see attrs errors)"}),
+        "wall_time": ((), float(wall_time), {"units": "s", "long_name": "wall-clock time"}),
+        "status": ((), np.int8(status), {**flag, "long_name": "outcome of the method"}),
+        "pf_is_upper_bound": ((), np.int8(pf_is_upper_bound), {
+            "units": "1", "long_name": "1 where no failure was observed and pf is the upper "
+            "end of the interval, not an estimate"}),
+    }
+    coords: dict[str, Any] = {}
+    if design_points:
+        data.update(_design_point_vars(ev, design_points))
+        coords["parameter"] = ("parameter", np.array(ev.names, dtype=str))
+        coords["design_point"] = ("design_point", np.arange(len(design_points)))
+    if math.isfinite(grid_gap):
+        data["pf_grid_gap"] = ((), float(grid_gap), {"units": "1", "long_name": (
+            "first-passage pf on the output instants minus the same on every other instant: "
+            "estimates what the grid itself can miss")})
+    for k, v in (extra or {}).items():
+        data[k] = v
+    out = xr.Dataset(data, coords=coords)
+    out.attrs.update(provenance("failure_probability", ev.model, ev.request, ev.space, seed,
+                                method=method, settings=dict(settings)))
+    out.attrs.update({
+        "method": method,
+        "interval_kind": interval_kind,
+        "confidence": float(confidence),
+        "limit_state": ev.limit_state.to_json(),
+        "failure_definition": "a sample fails where the limit state g <= 0 (boundary fails); "
+                              "time-dependent g: first passage, min over the output instants",
+        "message": message or REPORT_STATUS[int(status)],
+        "status_reasons": json.dumps([{"status": c, "meaning": REPORT_STATUS[c],
+                                       "message": m} for c, m in all_reasons]),
+    })
+    if ev.errors:
+        out.attrs["errors"] = json.dumps(ev.errors[:50])
+    out.attrs.update(dict(extra_attrs or {}))
+    return out
+
+
+def _design_point_vars(ev: LimitStateEvaluator, design_points: Sequence[Mapping[str, Any]]
+                       ) -> dict[str, Any]:
+    """Design points in both spaces, alpha and importance factors per design point."""
+    u = np.array([np.asarray(dp["u"], dtype=float) for dp in design_points])
+    betas = np.array([float(dp["beta"]) for dp in design_points])
+    x = ev.to_physical(u)
+    xs = np.column_stack([x[n] for n in ev.names])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        alpha = u / np.linalg.norm(u, axis=1, keepdims=True)
+    # importance of the physical parameters: gamma = L^-T alpha / |L^-T alpha| (Der Kiureghian)
+    gamma = alpha if ev.chol is None else linalg.solve_triangular(
+        ev.chol.T, alpha.T, lower=False).T
+    with np.errstate(invalid="ignore", divide="ignore"):
+        gamma = gamma / np.linalg.norm(gamma, axis=1, keepdims=True)
+    dims = ("design_point", "parameter")
+    units = "; ".join(f"{n}: {ev.model.parameter(n).units}" for n in ev.names)
+    return {
+        "beta_design_point": (("design_point",), betas, {
+            "units": "1", "long_name": "distance of the design point from the origin"}),
+        "design_point_u": (dims, u, {"units": "1", "long_name":
+                           "design point in the independent standard normal space"}),
+        "design_point_x": (dims, xs, {"units": units, "long_name":
+                           "design point in physical parameters (units per parameter)"}),
+        "alpha": (dims, alpha, {"units": "1", "long_name":
+                  "unit vector u*/beta towards the design point (independent normal space)"}),
+        "importance_factor": (dims, gamma**2, {"units": "1", "long_name": (
+            "importance factors gamma^2 of the physical parameters, gamma = L^-T alpha / "
+            "|L^-T alpha| (equals alpha^2 for independent inputs); they sum to 1")}),
+    }
+
+
