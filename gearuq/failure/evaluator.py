@@ -103,6 +103,8 @@ class LimitStateEvaluator:
         self.n_runs = 0
         self.n_invalid = 0
         self.time_dependent = False
+        self._grid_fail = 0  # valid failing samples on the full grid ...
+        self._grid_missed = 0  # ... of which every other instant misses the failure
         self.errors: list[str] = []
 
     def _check_window(self, request: Request) -> None:
@@ -254,7 +256,15 @@ class LimitStateEvaluator:
                             for grp in groups]
         self.n_runs += n
         self.n_invalid += int(invalid.sum())
+        fails = g <= 0.0
+        self._grid_fail += int(fails.sum())
+        self._grid_missed += int(np.sum(fails & ~(g_half <= 0.0)))
         return {"g": g, "g_half": g_half, "leaf": leaf, "status": status, "x": x}
+
+    @property
+    def grid_gap_fraction(self) -> float:
+        """Share of the failing runs so far whose failure every other instant misses."""
+        return self._grid_missed / self._grid_fail if self._grid_fail else 0.0
 
     def fingerprint_settings(self) -> dict[str, Any]:
         """Description for provenance."""

@@ -230,8 +230,9 @@ def run_akmcs(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confiden
                 continue
             status = 0
             if cov > s["target_cov"]:
+                status = 1
                 message = (f"population CoV {cov:.3f} above target {s['target_cov']} at max_mc="
-                           f"{s['max_mc']}")
+                           f"{s['max_mc']}: raise max_mc or use another method")
             break
         if ev.n_runs >= s["max_runs"]:
             message = (f"max_runs={s['max_runs']} reached with min U = {u.min():.3g} < "
@@ -290,11 +291,17 @@ def _report(ev: LimitStateEvaluator, st: _State, s: Mapping[str, Any], seed: int
     upper = float(wilson_interval(k_high, n, confidence)[1])
     pf, bound = k / n, False
     if k == 0:
-        pf, bound, status = upper, True, 4
-        message = message or (
-            "no population point classified as failed: pf_upper bounds the population "
-            "estimate, but cannot cover a failure region the surrogate has not found (check "
-            "with a larger n_initial or another method)")
+        # nothing classified failed means no training run failed either (trained points
+        # keep their true values): the surrogate never saw the failure domain, so the
+        # population bound is only as good as an extrapolation it cannot check
+        pf = upper = math.nan
+        status = 8
+        message = (
+            f"no population point was classified as failed and none of the {ev.n_runs} model "
+            "runs failed: the Kriging model has never seen the failure domain, so AK-MCS "
+            "cannot bound pf (its population may hold failures it classifies safe); use "
+            "subset simulation or importance sampling, or a larger n_initial"
+            + (f"; {message}" if message else ""))
     hist = np.array(history)
     misclassified = float(np.sum(stats.norm.sf(u[np.isfinite(u)])))
     extra = {

@@ -72,9 +72,9 @@ SETTINGS = (
            "and no weight bound holds)", lower=0.0, upper=0.9),
     Option("adapt", 1, "cross-entropy adaptation steps of the mixture (each a pilot of "
            "n_samples runs, not used in the estimate)", lower=0, upper=10),
-    Option("n_starts", "auto", "FORM starting points: 'auto' = the origin and 12 (d = 2) or 20 (d = 3) evenly "
-           "spread directions, the +- axes and 4 random directions (d = 4, 5), else 10 random "
-           "directions", kind="any",
+    Option("n_starts", "auto", "FORM starting points: 'auto' = the origin and 12 (d = 2) "
+           "or 20 (d = 3) evenly spread directions, the +- axes and 4 random directions "
+           "(d = 4, 5), else 10 random directions", kind="any",
            check=_check_starts),
 ) + tuple(o for o in FORM_SETTINGS if o.name in ("start_radius", "fd_step", "fd_scheme",
                                                   "tol_u", "tol_g", "max_iter",
@@ -140,9 +140,11 @@ class Mixture:
         """One cross-entropy step from samples ``u`` with weights ``omega = 1_F w``.
 
         Each component's mean and covariance become the ``omega``-and-responsibility weighted
-        moments of the failing samples; the covariance is shrunk towards the identity by
-        ``d + 1`` pseudo-samples (few failing samples in many dimensions), its eigenvalues kept
-        in ``[0.05^2, 3^2]``. A component without failing samples is kept as it was.
+        moments of the failing samples; the covariance only when their effective number is at
+        least ``10 d`` (in 100 dimensions a covariance from a few hundred samples made the
+        density worse than the unit one), shrunk towards the identity by ``d + 1``
+        pseudo-samples and its eigenvalues kept in ``[0.05^2, 3^2]``. A component without
+        failing samples is kept as it was.
         """
         d = u.shape[1]
         lp = self.component_log_pdf(u)
@@ -155,13 +157,15 @@ class Mixture:
                 continue
             ess = total**2 / np.sum(wj**2)
             mu = (wj @ u) / total
+            means[j], shares[j] = mu, total
+            if ess < 10 * d:  # too few failing samples for a covariance: the mean only
+                continue
             c = u - mu
             s = (c * wj[:, None]).T @ c / total
             lam = (d + 1.0) / (ess + d + 1.0)
             s = (1 - lam) * s + lam * np.eye(d)
             val, vec = np.linalg.eigh(0.5 * (s + s.T))
             covs[j] = (vec * np.clip(val, 0.05**2, 9.0)) @ vec.T
-            means[j], shares[j] = mu, total
         return Mixture(means, covs, shares / shares.sum(), self.defensive)
 
 

@@ -16,8 +16,14 @@ The failure probability is a product of conditional probabilities of nested even
 
 Each conditional probability is the fraction of the level's samples below the next threshold,
 so ties (flat or discontinuous responses) are counted, not forced to ``p0``. A candidate whose
-components were all rejected is not run (it is the current state). Failed model runs (nonzero
-status) reject the candidate and are counted.
+components were all rejected is not run (it is the current state).
+
+An invalid model run (nonzero status, NaN or inf) is neither safe nor failed. While exploring,
+subset simulation reads it as failed (``g = -inf``), so the chains can enter a failure region
+where the model gives no answer instead of stopping at its edge; the last level's failing
+samples then tell which share of them is valid. The report's ``pf`` counts only the valid ones
+(as crude Monte Carlo does), the interval runs from that reading's lower end to the upper end
+of the reading that counts the invalid runs as failed, and the status says so.
 
 The coefficient of variation follows Au and Beck: ``delta_i^2 = (1 - p_i)/(N p_i) (1 +
 gamma_i)`` with ``gamma_i = 2 sum_k (1 - k/N_s) rho_i(k)`` from the correlation of the failure
@@ -101,8 +107,8 @@ def level_cov(p: float, n: int, gamma: float) -> float:
 
 
 def _mcmc_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float, sigma: float,
-               rng: np.random.Generator, tag: str) -> tuple[np.ndarray, np.ndarray, int]:
-    """One modified-Metropolis step of every chain; returns new states, values, accepted."""
+               rng: np.random.Generator, tag: str) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """One modified-Metropolis step of every chain: new states, values, accepted, invalid."""
     xi = u + sigma * rng.standard_normal(u.shape)
     ratio = np.exp(-0.5 * (xi * xi - u * u))
     keep = rng.random(u.shape) < np.minimum(1.0, ratio)
@@ -110,19 +116,22 @@ def _mcmc_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float, 
     moved = keep.any(axis=1)
     u_new, g_new = u.copy(), g.copy()
     accepted = 0
+    invalid = 0
     if moved.any():
         res = ev.evaluate(cand[moved], tag)
-        ok = (res["status"] == 0) & (res["g"] <= b)
+        g_c = np.where(res["status"] == 0, res["g"], -np.inf)  # invalid: read as failed
+        ok = g_c <= b
         idx = np.flatnonzero(moved)[ok]
         u_new[idx] = cand[idx]
-        g_new[idx] = res["g"][ok]
+        g_new[idx] = g_c[ok]
         accepted = int(ok.sum())
-    return u_new, g_new, accepted
+        invalid = int(np.sum(res["status"] != 0))
+    return u_new, g_new, accepted, invalid
 
 
 def _acs_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
               sigma: np.ndarray, rng: np.random.Generator, tag: str
-              ) -> tuple[np.ndarray, np.ndarray, int]:
+              ) -> tuple[np.ndarray, np.ndarray, int, int]:
     """One conditional-sampling step of every chain (Papaioannou et al. 2015, Alg. 2).
 
     The candidate ``rho u + sqrt(1 - rho^2) xi`` leaves the standard normal invariant, so it
@@ -131,16 +140,17 @@ def _acs_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
     rho = np.sqrt(1.0 - sigma**2)
     cand = rho * u + sigma * rng.standard_normal(u.shape)
     res = ev.evaluate(cand, tag)
-    ok = (res["status"] == 0) & (res["g"] <= b)
+    g_c = np.where(res["status"] == 0, res["g"], -np.inf)  # invalid: read as failed
+    ok = g_c <= b
     u_new, g_new = u.copy(), g.copy()
     u_new[ok] = cand[ok]
-    g_new[ok] = res["g"][ok]
-    return u_new, g_new, int(ok.sum())
+    g_new[ok] = g_c[ok]
+    return u_new, g_new, int(ok.sum()), int(np.sum(res["status"] != 0))
 
 
 def _threshold(g: np.ndarray, n_seeds: int) -> float:
-    """The ``n_seeds``-th smallest value (NaN = failed runs sort last)."""
-    return float(np.sort(np.where(np.isfinite(g), g, np.inf))[n_seeds - 1])
+    """The ``n_seeds``-th smallest value (invalid runs, ``-inf``, sort first)."""
+    return float(np.sort(g)[n_seeds - 1])
 
 
 def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float
@@ -154,7 +164,14 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
     rng0 = np.random.default_rng(np.random.SeedSequence([seed, 0]))
     u = rng0.standard_normal((n, ev.dim))
     res = ev.evaluate(u, "subset/level0")
-    g = np.where(res["status"] == 0, res["g"], np.nan)
+    # an invalid run is read as failed while exploring (g = -inf): the chains then enter where
+    # the model fails, and the last level tells which share of the failing samples is valid
+    g = np.where(res["status"] == 0, res["g"], -np.inf)
+    if not np.any(res["status"] == 0):
+        return failure_report(ev, "subset", pf=math.nan, interval_kind="none",
+                              confidence=confidence, settings=s, seed=seed,
+                              wall_time=time.perf_counter() - t0, status=2,
+                              message=f"every one of the {n} model runs of level 0 failed")
     chains = None  # (n_seeds, n_states) indices of the level's samples, for gamma
     levels: list[dict[str, Any]] = []
     status, message = 0, ""
@@ -162,12 +179,14 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
         b = _threshold(g, n_seeds)
         final = b <= 0.0
         b_next = 0.0 if final else b
-        below = np.isfinite(g) & (g <= b_next)
+        below = g <= b_next
         p_level = float(below.mean())
         gamma = 0.0 if chains is None else chain_correlation_factor(below[chains])
         levels.append({"threshold": b_next, "p": p_level, "gamma": gamma,
                        "cov": level_cov(p_level, n, gamma), "n": int(g.size),
-                       "invalid": int(np.sum(~np.isfinite(g)))})
+                       "invalid": int(np.sum(np.isneginf(g))),
+                       "valid_share": float(np.mean(np.isfinite(g[below]))) if below.any()
+                       else 1.0})
         if final or p_level == 0.0:
             break
         if level == s["max_levels"]:
@@ -175,10 +194,11 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
             message = (f"max_levels={s['max_levels']} reached at threshold {b:.4g} > 0; pf is "
                        "an upper bound (the product of the levels so far)")
             break
-        order = np.argsort(np.where(np.isfinite(g), g, np.inf), kind="stable")[:n_seeds]
+        order = np.argsort(g, kind="stable")[:n_seeds]
         u, g, chains, acc = _grow_chains(ev, u[order], g[order], b, sampler, n_states, n,
                                          seed, level + 1)
-        levels[-1]["acceptance"] = acc
+        levels[-1]["acceptance"] = acc[0] / max(acc[2], 1)
+        levels[-1]["accepted"], levels[-1]["invalid_candidates"] = acc[0], acc[1]
     return _report(ev, s, seed, confidence, levels, status, message, t0)
 
 
@@ -201,19 +221,19 @@ class _Sampler:
 
     def grow(self, ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
              rng: np.random.Generator, tag: str, seeds_spread: np.ndarray, batch: int
-             ) -> tuple[np.ndarray, np.ndarray, int]:
+             ) -> tuple[np.ndarray, np.ndarray, int, int]:
         if self.kind == "mma":
             return _mcmc_step(ev, u, g, b, self.proposal_std, rng, tag)
         sigma = np.minimum(1.0, self.scale * seeds_spread)
-        u_new, g_new, accepted = _acs_step(ev, u, g, b, sigma, rng, tag)
+        u_new, g_new, accepted, invalid = _acs_step(ev, u, g, b, sigma, rng, tag)
         rate = accepted / max(u.shape[0], 1)
         self.scale *= math.exp((rate - self.TARGET_ACCEPTANCE) / math.sqrt(batch))
-        return u_new, g_new, accepted
+        return u_new, g_new, accepted, invalid
 
 
 def _grow_chains(ev: LimitStateEvaluator, seeds_u: np.ndarray, seeds_g: np.ndarray, b: float,
                  sampler: _Sampler, n_states: int, n: int, seed: int, level: int
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int, int]]:
     """Grow ``len(seeds)`` chains of ``n_states`` states (seed included) inside ``G <= b``.
 
     The chains advance in lockstep, one batch (one design) per step.
@@ -223,15 +243,16 @@ def _grow_chains(ev: LimitStateEvaluator, seeds_u: np.ndarray, seeds_g: np.ndarr
     spread = np.where(spread > 0, spread, 1.0)
     states_u = [seeds_u]
     states_g = [seeds_g]
-    accepted, tried = 0, 0
+    accepted, tried, invalid = 0, 0, 0
     for step in range(1, n_states):
         rng = np.random.default_rng(np.random.SeedSequence([seed, level, step]))
         tag = f"subset/level{level}/step{step}"
-        u_new, g_new, acc = sampler.grow(ev, states_u[-1], states_g[-1], b, rng, tag, spread,
-                                         step)
+        u_new, g_new, acc, inv = sampler.grow(ev, states_u[-1], states_g[-1], b, rng, tag,
+                                              spread, step)
         states_u.append(u_new)
         states_g.append(g_new)
         accepted += acc
+        invalid += inv
         tried += n_chains
     u_all = np.stack(states_u, axis=1)  # (chains, states, d)
     g_all = np.stack(states_g, axis=1)
@@ -239,7 +260,7 @@ def _grow_chains(ev: LimitStateEvaluator, seeds_u: np.ndarray, seeds_g: np.ndarr
     flat_g = g_all.reshape(-1)[:n]
     index = np.arange(n_chains * n_states).reshape(n_chains, n_states)
     chains = index if n_chains * n_states == n else index[:, : n // n_chains]
-    return flat_u, flat_g, chains, accepted / max(tried, 1)
+    return flat_u, flat_g, chains, (accepted, invalid, tried)
 
 
 def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
@@ -278,7 +299,19 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
     }
     kind = ("lognormal with the Au-Beck CoV (chain correlation included; the larger of the "
             "uncorrelated-level and fully-correlated-level values)")
+    reasons = []
+    valid_share = levels[-1]["valid_share"]
+    n_inv = ev.n_invalid
+    if n_inv and pf > 0:
+        pf_failed = pf
+        pf, lower = pf * valid_share, lower * valid_share
+        reasons.append((6, f"{n_inv} model runs were invalid; subset simulation read them as "
+                        f"failed while exploring: with them pf would be {pf_failed:.4g}; pf "
+                        f"counts only the valid failing samples of the last level "
+                        f"({valid_share:.0%}); the interval covers both readings"))
     return failure_report(ev, "subset", pf=pf, pf_lower=lower, pf_upper=upper, cov=cov,
                           interval_kind=kind, confidence=confidence, settings=s, seed=seed,
                           wall_time=time.perf_counter() - t0, status=status, message=message,
+                          reasons=reasons, grid_gap=ev.grid_gap_fraction * pf
+                          if ev.time_dependent else math.nan,
                           pf_is_upper_bound=bound, extra=extra)
