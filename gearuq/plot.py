@@ -401,8 +401,12 @@ def plot_reliability_curves(
         label = " = ".join(group)
         if not np.any(finite):
             label += " (pf = 0 throughout)" if quantity != "r" else " (no finite value)"
+        # the system's markers are open rings: a component with nearly the same value
+        # (the one that dominates the system) stays visible inside
         (line,) = ax.plot(tt, y, lw=1.8 if "system" in group else 1.2, color=colour,
-                          label=label, marker="o" if marks.size else None, ms=3.5,
+                          label=label, marker="o" if marks.size else None,
+                          ms=5.0 if "system" in group else 3.5,
+                          mfc="none" if "system" in group else colour,
                           markevery=marks.tolist() if marks.size else None)
         drawn.append((line, tt, lo, hi, marks))
     floor = min(positives) / 10.0 if (log and positives) else None

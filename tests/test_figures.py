@@ -157,3 +157,110 @@ def test_wide_band_is_not_declared_hidden():
     fig, ax = gplot.plot_reliability_curves(rel.sel(mode=["c"]), quantity="r")
     band = [t for t in _legend_texts(ax) if "band" in t]
     assert band == ["95 % Wilson band"]  # about +-0.02 on R ~ 0.98, at every instant
+
+
+# --------------------------------------------------------------------------------------------
+# the default study (gearuq demo): its figures and the summary's identical rows
+# --------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    from gearuq.registry import DEFAULT_STUDY, get_study
+
+    out = tmp_path_factory.mktemp("demo")
+    assert get_study(DEFAULT_STUDY)(out, n_samples=1000, seed=7, progress=False) == 0
+    return out
+
+
+def test_demo_summary_says_which_rows_are_identical_and_why(demo):
+    import gearuq
+
+    text = (demo / "summary.txt").read_text()
+    table: dict[str, str] = {}  # the first table (Table 3 analog), first row of each DOF
+    for ln in text.splitlines():
+        if ln.split()[:1] and ln.split()[0] in ("x_p", "y_p", "z_p", "theta_py"):
+            table.setdefault(ln.split()[0], ln)
+    assert table["y_p"].endswith("= x_p") and table["z_p"].endswith("= x_p")
+    assert not table["theta_py"].endswith("= x_p")
+    assert "Identical rows (marked '= name'): x_p = y_p = z_p; x_g = y_g = z_g" in text
+    # the stated reason, with the direction cosines' ratios of the model's geometry
+    a_n, b = np.radians(25.0), np.radians(17.0)
+    ny_nx, nz_nx = np.cos(b) / np.tan(a_n), np.sin(b) / np.tan(a_n)
+    assert f"v2 = {ny_nx:.5g} v1" in text and f"v8 = {nz_nx:.5g} v6" in text
+    assert "k_r = k_a = 5.968e+06 N/m" in text and "n_x : n_y : n_z" in text
+    # and the data bear it out: the responses are proportional with exactly these ratios
+    ds = gearuq.load(demo / "helical_pair_mc.nc")
+    for ref, other, ratio in (("v1", "v2", ny_nx), ("v1", "v3", nz_nx), ("v6", "v7", ny_nx)):
+        x, y = ds[ref].values, ds[other].values
+        assert np.max(np.abs(y - ratio * x)) <= 1e-9 * np.max(np.abs(y))
+
+
+def test_equal_support_stiffness_is_what_makes_the_translations_proportional():
+    """The stated mechanism can fail: with k_a != k_r the axial response is no longer the
+    radial one scaled by n_z / n_x (the model, one nominal sample)."""
+    import gearuq
+
+    model = gearuq.get_model("helical_pair")
+    tau = np.linspace(0.0, 200.0, 401)
+    nz_nx = np.sin(np.radians(17.0)) / np.tan(np.radians(25.0))
+    same = model.response({}, tau, outputs=["v1", "v3"])
+    x, z = same["v1"].values[0], same["v3"].values[0]
+    assert np.max(np.abs(z - nz_nx * x)) < 1e-8 * np.max(np.abs(z))
+    stiff = model.response({"k_a": [2 * 5.968e6]}, tau, outputs=["v1", "v3"])
+    x, z = stiff["v1"].values[0], stiff["v3"].values[0]
+    assert np.max(np.abs(z - nz_nx * x)) > 0.05 * np.max(np.abs(z))
+
+
+def test_demo_reliability_figure_lists_every_dof_and_shows_the_band(demo):
+    import gearuq
+    from gearuq_plugins.studies.helical_pair_reliability import (
+        DOF_NAMES,
+        _first_passage_figure,
+        _reliability_figure,
+    )
+
+    rel = gearuq.load(demo / "reliability_margin.nc")
+    fig = _reliability_figure(rel)
+    ax_r, ax_pf = fig.axes[:2]
+    texts = _legend_texts(ax_r)
+    listed = [name for t in texts for name in t.split(" = ")]
+    assert set(DOF_NAMES) | {"system"} <= set(listed)
+    assert "x_p = y_p = z_p" in texts and "x_g = y_g = z_g" in texts
+    assert any(t.startswith("95 % Wilson band") for t in texts)
+    assert any(t.startswith("no failure observed: pf below") for t in _legend_texts(ax_pf))
+    assert ax_pf.get_yscale() == "log"
+    # the system's first-passage band has a visible height (a flat curve with ~n^-1/2 band)
+    fp = rel.sel(mode="system").isel(time=-1)
+    assert float(fp["r_first_passage_upper"] - fp["r_first_passage_lower"]) > 0.02
+    assert _overlapping_tick_labels(fig) == []
+    fig = _first_passage_figure(rel)
+    listed = [name for t in _legend_texts(fig.axes[0]) for name in t.split(" = ")]
+    assert set(DOF_NAMES) | {"system"} <= set(listed)
+
+
+def test_demo_fits_figure_has_units_on_every_axis(demo):
+    import gearuq
+    from gearuq_plugins.studies.helical_pair_reliability import DOF_NAMES, _fits_figure
+
+    ds = gearuq.load(demo / "helical_pair_mc.nc")
+    unit = ds.attrs["length_scale"]
+    assert unit == "1e-05 m"
+    fits = {}
+    for i, dof in enumerate(DOF_NAMES):
+        dev = np.abs(ds[f"v{i + 1}"].values[:, -1])
+        fits[dof] = (dev, gearuq.fit_distributions(dev, candidates=("normal", "weibull")))
+    fig = _fits_figure(fits, unit)
+    for ax, dof in zip(fig.axes, DOF_NAMES, strict=True):
+        assert ax.get_xlabel().endswith("[1e-05 m arc]" if dof.startswith("theta")
+                                        else "[1e-05 m]"), ax.get_xlabel()
+        assert ax.get_ylabel() == "probability density"
+    assert _overlapping_tick_labels(fig) == []
+    assert _overlapping_axis_labels(fig) == []
+
+
+def _overlapping_axis_labels(fig) -> list[str]:
+    """Pairs of x-axis labels of neighbouring panels that run into each other."""
+    fig.draw_without_rendering()
+    renderer = fig.canvas.get_renderer()
+    boxes = [(ax.get_xlabel(), ax.xaxis.label.get_window_extent(renderer)) for ax in fig.axes]
+    return [f"{a} / {b}" for i, (a, ba) in enumerate(boxes) for b, bb in boxes[i + 1:]
+            if ba.overlaps(bb)]
