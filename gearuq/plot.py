@@ -122,7 +122,7 @@ def _declutter_ticks(fig: Figure, axes: Iterable[Axes]) -> None:
     """Use fewer ticks on any axis whose tick labels overlap (long labels, narrow panels).
 
     The figure is laid out once (as when saved at its size), then each axis with overlapping
-    labels gets a locator with fewer bins until its labels are at least a quarter of the font
+    labels gets a locator with fewer bins until its labels are at least half the font
     size apart; the limits are not changed.
     """
     from matplotlib.ticker import MaxNLocator
@@ -136,7 +136,7 @@ def _declutter_ticks(fig: Figure, axes: Iterable[Axes]) -> None:
             labels = [t for t in axis.get_majorticklabels() if t.get_text()]
             if not labels:
                 continue
-            pad = 0.25 * labels[0].get_fontsize() * fig.dpi / 72.0
+            pad = 0.5 * labels[0].get_fontsize() * fig.dpi / 72.0  # about one space
             nbins = len(labels)
             while nbins > 2 and _labels_overlap(axis, renderer, pad):
                 nbins -= 1
@@ -261,6 +261,7 @@ def plot_time_panels(
             a.set_xlabel(tl)
             a.set_ylabel(yl)
         a_ph.plot(xv[steady], vv[steady], lw=0.5)
+        a_ph.ticklabel_format(useOffset=False)  # read values directly, as in (a) and the section
         a_ph.set_xlabel(xl)
         a_ph.set_ylabel(vl)
         ts, xs = _uniform(tt[steady], xv[steady])
@@ -268,7 +269,7 @@ def plot_time_panels(
         fplot = freq / f_exc if normalize_frequency else freq
         a_sp.plot(fplot, amp, lw=0.8)
         if normalize_frequency:
-            a_sp.set_xlabel("frequency / excitation frequency")
+            a_sp.set_xlabel("frequency / excitation frequency [1]")
         else:
             a_sp.set_xlabel(_frequency_label(tu))
         x_units = x.attrs.get("units", units[0]) if isinstance(x, xr.DataArray) else units[0]

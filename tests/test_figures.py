@@ -47,10 +47,14 @@ def test_time_panels_tick_labels_do_not_overlap():
     series = {"x_p (p1)": (xp, vp), "z_g (p8)": (xg, vg), "theta_gy (p9)": (x4, v4)}
     fig, axes = gplot.plot_time_panels(t, series, period, t_start=300 * period,
                                        normalize_frequency=True, fmax=4.0, x_name="p",
-                                       v_name="dp/dtau", time_units="tau",
+                                       v_name="dp/dtau", time_units="1",
+                                       units=("1e-05 m", "1e-05 m"),
                                        time_window=12 * period, figsize=(16.0, 9.0))
     assert axes.shape == (3, 5)
     assert _overlapping_tick_labels(fig) == []
+    assert _overlapping_axis_labels(fig) == []
+    for ax in axes.ravel():  # a unit on every axis
+        assert ax.get_xlabel().endswith("]") and ax.get_ylabel().endswith("]"), ax.get_title()
     # the limits are untouched: the Poincare panel still centres its one point
     lo, hi = axes[0, 4].get_xlim()
     assert lo < xp[-1] < hi
