@@ -553,7 +553,9 @@ def plot_fit(
         ax.plot(grid, pdf, lw=1.5 if rank == 1 else 1.0, ls="-" if rank == 1 else "--",
                 label=f"{rank}. {name}")
     ax.set_xlabel(xlabel or _label(samples, "response"))
-    ax.set_ylabel("probability density")
+    units = samples.attrs.get("units") if isinstance(samples, xr.DataArray) else None
+    ax.set_ylabel("probability density" + (f" [1/({units})]" if units not in (None, "", "1")
+                                           else ""))
     ax.legend(fontsize=8)
     return fig, ax
 

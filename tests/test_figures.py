@@ -256,7 +256,11 @@ def test_demo_fits_figure_has_units_on_every_axis(demo):
     for ax, dof in zip(fig.axes, DOF_NAMES, strict=True):
         assert ax.get_xlabel().endswith("[1e-05 m arc]" if dof.startswith("theta")
                                         else "[1e-05 m]"), ax.get_xlabel()
-        assert ax.get_ylabel() == "probability density"
+        assert ax.get_ylabel() == "probability density [1/(" + ax.get_xlabel()[
+            ax.get_xlabel().index("[") + 1:-1] + ")]"
+    titles = [ax.get_title() for ax in fig.axes]
+    assert titles[1].startswith("y_p = 2.0508 x_p") and titles[7].startswith("z_g = 0.62699 x_g")
+    assert titles[0].startswith("x_p: ") and titles[3].startswith("theta_py: ")
     assert _overlapping_tick_labels(fig) == []
     assert _overlapping_axis_labels(fig) == []
 

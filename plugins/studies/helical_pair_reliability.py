@@ -338,7 +338,9 @@ def _first_passage_figure(rel: Any) -> Any:
         ax.step(tau, np.maximum(curves[group[0]], floor), where="post", color=cmap(i % 10),
                 lw=1.2, label=" = ".join(group))
     y = rel["pf_first_passage"].sel(mode="system").values
-    ax.step(tau, np.maximum(y, floor), where="post", color="k", lw=2.0, label="system")
+    # under the components, wider: the DOF that dominates the system stays visible on it
+    ax.step(tau, np.maximum(y, floor), where="post", color="k", lw=3.0, label="system",
+            zorder=1.5)
     ax.axhline(floor, color="0.4", ls=":", lw=1.0)
     ax.text(tau[0], floor * 1.15, f"detection limit 1/n = {floor:.0e} (no failure yet)",
             fontsize=8, color="0.3")
@@ -508,13 +510,19 @@ def _fits_figure(fits: dict[str, tuple[np.ndarray, Any]], length_unit: str) -> A
     axes = fig.subplots(2, 5)
     # fixed margins: constrained layout costs ~1 s on this 10-panel figure
     fig.subplots_adjust(left=0.04, right=0.99, bottom=0.08, top=0.9, wspace=0.3, hspace=0.35)
+    seen: dict[str, np.ndarray] = {}
     for ax, (dof, (dev, fit)) in zip(axes.ravel(), fits.items(), strict=True):
         i = DOF_NAMES.index(dof) + 1
+        # a panel that is an earlier one rescaled (proportional responses) says so
+        same = next((f" = {c:.5g} {d}" for d, ref in seen.items()
+                     if (c := float(np.sum(dev * ref) / np.sum(ref * ref))) > 0
+                     and np.max(np.abs(dev - c * ref)) <= 1e-9 * np.max(dev)), "")
+        seen.setdefault(dof, dev)
         unit = length_unit + (" arc" if dof.startswith("theta") else "")
         data = xr.DataArray(dev, attrs={"units": unit, "long_name": f"|v{i}| at tau = 200"})
         plot.plot_fit(data, fit, top=3, ax=ax)
         ax.set_xlim(np.quantile(dev, 0.002), dev.max() * 1.01)  # the tail to 0 is sparse
-        ax.set_title(f"{dof}: best {fit.best}")
+        ax.set_title(f"{dof}{same}: best {fit.best}")
     fig.suptitle("Deviation magnitude |v| = |p - p_static| at tau = 200: histogram and "
                  f"fitted pdfs (by AIC); translations in units of {length_unit}, rotations as "
                  f"pitch-circle arcs (r theta) in units of {length_unit}")
