@@ -86,6 +86,63 @@ def _frequency_label(time_units: str | None) -> str:
     return f"frequency [1/{time_units}]"
 
 
+def _identical_groups(curves: Mapping[str, Sequence[Any]]) -> list[list[str]]:
+    """Keys whose arrays are all exactly equal (NaN equal to NaN), in order of appearance.
+
+    Curves that coincide exactly would hide each other (the last drawn covers the rest and
+    only its colour is seen), so they are drawn once with one label naming all of them.
+    """
+    groups: list[list[str]] = []
+    reps: list[Sequence[Any]] = []
+    for key, arrays in curves.items():
+        for group, rep in zip(groups, reps, strict=True):
+            if all((a is None and b is None) or (a is not None and b is not None and np.array_equal(
+                    np.asarray(a, dtype=float), np.asarray(b, dtype=float), equal_nan=True))
+                   for a, b in zip(arrays, rep, strict=True)):
+                group.append(key)
+                break
+        else:
+            groups.append([key])
+            reps.append(arrays)
+    return groups
+
+
+def _labels_overlap(axis: Any, renderer: Any, pad: float) -> bool:
+    """True when two neighbouring tick labels of ``axis`` are closer than ``pad`` pixels."""
+    boxes = [t.get_window_extent(renderer) for t in axis.get_majorticklabels()
+             if t.get_text()]
+    if axis.axis_name == "x":
+        spans = sorted((b.x0, b.x1) for b in boxes)
+    else:
+        spans = sorted((b.y0, b.y1) for b in boxes)
+    return any(nxt[0] < prev[1] + pad for prev, nxt in zip(spans, spans[1:], strict=False))
+
+
+def _declutter_ticks(fig: Figure, axes: Iterable[Axes]) -> None:
+    """Use fewer ticks on any axis whose tick labels overlap (long labels, narrow panels).
+
+    The figure is laid out once (as when saved at its size), then each axis with overlapping
+    labels gets a locator with fewer bins until its labels are at least half the font
+    size apart; the limits are not changed.
+    """
+    from matplotlib.ticker import MaxNLocator
+
+    fig.draw_without_rendering()
+    renderer = fig.canvas.get_renderer()
+    for a in axes:
+        for axis in (a.xaxis, a.yaxis):
+            if axis.get_scale() != "linear":
+                continue
+            labels = [t for t in axis.get_majorticklabels() if t.get_text()]
+            if not labels:
+                continue
+            pad = 0.5 * labels[0].get_fontsize() * fig.dpi / 72.0  # about one space
+            nbins = len(labels)
+            while nbins > 2 and _labels_overlap(axis, renderer, pad):
+                nbins -= 1
+                axis.set_major_locator(MaxNLocator(nbins=nbins, steps=[1, 2, 2.5, 5, 10]))
+
+
 def _uniform(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Resample onto a uniform grid (same count) when ``t`` is not uniform, for the FFT."""
     steps = np.diff(t)
@@ -204,6 +261,7 @@ def plot_time_panels(
             a.set_xlabel(tl)
             a.set_ylabel(yl)
         a_ph.plot(xv[steady], vv[steady], lw=0.5)
+        a_ph.ticklabel_format(useOffset=False)  # read values directly, as in (a) and the section
         a_ph.set_xlabel(xl)
         a_ph.set_ylabel(vl)
         ts, xs = _uniform(tt[steady], xv[steady])
@@ -211,7 +269,7 @@ def plot_time_panels(
         fplot = freq / f_exc if normalize_frequency else freq
         a_sp.plot(fplot, amp, lw=0.8)
         if normalize_frequency:
-            a_sp.set_xlabel("frequency / excitation frequency")
+            a_sp.set_xlabel("frequency / excitation frequency [1]")
         else:
             a_sp.set_xlabel(_frequency_label(tu))
         x_units = x.attrs.get("units", units[0]) if isinstance(x, xr.DataArray) else units[0]
@@ -232,6 +290,7 @@ def plot_time_panels(
                   "Poincaré section")
         for c, (a, title) in enumerate(zip(axes[r], titles, strict=True)):
             a.set_title(f"({letters[(r * 5 + c) % 26]}) {label}: {title}", fontsize=9)
+    _declutter_ticks(fig, axes.ravel())
     return fig, axes
 
 
@@ -272,6 +331,20 @@ def plot_reliability_curves(
     Returns
     -------
     fig, ax
+
+    Notes
+    -----
+    So that nothing the figure promises is hidden:
+
+    * modes whose curves (value and band) are identical are drawn once, labelled with all
+      their names (``"x_p = y_p"``): drawn one over the other, only the last would be seen;
+    * an instant with failures between two without any (a spike one sample wide, where a
+      band is only a sliver) is marked with a dot and its interval drawn as a vertical bar;
+    * the band has its own legend entry naming the interval; where the band is narrower
+      than the line it is hidden by it, and the entry says below which width that happens;
+    * on a log ``pf`` axis an estimate of zero cannot be drawn: the upper bound at the
+      instants without failures is drawn once, as a hatched strip from the bottom of the
+      axis (labelled), instead of one band per mode stacked on each other.
     """
     if quantity not in ("r", "pf", "beta"):
         raise ValueError(f"quantity must be 'r', 'pf' or 'beta', got {quantity!r}")
@@ -284,17 +357,12 @@ def plot_reliability_curves(
         ds = ds.sel(mode=list(modes))
     has_band = band and "pf_lower" in ds and "pf_upper" in ds
     tcoord = ds["time"] if "time" in ds.coords else None
-    positives: list[float] = []
-    drawn = []
-    modes_shown = [str(m) for m in ds["mode"].values]
-    component = [m for m in modes_shown if m != "system"]
-    # distinct colours for every component (tab10 repeats after ten); the series system black
-    cmap = matplotlib.colormaps["tab10" if len(component) <= 10 else "tab20"]
-    colours = {m: cmap(i % cmap.N) for i, m in enumerate(component)} | {"system": "k"}
+    curves: dict[str, tuple] = {}
     for m in ds["mode"].values:
         one = ds.sel(mode=m)
         tt = _values(one["time"]) if tcoord is not None else np.arange(one[quantity].size)
         y = _values(one[quantity])
+        pf = _values(one["pf"]) if "pf" in one else None
         lo = hi = None
         if has_band:
             pl, pu = _values(one["pf_lower"]), _values(one["pf_upper"])
@@ -305,29 +373,80 @@ def plot_reliability_curves(
             else:
                 with np.errstate(divide="ignore"):
                     lo, hi = -norm.ppf(pu), -norm.ppf(pl)
+        curves[str(m)] = (tt, y, lo, hi, pf)
+    groups = _identical_groups({m: c[1:4] for m, c in curves.items()})
+    n_comp = sum("system" not in g for g in groups)
+    # distinct colours for every curve (tab10 repeats after ten); the series system black
+    cmap = matplotlib.colormaps["tab10" if n_comp <= 10 else "tab20"]
+    positives: list[float] = []
+    drawn = []
+    k = 0
+    for group in groups:
+        tt, y, lo, hi, pf = curves[group[0]]
+        if "system" in group:
+            colour = "k"
+        else:
+            colour, k = cmap(k % cmap.N), k + 1
+        spike = np.zeros(y.shape, dtype=bool)
+        if pf is not None:
+            fail = np.nan_to_num(pf) > 0
+            spike = fail & ~np.r_[False, fail[:-1]] & ~np.r_[fail[1:], False]
         if log:
             for arr in (y, lo, hi):
                 if arr is not None:
                     positives.extend(arr[np.isfinite(arr) & (arr > 0)].tolist())
             y = np.where(y > 0, y, np.nan)
-        label = str(m)
-        if not np.any(np.isfinite(y)):
+        finite = np.isfinite(y)
+        isolated = finite & ~np.r_[False, finite[:-1]] & ~np.r_[finite[1:], False]
+        marks = np.flatnonzero((spike & finite) | isolated)
+        label = " = ".join(group)
+        if not np.any(finite):
             label += " (pf = 0 throughout)" if quantity != "r" else " (no finite value)"
-        (line,) = ax.plot(tt, y, lw=1.8 if str(m) == "system" else 1.2,
-                          color=colours[str(m)], label=label)
-        drawn.append((line, tt, lo, hi))
+        # the system's markers are open rings: a component with nearly the same value
+        # (the one that dominates the system) stays visible inside
+        (line,) = ax.plot(tt, y, lw=1.8 if "system" in group else 1.2, color=colour,
+                          label=label, marker="o" if marks.size else None,
+                          ms=5.0 if "system" in group else 3.5,
+                          mfc="none" if "system" in group else colour,
+                          markevery=marks.tolist() if marks.size else None)
+        drawn.append((line, tt, lo, hi, marks))
     floor = min(positives) / 10.0 if (log and positives) else None
-    for line, tt, lo, hi in drawn:
+    level = rel_ds.attrs.get("confidence_level", rel_ds.attrs.get("confidence"))
+    kind = str(rel_ds.attrs.get("interval", "confidence")).capitalize()
+    level_txt = f"{float(level):.0%}".replace("%", " %") if level is not None else ""
+    zero_hi: np.ndarray | None = None
+    widths = []
+    for line, tt, lo, hi, marks in drawn:
         if lo is None:
             continue
-        if log and floor is not None:
-            lo = np.where(lo > 0, lo, floor)
-            hi = np.where(hi > 0, hi, floor)
         lo = np.where(np.isfinite(lo), lo, np.nan)
         hi = np.where(np.isfinite(hi), hi, np.nan)
+        if log and quantity == "pf":
+            none = ~(lo > 0)  # no failure observed: the interval is [0, upper]
+            zh = np.where(none, hi, np.nan)
+            zero_hi = zh if zero_hi is None else np.fmax(zero_hi, zh)
+            lo, hi = np.where(none, np.nan, lo), np.where(none, np.nan, hi)
+        elif log and floor is not None:
+            lo = np.where(lo > 0, lo, floor)
+            hi = np.where(hi > 0, hi, floor)
         ax.fill_between(tt, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
+        if marks.size:  # above the lines, so a bar is not hidden by another curve
+            ax.vlines(tt[marks], lo[marks], hi[marks], color=line.get_color(), lw=2.5,
+                      alpha=0.6, zorder=3)
+        widths.append((line.get_linewidth(), np.log10(hi / lo) if log else hi - lo))
     if log:
         ax.set_yscale("log")
+        if floor is not None:
+            ax.set_ylim(bottom=floor)
+    if zero_hi is not None and np.any(np.isfinite(zero_hi)) and floor is not None:
+        top = float(np.nanmax(zero_hi))
+        ax.fill_between(drawn[0][1], floor, zero_hi, facecolor="none", edgecolor="0.55",
+                        hatch="///", lw=0,
+                        label=f"no failure observed: pf below {top:.1e} "
+                              f"({level_txt} upper bound)")
+    if has_band:
+        ax.fill_between([], [], [], color="0.5", alpha=0.3, lw=0,
+                        label=_band_label(fig, ax, widths, log, f"{level_txt} {kind} band"))
     names = {
         "r": "reliability R",
         "pf": "failure probability pf",
@@ -335,7 +454,6 @@ def plot_reliability_curves(
     }
     ax.set_ylabel(names[quantity])
     ax.set_xlabel(_label(tcoord, "time") if tcoord is not None else "index")
-    level = rel_ds.attrs.get("confidence_level", rel_ds.attrs.get("confidence"))
     title = names[quantity]
     if has_band:
         title += " (band: " + (f"{float(level):.0%} interval)" if level is not None
@@ -344,6 +462,30 @@ def plot_reliability_curves(
     ax.legend(title="mode", fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     return fig, ax
+
+
+def _band_label(fig: Figure, ax: Axes, widths: list[tuple[float, np.ndarray]], log: bool,
+                name: str) -> str:
+    """Legend text of a band; says below which width the line hides it, if it does anywhere.
+
+    The line's width in data units follows from the laid-out axes height and its y limits
+    (in decades on a log axis).
+    """
+    fig.draw_without_rendering()
+    height_pt = ax.get_window_extent().height * 72.0 / fig.dpi
+    y0, y1 = ax.get_ylim()
+    span = np.log10(y1 / y0) if log else y1 - y0
+    hidden = []
+    for lw, w in widths:
+        thr = lw / max(height_pt, 1e-9) * abs(span)
+        w = w[np.isfinite(w)]
+        if np.any((w > 0) & (w < thr)):
+            hidden.append(thr)
+    if not hidden:
+        return name.strip()
+    thr = max(hidden)
+    what = f"upper/lower < {10 ** thr:.3g}" if log else f"narrower than {thr:.1g}"
+    return f"{name.strip()} (hidden by the line where {what})"
 
 
 # --------------------------------------------------------------------------------------------
@@ -411,7 +553,9 @@ def plot_fit(
         ax.plot(grid, pdf, lw=1.5 if rank == 1 else 1.0, ls="-" if rank == 1 else "--",
                 label=f"{rank}. {name}")
     ax.set_xlabel(xlabel or _label(samples, "response"))
-    ax.set_ylabel("probability density")
+    units = samples.attrs.get("units") if isinstance(samples, xr.DataArray) else None
+    ax.set_ylabel("probability density" + (f" [1/({units})]" if units not in (None, "", "1")
+                                           else ""))
     ax.legend(fontsize=8)
     return fig, ax
 

@@ -13,6 +13,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 
 import gearuq
 from gearuq import plot, signal
@@ -50,17 +51,24 @@ def main(out: Path, n_rpm: float = 3600.0, torque: float = 2600.0, periods: int 
           f"half backlash {b5 * 1e6:.0f} um: contact lost "
           f"{100 * np.mean(np.abs(d) <= b5):.1f} % of the time, back-side impacts: "
           f"{'yes' if (d < -b5).any() else 'no'}")
+    # p is a length in units of L (the option length_scale, default 1e-05 m); rotations are
+    # pitch-circle arcs r theta in the same unit; tau = omega_n t is nondimensional, so dp/dtau
+    # has the unit of p
+    length = str(ds.attrs.get("length_scale", "1")).split(" (")[0]
+    t_da = xr.DataArray(tau, dims="time",
+                        attrs={"long_name": "tau = omega_n t", "units": "1"})
     for pair in DOFS:
         series = {}
         for name in pair:
             i = STATE[name]
             series[f"{name} (p{i})"] = (ds[f"p{i}"].values[0], ds[f"dp{i}"].values[0])
-        fig, _ = plot.plot_time_panels(tau, series, period, t_start, normalize_frequency=True,
+        unit = length + (" arc" if pair[0].startswith("theta") else "")
+        fig, _ = plot.plot_time_panels(t_da, series, period, t_start, normalize_frequency=True,
                                        fmax=4.0, x_name="p", v_name="dp/dtau",
-                                       time_units="tau",
+                                       units=(unit, unit),  # tau is nondimensional
                                        time_window=12 * period)
         fig.suptitle(f"helical_pair, n = {n_rpm:g} rpm, T = {torque:g} N m: {pair[0]} / "
-                     f"{pair[1]} (nondimensional)")
+                     f"{pair[1]} (p in units of {length}, rotations as pitch-circle arcs)")
         plot.save_figure(fig, out / f"fig4_{pair[0]}_{pair[1]}.png")
         for name in pair:
             i = STATE[name]

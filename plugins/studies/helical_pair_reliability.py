@@ -143,7 +143,9 @@ def run(
     rows, fits = _table3_rows(ds, band_rows, rel_tol.isel(time=-1), rel.isel(time=-1))
     sweep = _margin_sweep(ds, band_rows)
     t_post = time.perf_counter()
-    written += _figures(rel, fits, out)
+    # unit of the nondimensional outputs, e.g. "1e-05 m" ("b5 (...)" with the seed's scaling)
+    unit = str(ds.attrs.get("length_scale", "1")).split(" (")[0]
+    written += _figures(rel, fits, out, unit)
     t_fig = time.perf_counter() - t_post
     store_note = _store_note(store, keep_chunks, reused, n_chunks)
     timing = (f"Monte Carlo wall time {t_mc:.1f} s ({t_mc / n_samples * 1e3:.2f} ms/sample "
@@ -151,7 +153,7 @@ def run(
               f"total {time.perf_counter() - wall0:.1f} s")
     (out / "table3.json").write_text(json.dumps(rows, indent=1))
     written.append(out / "table3.json")
-    text = _report(n_samples, seed, space, ds, rows, rel_tol.isel(time=-1),
+    text = _report(n_samples, seed, space, ds, rows, band_rows, rel_tol.isel(time=-1),
                    rel.isel(time=-1), sweep, timing, store_note)
     (out / "summary.txt").write_text(text + "\n")
     written.append(out / "summary.txt")
@@ -168,13 +170,18 @@ def _margin_bands(model: Any, tau: np.ndarray) -> tuple[list, list[dict[str, Any
     """Bands |v_i| <= MARGIN x the nominal design's largest vibration (one nominal run)."""
     from gearuq.failure.modes import Band
 
-    nominal = model.response({}, tau, outputs=VIB_OUTPUTS)
+    nominal = model.response({}, tau, outputs=VIB_OUTPUTS + [f"p{i + 1}" for i in range(10)]
+                             + ["length_unit"])
+    length = float(nominal["length_unit"].values[0])  # [m] per unit of p and v
     bands, rows = [], []
-    for v, dof in zip(VIB_OUTPUTS, DOF_NAMES, strict=True):
+    for i, (v, dof) in enumerate(zip(VIB_OUTPUTS, DOF_NAMES, strict=True)):
         amp = float(np.abs(nominal[v].values[0]).max())
         bands.append(Band(v, -MARGIN * amp, MARGIN * amp, name=dof))
+        static = nominal[f"p{i + 1}"].values[0] - nominal[v].values[0]
         rows.append({"dof": dof, "output": v, "nominal_amplitude": amp,
-                     "margin_half_width": MARGIN * amp})
+                     "margin_half_width": MARGIN * amp,
+                     "nominal_static_m": float(np.median(static)) * length,
+                     "nominal_amplitude_m": amp * length})
     return bands, rows
 
 
@@ -252,21 +259,60 @@ def _margin_sweep(ds: Any, band_rows: list[dict[str, Any]]) -> list[tuple[float,
     return sweep
 
 
-def _figures(rel: Any, fits: dict[str, tuple], out: Path) -> list[Path]:
+def _figures(rel: Any, fits: dict[str, tuple], out: Path, length_unit: str) -> list[Path]:
     from gearuq import plot
 
-    fig, ax = plot.plot_reliability_curves(rel, quantity="r")
-    fp = 1.0 - rel["pf_first_passage"].sel(mode="system")
-    ax.plot(rel["time"], fp, "k--", lw=1.5, label="system, first passage")
-    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8)
-    ax.set_title(f"R(t) for |v| <= {MARGIN:g} x nominal largest vibration (95 % Wilson band)")
-    fig.set_size_inches(10, 4.8)
     paths = [out / "reliability_R_t.png", out / "failure_probability_t.png",
              out / "fitted_distributions.png"]
-    plot.save_figure(fig, paths[0])
+    plot.save_figure(_reliability_figure(rel), paths[0])
     plot.save_figure(_first_passage_figure(rel), paths[1])
-    _plot_fits(fits, paths[2])
+    plot.save_figure(_fits_figure(fits, length_unit), paths[2])
     return paths
+
+
+def _reliability_figure(rel: Any) -> Any:
+    """R(t) per DOF (a), and 1 - R(t) on a log axis (b) where the band can be read.
+
+    With 10^4 samples the 95 % Wilson band is [1 - 3.8e-4, 1] at an instant without
+    failures: 0.1 % of panel (a)'s height, thinner than the line (its legend entry says
+    so). Panel (b) shows that bound as a hatched strip; failures happen at a few instants
+    only, whose intervals are drawn as bars in both panels. The system's first-passage
+    reliability is a flat curve with a band of visible width.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from gearuq import plot
+
+    fig = Figure(figsize=(11, 8.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax_r, ax_pf = fig.subplots(2, 1, sharex=True)
+    tau = rel["time"].values
+    system = rel.sel(mode="system")
+    fp = {"r": ("r_first_passage", "r_first_passage_lower", "r_first_passage_upper"),
+          "pf": ("pf_first_passage", "pf_first_passage_lower", "pf_first_passage_upper")}
+    for ax, q in ((ax_r, "r"), (ax_pf, "pf")):
+        plot.plot_reliability_curves(rel, quantity=q, ax=ax)
+        y, lo, hi = (system[name].values for name in fp[q])
+        if q == "pf":  # nothing failed yet: no point on the log axis (the strip shows it)
+            y, lo, hi = (np.where(system["pf_first_passage_lower"].values > 0, a, np.nan)
+                         for a in (y, lo, hi))
+        ax.plot(tau, y, "k--", lw=1.5, label="system, first passage")
+        ax.fill_between(tau, lo, hi, color="k", alpha=0.15, lw=0)
+    ax_r.set_title(f"(a) reliability R(t) at each instant, |v| <= {MARGIN:g} x nominal largest "
+                   "vibration, 95 % Wilson band", fontsize=10)
+    ax_pf.set_title("(b) 1 - R(t) on a log axis: the band where no sample failed (hatched) "
+                    "is readable here", fontsize=10)
+    ax_r.set_ylabel("reliability R [1]")
+    ax_pf.set_ylabel("1 - R = failure probability [1]")
+    ax_r.set_xlabel("")
+    ax_r.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8, title="mode")
+    handles, labels = ax_pf.get_legend_handles_labels()
+    shown = set(ax_r.get_legend_handles_labels()[1]) - {"system, first passage"}
+    keep = [(h, lab) for h, lab in zip(handles, labels, strict=True) if lab not in shown]
+    ax_pf.legend(*zip(*keep, strict=True), loc="center left", bbox_to_anchor=(1.01, 0.5),
+                 fontsize=8, title="colours as in (a)")
+    return fig
 
 
 def _first_passage_figure(rel: Any) -> Any:
@@ -285,12 +331,16 @@ def _first_passage_figure(rel: Any) -> Any:
     ax = fig.subplots()
     cmap = matplotlib.colormaps["tab10"]
     tau = rel["time"].values
-    for i, mode in enumerate(m for m in rel["mode"].values if m != "system"):
-        y = rel["pf_first_passage"].sel(mode=mode).values
-        ax.step(tau, np.maximum(y, floor), where="post", color=cmap(i % 10), lw=1.2,
-                label=str(mode))
+    curves = {str(m): rel["pf_first_passage"].sel(mode=m).values for m in rel["mode"].values
+              if m != "system"}
+    # exactly equal curves would hide each other: one curve, labelled with all its DOFs
+    for i, group in enumerate(_groups({m: y.tobytes() for m, y in curves.items()})):
+        ax.step(tau, np.maximum(curves[group[0]], floor), where="post", color=cmap(i % 10),
+                lw=1.2, label=" = ".join(group))
     y = rel["pf_first_passage"].sel(mode="system").values
-    ax.step(tau, np.maximum(y, floor), where="post", color="k", lw=2.0, label="system")
+    # under the components, wider: the DOF that dominates the system stays visible on it
+    ax.step(tau, np.maximum(y, floor), where="post", color="k", lw=3.0, label="system",
+            zorder=1.5)
     ax.axhline(floor, color="0.4", ls=":", lw=1.0)
     ax.text(tau[0], floor * 1.15, f"detection limit 1/n = {floor:.0e} (no failure yet)",
             fontsize=8, color="0.3")
@@ -316,7 +366,8 @@ def _store_note(store: Path, keep: bool, reused: int, n_chunks: int) -> str:
 
 
 def _report(n_samples: int, seed: int, space: Any, ds: Any, rows: list[dict[str, Any]],
-            at_end: Any, margin_end: Any, sweep: list, timing: str, store_note: str) -> str:
+            band_rows: list[dict[str, Any]], at_end: Any, margin_end: Any, sweep: list,
+            timing: str, store_note: str) -> str:
     """The printed summary (also written to summary.txt)."""
     system, msys = at_end.sel(mode="system"), margin_end.sel(mode="system")
     n_failed = int((ds["status"].values != 0).sum())
@@ -331,30 +382,102 @@ def _report(n_samples: int, seed: int, space: Any, ds: Any, rows: list[dict[str,
         f"{'DOF':<9} {'P_f':>7} {'[lower, upper]':>17} {'R':>7} {'beta':>7} {'beta_MV':>7} "
         f"{'best fit':>9} {'KS':>6} {'Pf_fit':>8}  AIC ranking",
     ]
+    table = {}
     for r in rows:
         beta = f"{r['beta']:.3f}" + (">" if r["beta_lower_bound"] else " ")
-        lines.append(
-            f"{r['dof']:<9} {r['pf']:7.4f} [{r['pf_lower']:.4f}, {r['pf_upper']:.4f}] "
+        table[r["dof"]] = (
+            f"{r['pf']:7.4f} [{r['pf_lower']:.4f}, {r['pf_upper']:.4f}] "
             f"{r['R']:7.4f} {beta:>7} {r['beta_mean_value']:7.3f} {r['best_fit']:>9} "
             f"{r['ks']:6.3f} {r['pf_fit']:8.4f}  {r['ranking']}")
+    margin = {r["dof"]: f"{r['margin_pf_instant']:12.4f} {r['margin_pf_first_passage']:25.4f}"
+              for r in rows}
+    same = [g for g in _groups(table) if len(g) > 1]
+    same_margin = [g for g in _groups(margin) if len(g) > 1]
+    lines += _marked(table, same)
     lines += [
         f"{'system':<9} {float(system['pf']):7.4f} [{float(system['pf_lower']):.4f}, "
         f"{float(system['pf_upper']):.4f}] {float(system['r']):7.4f} "
         f"{float(system['beta']):7.3f}  (series system of the 10 DOFs, same samples)",
-        "('>' marks a beta that is a lower bound: no failure observed)", _fit_note(rows), "",
+        "('>' marks a beta that is a lower bound: no failure observed)", _fit_note(rows),
+        *_identical_rows_note(same + [g for g in same_margin if g not in same], ds,
+                              band_rows), "",
         f"Design-margin bands ({MARGIN_RULE}):",
         f"{'DOF':<9} {'Pf(tau=200)':>12} {'Pf first passage [0,200]':>25}",
     ]
-    lines += [f"{r['dof']:<9} {r['margin_pf_instant']:12.4f} "
-              f"{r['margin_pf_first_passage']:25.4f}" for r in rows]
+    lines += _marked(margin, same_margin)
     lines += [
         f"{'system':<9} {float(msys['pf']):12.4f} {float(msys['pf_first_passage']):25.4f}",
+        *(["('= name' marks a row identical to that DOF's: see the note on identical rows "
+           "above)"] if same_margin else []),
         "(first passage is checked at the output instants only: a lower bound)",
         "system first-passage P_f over [0, 200] against the margin: " + ", ".join(
             f"{m:g}x: {p:.4f} (upper {u:.4f})" for m, p, u in sweep),
         "", seed_beta_explanation(), "", timing, store_note,
     ]
     return "\n".join(lines)
+
+
+def _marked(table: dict[str, str], same: list[list[str]]) -> list[str]:
+    """Table lines; a row identical to an earlier one ends with ``= <that DOF>``."""
+    first = {dof: g[0] for g in same for dof in g[1:]}
+    return [f"{dof:<9} {body}" + (f"  = {first[dof]}" if dof in first else "")
+            for dof, body in table.items()]
+
+
+def _identical_rows_note(groups: list[list[str]], ds: Any,
+                         band_rows: list[dict[str, Any]]) -> list[str]:
+    """Say which rows are identical, show that their responses are proportional, and why.
+
+    The ratio of each response to the group's first one is fitted over every sample and
+    instant (least squares) and its largest deviation reported; the mechanism is stated
+    only when the ratios are the mesh force's direction cosines and k_r = k_a, which is
+    what makes the translations of one gear the same oscillator.
+    """
+    if not groups:
+        return []
+    rows = {r["dof"]: r for r in band_rows}
+    valid = ds["status"].values == 0
+    a_n, b = np.radians(float(ds["alpha_n"][0])), np.radians(float(ds["beta"][0]))
+    n = {"x": np.sin(a_n), "y": np.cos(a_n) * np.cos(b), "z": np.cos(a_n) * np.sin(b)}
+    ratios, cosines = [], True
+    for g in groups:
+        ref = rows[g[0]]["output"]
+        x = ds[ref].values[valid]
+        for dof in g[1:]:
+            out = rows[dof]["output"]
+            y = ds[out].values[valid]
+            c = float(np.sum(x * y) / np.sum(x * x))
+            dev = float(np.max(np.abs(y - c * x)) / np.max(np.abs(y)))
+            ratios.append(f"{out} = {c:.5g} {ref} (deviation {dev:.0e})")
+            translation = g[0][0] in n and dof[0] in n and dof[1:] == g[0][1:]
+            cosines &= translation and abs(c - n[dof[0]] / n[g[0][0]]) < 1e-8 * abs(c)
+    lines = [
+        "Identical rows (marked '= name'): " + "; ".join(" = ".join(g) for g in groups)
+        + ". Not a copying error: in every sample at every instant their responses are "
+        "exactly proportional, " + ", ".join(ratios) + " (largest deviation from the "
+        "fitted ratio over all samples and instants, relative to the largest value)."]
+    k_equal = bool(np.all(ds["k_r"].values == ds["k_a"].values))
+    if cosines and k_equal:
+        trans = [r for r in band_rows if r["dof"][0] in n]
+        static = [abs(r["nominal_static_m"]) for r in trans]
+        vib = max(r["nominal_amplitude_m"] for r in trans)
+        clear = max(float(np.max(ds[c].values)) for c in ("b1", "b2", "b3", "b4"))
+        lines.append(
+            "Why: each gear's x, y and z translations carry the same mass, sit on supports "
+            f"of equal stiffness (k_r = k_a = {float(ds['k_r'][0]):.4g} N/m in every sample) "
+            "and damping, and stay outside their bearing clearances (nominal static "
+            f"deflections {min(static) * 1e3:.2f}-{max(static) * 1e3:.2f} mm, vibrations up "
+            f"to {vib * 1e6:.1f} um, half clearances up to {clear * 1e6:.0f} um), so each is "
+            "the same linear oscillator driven by the mesh force's fluctuation times its "
+            "direction cosine on the line of action: v_x : v_y : v_z = n_x : n_y : n_z = "
+            "sin a_n : cos a_n cos b : cos a_n sin b = 1 : "
+            f"{n['y'] / n['x']:.5g} : {n['z'] / n['x']:.5g} (a_n = {np.degrees(a_n):g} deg, "
+            f"b = {np.degrees(b):g} deg), the ratios above. Both band rules scale with the "
+            "response (margin: the nominal amplitude; tolerance: the pilot's mean and std), "
+            "so a sample fails the x, y and z bands together, and P_f, beta, beta_MV and the "
+            "fitted families (scale-invariant) repeat. It is one failure mode counted three "
+            "times per gear; the series system counts it once.")
+    return lines
 
 
 def _fit_note(rows: list[dict[str, Any]]) -> str:
@@ -370,20 +493,45 @@ def _fit_note(rows: list[dict[str, Any]]) -> str:
             "P_f, not Pf_fit, here.")
 
 
-def _plot_fits(fits: dict[str, tuple[np.ndarray, Any]], path: Path) -> None:
-    """2 x 5 grid: histogram of |p - p_static| at tau = 200 with the top fitted pdfs."""
+def _fits_figure(fits: dict[str, tuple[np.ndarray, Any]], length_unit: str) -> Any:
+    """2 x 5 grid: histogram of |p - p_static| at tau = 200 with the top fitted pdfs.
+
+    ``length_unit`` is the unit of the nondimensional outputs (the dataset's attribute
+    ``length_scale``, e.g. "1e-05 m"); rotations are pitch-circle arcs in that unit.
+    """
+    import xarray as xr
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     from gearuq import plot
 
     fig = Figure(figsize=(17, 7))
+    FigureCanvasAgg(fig)
     axes = fig.subplots(2, 5)
     # fixed margins: constrained layout costs ~1 s on this 10-panel figure
     fig.subplots_adjust(left=0.04, right=0.99, bottom=0.08, top=0.9, wspace=0.3, hspace=0.35)
+    seen: dict[str, np.ndarray] = {}
     for ax, (dof, (dev, fit)) in zip(axes.ravel(), fits.items(), strict=True):
-        plot.plot_fit(dev, fit, top=3, ax=ax)
+        i = DOF_NAMES.index(dof) + 1
+        # a panel that is an earlier one rescaled (proportional responses) says so
+        same = next((f" = {c:.5g} {d}" for d, ref in seen.items()
+                     if (c := float(np.sum(dev * ref) / np.sum(ref * ref))) > 0
+                     and np.max(np.abs(dev - c * ref)) <= 1e-9 * np.max(dev)), "")
+        seen.setdefault(dof, dev)
+        unit = length_unit + (" arc" if dof.startswith("theta") else "")
+        data = xr.DataArray(dev, attrs={"units": unit, "long_name": f"|v{i}| at tau = 200"})
+        plot.plot_fit(data, fit, top=3, ax=ax)
         ax.set_xlim(np.quantile(dev, 0.002), dev.max() * 1.01)  # the tail to 0 is sparse
-        ax.set_title(f"{dof}: best {fit.best}")
-        ax.set_xlabel("|v| = |p - p_static| at tau = 200")
-    fig.suptitle("Deviation magnitude at tau = 200: histogram and fitted pdfs (by AIC)")
-    plot.save_figure(fig, path)
+        ax.set_title(f"{dof}{same}: best {fit.best}")
+    fig.suptitle("Deviation magnitude |v| = |p - p_static| at tau = 200: histogram and "
+                 f"fitted pdfs (by AIC); translations in units of {length_unit}, rotations as "
+                 f"pitch-circle arcs (r theta) in units of {length_unit}")
+    return fig
+
+
+def _groups(keys: dict[str, Any]) -> list[list[str]]:
+    """Names with equal keys, grouped in order of first appearance."""
+    out: dict[Any, list[str]] = {}
+    for name, key in keys.items():
+        out.setdefault(key, []).append(name)
+    return list(out.values())
