@@ -69,7 +69,7 @@ def _rel(n: int = 10_000, seed: int = 1):
     import xarray as xr
 
     import gearuq
-    from gearuq.probability import Band
+    from gearuq.failure.modes import Band
 
     rng = np.random.default_rng(seed)
     t = np.linspace(0.0, 50.0, 51)
@@ -104,7 +104,7 @@ def test_identical_modes_are_drawn_once_and_all_listed():
 
 
 def test_band_is_drawn_and_says_where_the_line_hides_it():
-    from gearuq.probability import wilson_interval
+    from gearuq.failure.intervals import wilson_interval
 
     rel = _rel()
     n = int(rel.attrs["n_valid"])
