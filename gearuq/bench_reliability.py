@@ -30,10 +30,12 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["run", "cases", "main"]
+__all__ = ["run", "cases", "main", "coverage", "coverage_cases"]
 
 _START = "<!-- reliability-bench:start -->"
 _END = "<!-- reliability-bench:end -->"
+_COV_START = "<!-- reliability-coverage:start -->"
+_COV_END = "<!-- reliability-coverage:end -->"
 
 
 def cases(quick: bool = False) -> list[tuple[str, str, str, dict[str, Any]]]:
@@ -223,30 +225,149 @@ def markdown(rows: list[dict[str, Any]], quick: bool, n_seeds: int) -> str:
     return "\n".join(head + body) + "\n"
 
 
-def update_docs(path: Path, table: str) -> None:
-    """Replace the text between the reliability markers of ``path`` (append if missing)."""
+def update_docs(path: Path, table: str, markers: tuple[str, str] = (_START, _END),
+                heading: str = "## `gearuq bench reliability`\n\nRare-event methods against "
+                "crude Monte Carlo on exact references; method notes in "
+                "[reliability.md](reliability.md).") -> None:
+    """Replace the text between ``markers`` in ``path`` (append with ``heading`` if missing)."""
+    start, end = markers
     text = path.read_text() if path.exists() else ""
-    block = f"{_START}\n{table}{_END}"
-    if _START in text and _END in text:
-        before = text[: text.index(_START)]
-        after = text[text.index(_END) + len(_END):]
+    block = f"{start}\n{table}{end}"
+    if start in text and end in text:
+        before = text[: text.index(start)]
+        after = text[text.index(end) + len(end):]
         text = before + block + after
     else:
-        text = (text.rstrip("\n") + "\n\n## `gearuq bench reliability`\n\n"
-                "Rare-event methods against crude Monte Carlo on exact references; method "
-                "notes in [reliability.md](reliability.md).\n\n" + block + "\n")
+        text = text.rstrip("\n") + "\n\n" + heading + "\n\n" + block + "\n"
     path.write_text(text)
 
 
-def main(quick: bool = False, out: str = "gearuq_bench", docs: str | None = "auto") -> int:
-    """Entry for ``gearuq bench reliability``: run, print, write; return 0.
+def main(quick: bool = False, out: str = "gearuq_bench", docs: str | None = "auto",
+         with_coverage: bool = False, seeds: int | None = None, workers: int = 1) -> int:
+    """Entry for ``gearuq bench reliability [--coverage]``: run, print, write; return 0.
 
     ``docs="auto"`` updates ``docs/benchmarks.md`` when run from a source checkout (the file
     exists relative to the working directory); ``None`` leaves the docs alone.
     """
     if docs == "auto":
         docs = "docs/benchmarks.md" if Path("docs/benchmarks.md").is_file() else None
-    run(Path(out), quick=quick, docs=docs)
+    if with_coverage:
+        coverage(Path(out), quick=quick, docs=docs, seeds=seeds, workers=workers)
+    else:
+        run(Path(out), quick=quick, docs=docs)
     if docs is not None:
         print(f"reliability table written into {docs}")
     return 0
+
+
+# =========================================================================== coverage
+def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]:
+    """``(problem, method, settings)`` of the coverage benchmark."""
+    rows: list[tuple[str, str, dict[str, Any]]] = []
+    for problem in ("offset", "resistance_load", "oscillator", "four_branch", "parabola",
+                    "jump", "linear_100d", "exponential_sum", "nan_tail"):
+        rows.append((problem, "mc", {"n_samples": 20_000 if quick else 100_000}))
+        rows.append((problem, "importance", {}))
+        rows.append((problem, "subset", {}))
+        if problem not in ("linear_100d", "offset", "exponential_sum") and not quick:
+            rows.append((problem, "akmcs", {"max_runs": 150, "n_mc": 50_000,
+                                            "max_mc": 400_000}))
+    return rows
+
+
+def _coverage_task(args: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
+    from gearuq.testing.reliability_problems import reliability_problems
+
+    name, method, settings, seed = args
+    return _one(reliability_problems()[name], method, settings, seed)
+
+
+def coverage_row(name: str, method: str, ref: float, runs: list[dict[str, Any]]
+                 ) -> dict[str, Any]:
+    """Mean, bias, empirical and reported CoV, coverage and runs of one (problem, method)."""
+    pf = np.array([r["pf"] for r in runs])
+    ok = np.array([r["status"] == 0 for r in runs])
+    held = np.array([bool(r["covered"]) for r in runs])
+    finite = np.isfinite(pf)
+    mean = float(pf[finite].mean()) if finite.any() else math.nan
+    sd = float(pf[finite].std(ddof=1)) if finite.sum() > 1 else math.nan
+    se = sd / math.sqrt(finite.sum()) if finite.sum() > 1 else math.nan
+    rep_cov = [r["cov"] for r in runs if math.isfinite(r["cov"])]
+    return {"problem": name, "method": method, "reference": ref, "seeds": len(runs),
+            "pf_mean": mean, "bias_se": (mean - ref) / se if se and se > 0 else math.nan,
+            "cov_empirical": sd / ref, "cov_reported": float(np.mean(rep_cov)) if rep_cov
+            else math.nan, "n_status0": int(ok.sum()),
+            "coverage_status0": float(held[ok].mean()) if ok.any() else math.nan,
+            "held_or_flagged": float(np.mean(held | ~ok)),
+            "statuses": sorted({int(r["status"]) for r in runs}),
+            "runs": float(np.mean([r["runs"] for r in runs])),
+            "wall": float(np.mean([r["wall"] for r in runs]))}
+
+
+def coverage(out: str | Path = "gearuq_bench_reliability", quick: bool = False,
+             docs: str | Path | None = None, seeds: int | None = None, workers: int = 1,
+             cases_: list[tuple[str, str, dict[str, Any]]] | None = None) -> dict[str, Any]:
+    """Interval coverage of every method over many seeds against exact references.
+
+    For each (problem, method): the mean Pf, its bias in standard errors, the empirical CoV
+    (spread of the estimates over the seeds) against the mean reported one, how many runs
+    had status 0, the share of those whose interval holds the reference (the honesty
+    target: >= 90 %), and the share of all runs whose interval holds or whose status is
+    nonzero. ``workers`` > 1 runs seeds in parallel processes.
+    """
+    import concurrent.futures as cf
+
+    from gearuq.testing.reliability_problems import reliability_problems
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    n_seeds = seeds if seeds is not None else (5 if quick else 20)
+    problems = reliability_problems()
+    todo = cases_ if cases_ is not None else coverage_cases(quick)
+    tasks = [(name, method, settings, 1000 + k) for name, method, settings in todo
+             for k in range(n_seeds)]
+    if workers > 1:
+        with cf.ProcessPoolExecutor(workers) as pool:
+            results = list(pool.map(_coverage_task, tasks, chunksize=1))
+    else:
+        results = [_coverage_task(t) for t in tasks]
+    rows = []
+    for i, (name, method, _) in enumerate(todo):
+        row = coverage_row(name, method, problems[name]["pf"],
+                           results[i * n_seeds:(i + 1) * n_seeds])
+        rows.append(row)
+        print(f"  {name:<16} {method:<10} status0 {row['n_status0']:>2}/{n_seeds} coverage "
+              f"{_fmt(row['coverage_status0'], '.0%')} held-or-flagged "
+              f"{row['held_or_flagged']:.0%} runs {row['runs']:.0f}", flush=True)
+    text = coverage_markdown(rows, quick, n_seeds)
+    (out / "reliability_coverage.md").write_text(text)
+    (out / "reliability_coverage.json").write_text(json.dumps(rows, indent=1, default=float))
+    if docs is not None:
+        update_docs(Path(docs), text, (_COV_START, _COV_END),
+                    "## Interval coverage: `gearuq bench reliability --coverage`")
+    print(text)
+    return {"rows": rows, "markdown": text}
+
+
+def coverage_markdown(rows: list[dict[str, Any]], quick: bool, n_seeds: int) -> str:
+    """The coverage table as markdown."""
+    head = [
+        f"Measured by `gearuq bench reliability --coverage{' --quick' if quick else ''}`, "
+        f"{n_seeds} seeds per row (seeds 1000-{999 + n_seeds}). *status 0*: runs where the "
+        "method vouched for its interval; *coverage*: share of those whose 95 % interval "
+        "holds the reference (target >= 90 %); *held or flagged*: share of all runs whose "
+        "interval holds or whose status is nonzero; *bias*: (mean Pf - reference) in "
+        "standard errors of the mean; *CoV emp.*: spread of the estimates over the seeds / "
+        "reference, against the mean reported CoV.",
+        "",
+        "| problem | Pf ref | method | mean Pf | bias [se] | CoV emp. | CoV rep. | status 0 "
+        "| coverage | held or flagged | statuses | model runs |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    body = [
+        f"| {r['problem']} | {r['reference']:.3g} | {r['method']} | {_fmt(r['pf_mean'], '.3g')}"
+        f" | {_fmt(r['bias_se'], '+.1f')} | {_fmt(r['cov_empirical'], '.2f')} | "
+        f"{_fmt(r['cov_reported'], '.2f')} | {r['n_status0']}/{r['seeds']} | "
+        f"{_fmt(r['coverage_status0'], '.0%')} | {r['held_or_flagged']:.0%} | "
+        f"{','.join(map(str, r['statuses']))} | {r['runs']:.0f} |" for r in rows]
+    return "\n".join(head + body) + "\n"

@@ -19,12 +19,14 @@ import xarray as xr
 
 from gearuq._version import __version__
 
-#: Status codes shared by every model. Plugins may add codes >= 16 with their own meanings.
+#: Status codes shared by every model. Plugins may add codes >= 16 (``PLUGIN_STATUS_MIN``)
+#: with their own meanings; 5-15 are kept free for future shared codes.
 STATUS_OK = 0
 STATUS_STEP_LIMIT = 1
 STATUS_STEP_UNDERFLOW = 2
 STATUS_NONFINITE = 3
 STATUS_MODEL_ERROR = 4
+PLUGIN_STATUS_MIN = 16
 STATUS_MEANINGS: dict[int, str] = {
     STATUS_OK: "ok",
     STATUS_STEP_LIMIT: "step_limit_reached",
@@ -330,6 +332,13 @@ class Evaluation:
     coords: dict[str, tuple] = field(default_factory=dict)
     attrs: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, tuple] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        low = sorted(c for c in self.status_meanings if int(c) < PLUGIN_STATUS_MIN)
+        if low:
+            raise ValueError(f"status codes {low} of a plugin: plugin codes start at "
+                             f"{PLUGIN_STATUS_MIN} (0-{PLUGIN_STATUS_MIN - 1} are shared: "
+                             f"{STATUS_MEANINGS})")
 
 
 class Model:

@@ -39,8 +39,8 @@ DOFS = (
 
 #: Status codes of this model beyond gearuq.model's 0..4 (always declared, so that every
 #: chunk of a run carries the same flag attributes).
-STATUS_STATIC_NOT_FINITE = 5
-STATUS_LENGTH_SCALE_ZERO = 6
+STATUS_STATIC_NOT_FINITE = 16
+STATUS_LENGTH_SCALE_ZERO = 17
 STATUS_MEANINGS = {
     STATUS_STATIC_NOT_FINITE: "static_equilibrium_not_finite",
     STATUS_LENGTH_SCALE_ZERO: "length_scale_b5_is_zero",
