@@ -67,10 +67,12 @@ _ALIASES = {"montecarlo": "mc", "is": "importance", "ss": "subset"}
 
 def check_method(method: Any) -> str:
     """The table key of a method name (case, ``-`` and ``_`` ignored; a few aliases)."""
+    if method in METHOD_TABLE:
+        return str(method)
     key = str(method).strip().lower().replace("-", "").replace("_", "")
     key = _ALIASES.get(key, key)
     if key not in METHOD_TABLE:
-        raise ValueError(f"method: unknown {method!r}; valid: {', '.join(METHODS)}")
+        raise ValueError(f"method: unknown {method!r}; valid: {', '.join(METHOD_TABLE)}")
     return key
 
 

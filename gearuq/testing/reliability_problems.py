@@ -359,7 +359,6 @@ def rice_rate_gaussian(level: float, m0: float, m2: float) -> float:
     return math.sqrt(m2 / m0) / (2 * math.pi) * math.exp(-level * level / (2 * m0))
 
 
-# =========================================================================== all of them
 # =========================================================================== curved tail
 #: Level of ``g = c - sum of eight Exp(1)``: Pf = P(Gamma(8, 1) >= c) = 5.2e-6.
 EXPONENTIAL_SUM_LEVEL = 27.0
@@ -408,6 +407,7 @@ def nan_tail_model() -> FunctionModel:
                          description="g = 3 - x1, NaN where x1 > 3.2")
 
 
+# =========================================================================== all of them
 def reliability_problems() -> dict[str, dict[str, Any]]:
     """The static problems by name: ``{"model", "space", "limit_state", "pf", "source"}``."""
     from gearuq.failure.modes import LimitState, SeriesSystem
