@@ -20,7 +20,7 @@ from gearuq.model import Model, Request
 from gearuq.space import ParameterSpace
 
 __all__ = ["resolve_model", "resolve_model_and_space", "resolve_seed", "provenance",
-           "check_positive_int"]
+           "check_positive_int", "merge_model_options"]
 
 _MAX_SEED = 2**63 - 1
 
@@ -136,3 +136,15 @@ def provenance(engine: str, model: Model, request: Request | None, space: Parame
         attrs[k] = json.dumps(v, sort_keys=True, default=repr) if isinstance(v, (dict, list)) \
             else ("none" if v is None else v)
     return attrs
+
+
+def merge_model_options(model_options: Mapping[str, Any] | None, options: Mapping[str, Any],
+                        engine: str) -> dict[str, Any]:
+    """Model options of an engine call: ``model_options=`` (the spelling every engine
+    accepts) merged with options given as keywords (the shorthand of the engines whose
+    keywords are not method settings); one name given both ways is refused."""
+    both = sorted(set(model_options or {}) & set(options))
+    if both:
+        raise ValueError(f"{engine}: model option(s) {both} given both in model_options and as "
+                         "keywords; give each once")
+    return {**dict(model_options or {}), **dict(options)}

@@ -18,6 +18,7 @@ from scipy import stats
 
 from gearuq.engines.common import (
     check_positive_int,
+    merge_model_options,
     provenance,
     resolve_model_and_space,
     resolve_seed,
@@ -72,6 +73,7 @@ def monte_carlo(
     store: str | os.PathLike | None = None,
     progress: bool | None = None,
     memory_limit: float | None = None,
+    model_options: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> xr.Dataset:
     """Evaluate a model on ``n_samples`` draws of a parameter space.
@@ -113,9 +115,11 @@ def monte_carlo(
     memory_limit : float, optional
         Bytes an in-memory result may take (default 60 % of the available memory); a larger
         run without ``store`` is refused before it starts.
+    model_options : mapping, optional
+        Declared model options (solver/fidelity settings, see ``gearuq models NAME``); every
+        engine accepts this spelling. Here they may also be given as keywords.
     **options
-        Declared model options (solver/fidelity settings, see ``gearuq models NAME``),
-        validated before the design is drawn.
+        Model options as keywords, validated before the design is drawn.
 
     Returns
     -------
@@ -143,6 +147,7 @@ def monte_carlo(
     """
     model, space = resolve_model_and_space(model, space)
     n_samples = check_positive_int("n_samples", n_samples)
+    options = merge_model_options(model_options, options, "monte_carlo")
     request = model.prepare(t, outputs=outputs, **options)
     seed = resolve_seed(rng)
     rule = rule.lower() if isinstance(rule, str) else rule

@@ -46,6 +46,7 @@ from scipy import stats
 
 from gearuq.engines.common import (
     check_positive_int,
+    merge_model_options,
     provenance,
     resolve_model_and_space,
     resolve_seed,
@@ -442,12 +443,13 @@ def sobol_indices(
     confidence: float = 0.95,
     rng: Any = None,
     method: str = "mc",
-    executor: Any = "serial",
+    executor: Any = None,
     pce_order: int | str = "auto",
     pce_options: dict[str, Any] | None = None,
     store: str | os.PathLike | None = None,
     chunk_size: int | None = None,
     progress: bool | None = False,
+    model_options: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> xr.Dataset:
     # Long only by its documented keywords; the body is design -> evaluate -> analyse.
@@ -481,8 +483,11 @@ def sobol_indices(
         ``order`` and extra keywords of :func:`gearuq.engines.pce.polynomial_chaos`.
     store : path-like, optional
         Directory of a durable, resumable evaluation (same arguments and seed resume it).
+    model_options : mapping, optional
+        Declared model options (solver/fidelity settings, see ``gearuq models NAME``); every
+        engine accepts this spelling, validated before the design is drawn.
     **options
-        Declared model options, validated before the design is drawn.
+        The same model options as keywords (give each once).
 
     Returns
     -------
@@ -507,6 +512,7 @@ def sobol_indices(
     model, space = resolve_model_and_space(model, space)
     if method == "mc":
         _require_independent(space, "sobol_indices")
+    options = merge_model_options(model_options, options, "sobol_indices")
     request = model.prepare(t, outputs=outputs, **options)
     names = list(request.outputs)
     _output_dims(model, names)
@@ -655,12 +661,13 @@ def morris_screening(
     num_levels: int = 4,
     outputs: str | Iterable[str] | None = None,
     rng: Any = None,
-    executor: Any = "serial",
+    executor: Any = None,
     n_bootstrap: int = 200,
     confidence: float = 0.95,
     store: str | os.PathLike | None = None,
     chunk_size: int | None = None,
     progress: bool | None = False,
+    model_options: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> xr.Dataset:
     """Morris elementary-effects screening: :func:`morris_design` -> evaluate ->
@@ -680,6 +687,7 @@ def morris_screening(
     wall0 = time.perf_counter()
     model, space = resolve_model_and_space(model, space)
     _require_independent(space, "morris_screening")
+    options = merge_model_options(model_options, options, "morris_screening")
     request = model.prepare(t, outputs=outputs, **options)
     _output_dims(model, list(request.outputs))
     seed = resolve_seed(rng)

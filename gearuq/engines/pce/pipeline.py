@@ -22,6 +22,7 @@ import xarray as xr
 
 from gearuq.engines.common import (
     check_positive_int,
+    merge_model_options,
     provenance,
     resolve_model_and_space,
     resolve_seed,
@@ -103,7 +104,7 @@ def polynomial_chaos(
     sparse_grid: bool = False,
     truncation: float = 1.0,
     compress: int | float | None = None,
-    executor: Any = "serial",
+    executor: Any = None,
     oversampling: float = 2.0,
     solver: str = "lars",
     max_order: int = 6,
@@ -112,6 +113,7 @@ def polynomial_chaos(
     chunk_size: int | None = None,
     progress: bool | None = False,
     store: str | os.PathLike | None = None,
+    model_options: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> PolynomialChaos:
     # Long only by its documented keywords; the body is three calls: design, evaluate, fit.
@@ -161,8 +163,11 @@ def polynomial_chaos(
         ``store/design`` and the hold-out set into ``store/holdout`` (chunk stores of
         :func:`gearuq.execution.evaluate_chunks`); calling again with the same arguments
         (same ``rng`` seed!) reuses every stored chunk.
+    model_options : mapping, optional
+        Declared model options (solver/fidelity settings, see ``gearuq models NAME``); every
+        engine accepts this spelling, validated before the design is drawn.
     **options
-        Declared model options, validated before the design is drawn.
+        The same model options as keywords (give each once).
 
     Returns
     -------
@@ -180,6 +185,7 @@ def polynomial_chaos(
     model, space = resolve_model_and_space(model, space)
     pce = PolynomialChaos(space, order=order, method=method, truncation=truncation,
                           max_order=max_order, solver=solver, compress=compress, germ=germ)
+    options = merge_model_options(model_options, options, "polynomial_chaos")
     request = model.prepare(t, outputs=outputs, **options)
     n_holdout = 0 if not n_holdout else check_positive_int("n_holdout", n_holdout)
     seed = resolve_seed(rng)
@@ -252,7 +258,7 @@ def compare_mc_surrogate(
     n_mc: int,
     n_surrogate: int = 10**6,
     rng: int = 0,
-    executor: Any = "serial",
+    executor: Any = None,
     confidence: float = 0.95,
     mc: xr.Dataset | None = None,
     mc_wall_time: float | None = None,
