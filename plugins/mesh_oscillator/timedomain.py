@@ -85,6 +85,7 @@ def _force_values(model, system, params, u, theta, contact, options):
 def time_block(model, system, params, t, outputs, options, out, extra, status) -> None:
     """Integrate every sample at its ``frequency_ratio`` and fill the time outputs."""
     from gearuq.ode import solve_batch
+    from gearuq_plugins.mesh_oscillator.evaluate import settle_schedule
 
     if t.size and t[0] < 0.0:
         raise ValueError(f"t: instants must be >= 0 (start of the response), got {t[0]}")
@@ -92,9 +93,7 @@ def time_block(model, system, params, t, outputs, options, out, extra, status) -
     omega = params["frequency_ratio"]
     wn = system.expansion.natural_frequency if model.dimensional else np.ones(n)
     tt = t[None, :] * wn[:, None] if options["time"] == "s" else np.broadcast_to(t, (n, t.size))
-    settle = (sweeps.settle_periods(system.mu, omega, options["settle_tolerance"])
-              if options["settle_periods"] is None
-              else np.full(n, options["settle_periods"], dtype=np.int64))
+    settle = settle_schedule(system.mu, omega, options, status)
     offset = 2.0 * math.pi * settle / omega
     t_abs = tt + offset[:, None]
     # the integrator needs strictly increasing instants: integrate the distinct ones

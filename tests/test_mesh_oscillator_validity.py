@@ -1,0 +1,82 @@
+"""mesh_oscillator: valid inputs at the edges of the theory (issue "The remaining holes").
+
+- damping_ratio = 0 (inside the declared range [0, 0.5]): the perturbation gives the undamped
+  forced response (closed form), the sweeps run a bounded settle time and flag the samples
+  whose transient cannot decay (status 19);
+- a force-deflection function that peaks inside the vibration range is flagged (status 18)
+  by both routes, with the numbers kept;
+- the mean deflection of the approximate solution (Eq. 28 with the mean of H u) against
+  time integration, with and without contact loss;
+- the response regions judged by contact and by the linear response of the system.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gearuq_plugins.mesh_oscillator import MeshOscillator, PolynomialForce
+from gearuq_plugins.mesh_oscillator.evaluate import settle_schedule
+from gearuq_plugins.mesh_oscillator.model import STATUS_FORCE_PEAK, STATUS_UNSETTLED
+
+UNDAMPED = {"damping_ratio": 0.0, "alpha_0_0": 1.0, "alpha_0_1": 0.01, "alpha_2_0": 0.0,
+            "alpha_3_0": 0.0, "e_1": 0.0}
+
+
+def test_undamped_perturbation_is_the_undamped_linear_response():
+    """mu = 0 used to raise ZeroDivisionError. In contact (a < 1) the system is linear and
+    undamped: a = alpha_01 / |1 - Omega^2| exactly; the second order reproduces it to
+    O(sigma^2), the branch an upward sweep follows below resonance, the downward one above."""
+    model = MeshOscillator()
+    grid = np.array([0.9, 0.92, 0.94, 0.96, 1.04, 1.06, 1.08, 1.1])
+    ds = model.response(UNDAMPED, outputs=["amplitude_up", "amplitude_down", "n_branches"],
+                        frequencies=grid)
+    assert ds["status"].item() == 0
+    exact = 0.01 / np.abs(1.0 - grid**2)
+    below = grid < 1.0
+    got = np.where(below, ds["amplitude_up"].values[0], ds["amplitude_down"].values[0])
+    rel = np.abs(got - exact) / exact
+    assert rel.max() < 5e-3, rel  # measured 2.5e-3 at |sigma| = 0.1 (second order, |sigma| <= 0.1)
+    first = model.response(UNDAMPED, outputs=["amplitude_up", "amplitude_down"],
+                           frequencies=grid, order=1)
+    got1 = np.where(below, first["amplitude_up"].values[0], first["amplitude_down"].values[0])
+    np.testing.assert_allclose(got1, 0.01 / (2.0 * np.abs(grid - 1.0)), rtol=1e-9)  # Eq. 27
+
+
+def test_undamped_sweep_is_bounded_and_flagged():
+    """mu = 0 used to ask for ~1.3 million settle periods per frequency (a hang): the settle
+    time is capped by max_settle_periods and the sample is flagged as not settled."""
+    options = {"settle_periods": None, "settle_tolerance": 1e-3, "max_settle_periods": 40}
+    status = np.zeros(2, dtype=np.int8)
+    settle = settle_schedule(np.array([0.0, 0.05]), np.array([1.1, 1.1]), options, status)
+    assert settle.tolist() == [40, 25] and status.tolist() == [STATUS_UNSETTLED, 0]
+    model = MeshOscillator()
+    ds = model.response(UNDAMPED, outputs=["amplitude_up", "amplitude_down"],
+                        frequencies=[0.9, 0.95, 1.05, 1.1], method="sweep",
+                        max_settle_periods=40)
+    assert ds["status"].item() == STATUS_UNSETTLED
+    assert "sweep_not_settled" in ds["status"].attrs["flag_meanings"]
+    assert "cannot decay" in ds.attrs["status_reasons"]
+    assert np.all(np.isfinite(ds["amplitude_up"].values))
+    # far from resonance the undamped linear amplitude is still what the sweep measures
+    assert abs(ds["amplitude_up"].values[0, 0] - 0.01 / (1 - 0.81)) < 0.2 * 0.01 / 0.19
+
+
+def test_force_peaking_inside_the_vibration_is_flagged():
+    """f = x - 2 x^3 peaks at x = 1/sqrt(6); with mean force 0.2 and harmonic 0.03 the
+    response would pass the peak: both routes flag the sample (status 18), with a reason in
+    words and the numbers kept; a harmonic too small to reach it stays status 0."""
+    model = MeshOscillator(PolynomialForce.cubic(1.0, -2.0))
+    p = {"mean_force": 0.2, "load_harmonic": 0.03}
+    pert = model.response(p, outputs=["amplitude_up", "mean_deflection", "deflection_scale"])
+    assert pert["status"].item() == STATUS_FORCE_PEAK
+    a = pert["amplitude_up"].values[0]
+    assert np.isfinite(a).sum() > 100  # numbers kept, not dropped
+    x_top = (pert["mean_deflection"] + pert["deflection_scale"] * np.nanmax(a)).item()
+    assert x_top > 1 / np.sqrt(6)  # the reason is real: beyond the force maximum
+    sweep = model.response(p, outputs=["amplitude_up"], n_frequencies=21, method="sweep")
+    assert sweep["status"].item() == STATUS_FORCE_PEAK  # was 2 (step-size underflow)
+    assert "deflection_beyond_force_maximum" in pert["status"].attrs["flag_meanings"]
+    assert "no longer increases" in pert.attrs["status_reasons"]
+    small = model.response({"mean_force": 0.2, "load_harmonic": 0.002},
+                           outputs=["amplitude_up"])
+    assert small["status"].item() == 0
