@@ -48,7 +48,8 @@ def initial_linear(coefs: np.ndarray, omega: np.ndarray) -> np.ndarray:
 
 
 def _perturbation_state(coefs: np.ndarray, omega: np.ndarray, options: dict[str, Any]):
-    """(a, gamma, Delta_0) of the upward-sweep steady state at each sample's ``omega``."""
+    """(a, gamma, separation mean shift) of the upward-sweep steady state at each sample's
+    ``omega`` (:func:`slowflow.separation_mean_shift`)."""
     from gearuq_plugins.mesh_oscillator.perturbation import frequency_response
 
     grids = np.linspace(np.maximum(0.5 * omega, omega - 0.3), omega, 31).T
@@ -56,8 +57,10 @@ def _perturbation_state(coefs: np.ndarray, omega: np.ndarray, options: dict[str,
                              separation=options["separation"])
     a = res.path("up")[:, -1]
     gam = res.path("up", "phase")[:, -1]
-    d0 = res.path("up", "separation")[:, -1, sf.S_D0]
-    return a, gam, d0, res.status
+    sep = res.path("up", "separation")[:, -1, :]
+    shift = np.array([sf.separation_mean_shift(a[i], gam[i], coefs[i], sep[i])
+                      if np.isfinite(a[i]) else np.nan for i in range(a.size)])
+    return a, gam, shift, res.status
 
 
 def _force_values(model, system, params, u, theta, contact, options):
@@ -121,11 +124,12 @@ def time_block(model, system, params, t, outputs, options, out, extra, status) -
     extra["ode_steps_time"] = ("sample", res.n_steps, {"units": "1",
                                                        "long_name": "accepted steps"})
     if "u_perturbation" in outputs:
-        a, gam, d0, st = _perturbation_state(coefs, omega, options)
+        a, gam, shift, st = _perturbation_state(coefs, omega, options)
         up = np.empty_like(u)
         for i in range(n):
             for j in range(theta.shape[1]):
-                up[i, j] = sf.approximate_solution(a[i], gam[i], coefs[i], d0[i], theta[i, j])
+                up[i, j] = sf.approximate_solution(a[i], gam[i], coefs[i], shift[i],
+                                                  theta[i, j])
         out["u_perturbation"] = up
     if model.dimensional:
         ex = system.expansion
