@@ -66,15 +66,37 @@ def linear_amplitude(coefs: np.ndarray, omega: np.ndarray) -> np.ndarray:
     return np.abs(force / (1.0 - omega**2 + 2j * coefs[:, sf.C_MU, None] * omega))
 
 
-def regions(amplitude: np.ndarray, separation: np.ndarray, linear: np.ndarray,
-            tolerance: float, onset: float) -> np.ndarray:
-    """Response regions of seed Fig. 4 (docs/theory/mesh_oscillator.md, "Regions").
+def backbone_shift(coefs: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
+    """Shift of the natural frequency by the stiffness nonlinearity at amplitude ``a`` (the
+    second-order backbone): ``(3/8 alpha_{3,0} - 5/12 alpha_{2,0}^2) a^2``, shape of
+    ``amplitude`` (n, K). Zero when ``alpha_{2,0} = alpha_{3,0} = 0``."""
+    kappa = 0.375 * coefs[:, sf.C_A30] - (5.0 / 12.0) * coefs[:, sf.C_A20] ** 2
+    return kappa[:, None] * amplitude**2
 
-    1: in contact and within ``tolerance`` of the linear amplitude; 2: in contact, farther
-    (nonlinear stiffness, partial contact loss); 3: total contact loss starting (at most
-    ``onset`` of the period out of contact); 4: developed total contact loss.
+
+def regions(amplitude: np.ndarray, separation: np.ndarray, coefs: np.ndarray,
+            omega: np.ndarray, tolerance: float, onset: float) -> np.ndarray:
+    """Response regions of seed Fig. 4 (docs/theory/mesh_oscillator.md, section 9).
+
+    1: in contact, the stiffness nonlinearity engaged by the vibration changes the linear
+    amplitude by at most ``tolerance``; 2: in contact, by more (nonlinear stiffness,
+    partial contact loss); 3: total contact loss starting (at most ``onset`` of the period
+    out of contact); 4: developed total contact loss.
+
+    Regions 1 and 2 are judged by the system, not by the distance of the solution from the
+    exact linear amplitude (which would count the approximation error of a perturbation
+    solution as nonlinearity): the linear system whose natural frequency is the backbone
+    frequency ``1 + delta(a)`` at the response amplitude (:func:`backbone_shift`) is
+    compared with the linear system, at the same frequency and forcing. Without quadratic
+    and cubic stiffness ``delta = 0`` and region 2 does not exist (as in the seed).
     """
-    dev = np.abs(amplitude - linear) > tolerance * np.maximum(linear, 1e-300)
+    om = np.asarray(omega, dtype=float)
+    mu = coefs[:, sf.C_MU, None]
+    shifted = (1.0 + backbone_shift(coefs, np.nan_to_num(amplitude))) ** 2
+    lin = np.abs(1.0 - om**2 + 2j * mu * om)
+    equivalent = np.abs(shifted - om**2 + 2j * mu * om)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dev = np.abs(lin / equivalent - 1.0) > tolerance
     reg = np.where(dev, 2, 1)
     reg = np.where(separation > 0.0, 3, reg)
     return np.where(separation > onset, 4, reg).astype(np.int8)
@@ -275,7 +297,7 @@ def _frequency_block(model, system, params, outputs, options, out, extra, coords
     out["linear_amplitude"] = lin
     for which in ("up", "down"):
         out[f"region_{which}"] = regions(out[f"amplitude_{which}"], out[f"separation_{which}"],
-                                         lin, options["region_tolerance"],
+                                         coefs, grids, options["region_tolerance"],
                                          options["onset_separation"])
     best = np.fmax(out["amplitude_up"], out["amplitude_down"])
     k = np.nanargmax(np.where(np.isnan(best), -np.inf, best), axis=1)

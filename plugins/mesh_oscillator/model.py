@@ -186,8 +186,9 @@ _OPTIONS = (
     Option("atol", 1e-10, "absolute tolerance of the integrator (nondimensional)",
            lower=0.0, upper=1.0),
     Option("ode_method", "dop853", "integration method", choices=("dopri5", "dop853")),
-    Option("region_tolerance", 0.05, "relative departure from the linear amplitude that "
-           "separates region 1 from region 2", lower=0.0, upper=10.0),
+    Option("region_tolerance", 0.05, "relative change of the linear amplitude caused by the "
+           "stiffness nonlinearity at the response amplitude (backbone shift) that separates "
+           "region 1 from region 2", lower=0.0, upper=10.0),
     Option("onset_separation", 0.02, "largest fraction of the period out of contact still "
            "counted as the onset (region 3) rather than developed contact loss (region 4)",
            lower=0.0, upper=1.0),
