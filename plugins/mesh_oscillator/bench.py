@@ -37,6 +37,8 @@ from gearuq_plugins.mesh_oscillator.evaluate import regions
 from gearuq_plugins.mesh_oscillator.model import MeshOscillator
 
 GRID = (0.85, 1.10)
+#: Spread of the per-period amplitudes above which a sweep point is taken as still settling.
+UNSETTLED = 1e-3
 
 
 def _sweep(system, grid, tolerance: float) -> tuple[float, dict]:
@@ -53,6 +55,7 @@ def _sweep(system, grid, tolerance: float) -> tuple[float, dict]:
     wall = time.perf_counter() - t0
     return wall, {"up": res.amplitude[0], "down": res.amplitude[1][::-1],
                   "sep_up": res.separation[0], "sep_down": res.separation[1][::-1],
+                  "unsettled_up": res.unsettled[0], "unsettled_down": res.unsettled[1][::-1],
                   "settle_periods": int(settle[0]), "steps": int(res.n_steps.sum()),
                   "status": res.status.tolist()}
 
@@ -62,16 +65,16 @@ def _errors(amp: dict, ref: dict, reg: dict, branches: dict | None = None) -> di
     ``branches`` (every stable perturbation amplitude, (K, B) per direction, NaN elsewhere)
     also the same-branch error ``same_max_r*``, ``same_rms_r*``: at each frequency the
     stable perturbation branch nearest to the sweep, leaving out the points where the sweep
-    has just jumped (``jump_points``)."""
+    has just jumped and is still settling (``jump_points``: spread of the per-period
+    amplitudes above :data:`UNSETTLED`)."""
     rel = np.concatenate([np.abs(amp[w] - ref[w]) / ref[w] for w in ("up", "down")])
     where = np.concatenate([reg["up"], reg["down"]])
     out: dict[str, float] = {"max_all": float(np.nanmax(rel))}
     sets = [("", rel)]
     if branches is not None:
-        # the sweep arriving on a new branch (a jump from the previous frequency in the sweep
-        # direction) is still settling there: no reference for the same-branch error
-        jump = {"up": np.r_[False, np.abs(np.diff(ref["up"])) > 0.2 * ref["up"][1:]],
-                "down": np.r_[np.abs(np.diff(ref["down"])) > 0.2 * ref["down"][:-1], False]}
+        # where the sweep has just jumped to another branch it is still settling (spread of
+        # the per-period amplitudes above the settle tolerance): no reference there
+        jump = {w: ref[f"unsettled_{w}"] > UNSETTLED for w in ("up", "down")}
         out["jump_points"] = int(jump["up"].sum() + jump["down"].sum())
         with np.errstate(invalid="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # no stable branch: NaN
@@ -172,7 +175,8 @@ def markdown(result: dict[str, Any]) -> str:
              f"({result['system']}); relative amplitude error against the sweep per region, "
              f"max / rms along the sweep paths and [on the same branch, leaving out the "
              f"{result['rows'][0].get('jump_points', 0)} points where the sweep has just "
-             f"jumped] (points per region, up + down: {result['region_points']})", "",
+             f"jumped and is still settling] (points per region, up + down: "
+             f"{result['region_points']})", "",
              "| method | wall [s] | us / point | speed-up vs sweep | region 1 | region 2 "
              "| region 3 | region 4 |", "|---|---|---|---|---|---|---|---|"]
     for r in result["rows"]:
