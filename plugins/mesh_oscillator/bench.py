@@ -109,7 +109,7 @@ def damping_dependence(n_points: int, dampings: tuple[float, ...],
         coefs = system.coefficients()
         perturbation.frequency_response(coefs, grid, parallel=False)
         wall, _ = best_time(lambda c=coefs: perturbation.frequency_response(
-            c, grid, parallel=False), 3)
+            c, grid, parallel=False), 5 * repeat)
         sweep_wall, ref = _sweep(system, grid, 1e-3)
         if repeat > 1:
             sweep_wall = min(sweep_wall, _sweep(system, grid, 1e-3)[0])

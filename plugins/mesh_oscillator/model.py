@@ -2,8 +2,8 @@
 
 Two kinds of instance:
 
-- ``MeshOscillator()`` (default): the nondimensional equation of motion of seed 003 (Eqs.
-  11-12) with its coefficients as parameters; the nominal values are the example system of
+- ``MeshOscillator()`` (default): the nondimensional equation of motion of Eritenel and Parker
+  (Eqs. 11-12) with its coefficients as parameters; the nominal values are the example system of
   seed Fig. 4.
 - ``MeshOscillator(force=...)``: a dimensional gear mesh ``m x'' + c x' + C f(x, t) = F(t)``
   with a force-deflection function from :mod:`.forces` (LTCA table, user table, analytic);
@@ -56,7 +56,7 @@ _NONDIMENSIONAL_PARAMETERS = (
 
 _DIMENSIONAL_PARAMETERS = (
     _P("mass", "kg", 1.0, 1e-9, 1e9,
-       "equivalent mass of the mesh, I_p I_g / (I_p r_g^2 + I_g r_p^2) (seed 003)"),
+       "equivalent mass of the mesh, I_p I_g / (I_p r_g^2 + I_g r_p^2) (Eritenel and Parker)"),
     _P("damping_ratio", "1", 0.02, 0.0, 0.5, "damping ratio c / (2 m omega_n), seed: 2-5 %"),
     _P("mean_force", "N", 1000.0, 1e-6, 1e9, "mean mesh force F_0 (torque / base radius)"),
     _P("load_harmonic", "N", 0.0, 0.0, 1e9,
@@ -222,7 +222,10 @@ class System:
 
 
 class MeshOscillator(Model):
-    """SDOF gear-mesh oscillator with a general periodic force-deflection function (seed 003).
+    """SDOF gear-mesh oscillator with a general periodic force-deflection function.
+
+    After Eritenel and Parker, "Nonlinear vibration of gears with tooth surface
+    modifications", ASME Journal of Vibration and Acoustics.
 
     Parameters
     ----------
@@ -239,7 +242,8 @@ class MeshOscillator(Model):
 
     name = "mesh_oscillator"
     description = ("SDOF gear mesh with a general force-deflection function: multiple-scales "
-                   "and numerical frequency response, contact loss, stability (seed 003)")
+                   "and numerical frequency response, contact loss, stability (after Eritenel "
+                   "and Parker)")
     version = "1.0"
     time_units = "1"
     time_long_name = "nondimensional time T = omega_n t"
