@@ -57,6 +57,11 @@ def test_undamped_sweep_is_bounded_and_flagged():
     assert "sweep_not_settled" in ds["status"].attrs["flag_meanings"]
     assert "cannot decay" in ds.attrs["status_reasons"]
     assert np.all(np.isfinite(ds["amplitude_up"].values))
+    # the time response at resonance (no linear steady state there: it starts at rest)
+    tr = model.response({"damping_ratio": 0.0, "frequency_ratio": 1.0}, np.linspace(0, 20, 5),
+                        outputs=["u", "u_perturbation"], max_settle_periods=40)
+    assert tr["status"].item() == STATUS_UNSETTLED
+    assert np.all(np.isfinite(tr["u"].values)) and np.all(np.isfinite(tr["u_perturbation"]))
     # far from resonance the undamped linear amplitude is still what the sweep measures
     assert abs(ds["amplitude_up"].values[0, 0] - 0.01 / (1 - 0.81)) < 0.2 * 0.01 / 0.19
 

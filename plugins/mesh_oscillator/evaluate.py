@@ -63,7 +63,8 @@ def linear_amplitude(coefs: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Amplitude of the linear time-invariant response of Eq. 11 (only alpha_{1,0} = 1)."""
     q = coefs[:, sf.C_Q1, None] * omega ** coefs[:, sf.C_QEXP, None]
     force = q * np.exp(-1j * coefs[:, sf.C_R1, None]) - coefs[:, sf.C_A01, None]
-    return np.abs(force / (1.0 - omega**2 + 2j * coefs[:, sf.C_MU, None] * omega))
+    with np.errstate(divide="ignore", invalid="ignore"):  # undamped at resonance: inf
+        return np.abs(force / (1.0 - omega**2 + 2j * coefs[:, sf.C_MU, None] * omega))
 
 
 def backbone_shift(coefs: np.ndarray, amplitude: np.ndarray) -> np.ndarray:

@@ -40,10 +40,13 @@ def time_problem(model: Any, system: Any, options: dict[str, Any]) -> sweeps.Osc
 
 
 def initial_linear(coefs: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """State ``(u, u')`` at ``theta = 0`` of the linear steady state at ``omega``, (n, 2)."""
+    """State ``(u, u')`` at ``theta = 0`` of the linear steady state at ``omega``, (n, 2)
+    (at rest where none exists: no damping, ``omega = 1``)."""
     q = coefs[:, sf.C_Q1] * omega ** coefs[:, sf.C_QEXP]
     force = q * np.exp(-1j * coefs[:, sf.C_R1]) - coefs[:, sf.C_A01]
-    z = force / (1.0 - omega**2 + 2j * coefs[:, sf.C_MU] * omega)
+    den = 1.0 - omega**2 + 2j * coefs[:, sf.C_MU] * omega
+    # undamped exactly at resonance there is no linear steady state: start at rest (x_m)
+    z = np.where(den == 0.0, 0.0, force / np.where(den == 0.0, 1.0, den))
     return np.stack([z.real, -omega * z.imag], axis=1)
 
 
