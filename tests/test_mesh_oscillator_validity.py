@@ -183,3 +183,17 @@ def test_regions_follow_the_system_not_the_approximation_error():
     both = (got["sweep"] <= 2) & (got["first"] <= 2)
     assert np.mean(got["first"][both] == got["sweep"][both]) >= 0.9
     assert np.mean(got["second"][both] == got["sweep"][both]) >= 0.9
+
+
+def test_continuation_cache_follows_the_slow_flow_source():
+    """numba's cache of continuation.py does not see edits of slowflow.py (whose functions
+    it compiles in): continuation.py carries the digest of slowflow.py, so an edit of the
+    slow flow must change continuation.py too, which invalidates its cached kernels."""
+    import hashlib
+    from pathlib import Path
+
+    from gearuq_plugins.mesh_oscillator import continuation, slowflow
+
+    digest = hashlib.sha256(Path(slowflow.__file__).read_bytes()).hexdigest()[:16]
+    assert continuation.SLOWFLOW_DIGEST == digest, (
+        "slowflow.py changed: set continuation.SLOWFLOW_DIGEST = " + repr(digest))

@@ -40,6 +40,12 @@ from gearuq_plugins.mesh_oscillator.slowflow import (
     slow_flow,
 )
 
+#: First 16 hex digits of the sha256 of ``slowflow.py``. Its functions are compiled into the
+#: cached kernels of this file, and numba's cache notices changes to this file only: a change
+#: to ``slowflow.py`` must come with a new value here, which invalidates the stale entries
+#: (tests/test_mesh_oscillator_validity.py checks the value).
+SLOWFLOW_DIGEST = "8a8f166fde63c5d1"
+
 #: Trace status codes (per sample).
 TRACE_OK = 0
 TRACE_START_FAILED = 1
