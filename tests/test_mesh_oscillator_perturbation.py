@@ -295,28 +295,39 @@ def test_stability_labels_follow_the_numerical_sweeps():
 
 
 def test_separation_harmonics_numerical_equals_closed_form():
-    """For a pure cosine u = a cos(theta - gamma) and u_c = -1, Eqs. 32-33 (separation
-    instants) reproduce Eqs. 34-35 (closed form), including Delta_2 and nu_2."""
+    """For a pure cosine u = a cos(theta - gamma) and u_c = -1, the separation instants
+    (Eqs. 32-33) reproduce the closed form (Eqs. 34-35), including Delta_2 and nu_2; with
+    the separation's mean shift the numerical separated fraction is a fixed point."""
     c = coefficients(a00=0.0)
-    s_num = np.zeros(sf.N_SEP)
     s_cf = np.zeros(sf.N_SEP)
+    z = np.zeros(3, dtype=complex)
+    osc = np.zeros(sf.N_MIN_SAMPLES + 1)
+    acc = np.zeros(5)
     for a, gam in ((1.2, 0.3), (1.05, -2.0), (2.0, 1.0), (0.9, 0.0)):
-        sf.separation_numerical(a, gam, c, s_num)
+        mean = sf.margin_phasors(a, gam, c, 0.0, z)  # margin without any mean shift
+        sf._oscillation_samples(z, osc)
+        losses = sf._separation_integrals(mean, z, osc, acc)
+        d0 = acc[0] / (2 * np.pi)
+        d1, n1 = math.hypot(acc[1], acc[2]) / np.pi, math.atan2(acc[2], acc[1])
+        d2, n2 = math.hypot(acc[3], acc[4]) / np.pi, math.atan2(acc[4], acc[3])
         sf.separation_closed_form(a, gam, c, 2, s_cf)
-        np.testing.assert_allclose(s_num[[0, 1, 3]], s_cf[[0, 1, 3]], atol=1e-12)
-        for r, k in ((1, sf.S_N1), (2, sf.S_N2)):  # phases where the harmonic exists
-            amp = s_cf[k - 1]
-            if amp > 1e-12:
-                assert math.cos(s_num[k] - s_cf[k]) == pytest.approx(1.0, abs=1e-12), r
+        np.testing.assert_allclose([d0, d1, d2], s_cf[[0, 1, 3]], atol=1e-12)
+        for amp, n_num, k in ((d1, n1, sf.S_N1), (d2, n2, sf.S_N2)):
+            if amp > 1e-12:  # phases where the harmonic exists
+                assert math.cos(n_num - s_cf[k]) == pytest.approx(1.0, abs=1e-12)
         tau = math.acos(-1 / a) if a > 1 else math.pi
         assert s_cf[sf.S_D0] == pytest.approx(tau / math.pi - 1, abs=1e-14)
-        assert s_num[sf.S_LOSSES] == (1.0 if a > 1 else 0.0)
-    # with the mean shift -alpha_00 Delta_0 the separation fraction is a fixed point
-    c = coefficients(a00=0.7)
-    sf.separation_numerical(1.3, 0.0, c, s_num)
-    x = -s_num[sf.S_D0]
-    shifted = 1.0 + 0.7 * x  # the margin of u = 1.3 cos + shift, relative to -1
-    assert x == pytest.approx(1 - math.acos(-shifted / 1.3) / math.pi, abs=1e-12)
+        assert losses == (1 if a > 1 else 0)
+    # the mean shift S = -alpha_00 Delta_0 - (a Delta_1 / 2) cos(gamma - nu_1) solves S = G(S)
+    s_num = np.zeros(sf.N_SEP)
+    for a00 in (0.0, 0.7, 1.0):
+        c = coefficients(a00=a00)
+        sf.separation_numerical(1.3, 0.0, c, s_num)
+        x = -s_num[sf.S_D0]
+        tau = math.pi * (1.0 - x)
+        shift = a00 * x - 0.5 * 1.3 * 2 * math.sin(tau) / math.pi
+        assert x == pytest.approx(1 - math.acos(-(1.0 + shift) / 1.3) / math.pi, abs=1e-12)
+        assert sf.separation_mean_shift(1.3, 0.0, c, s_num) == pytest.approx(shift, abs=1e-12)
 
 
 def test_fig4_regions_and_accuracy_against_sweeps():

@@ -40,6 +40,12 @@ from gearuq_plugins.mesh_oscillator.slowflow import (
     slow_flow,
 )
 
+#: First 16 hex digits of the sha256 of ``slowflow.py``. Its functions are compiled into the
+#: cached kernels of this file, and numba's cache notices changes to this file only: a change
+#: to ``slowflow.py`` must come with a new value here, which invalidates the stale entries
+#: (tests/test_mesh_oscillator_validity.py checks the value).
+SLOWFLOW_DIGEST = "8a8f166fde63c5d1"
+
 #: Trace status codes (per sample).
 TRACE_OK = 0
 TRACE_START_FAILED = 1
@@ -82,7 +88,10 @@ def forcing_phasor(c, om):
 @njit(cache=True, nogil=True)
 def linear_solution(c, om):
     """Amplitude and phase of the linear time-invariant response (only alpha_{1,0} = 1)."""
-    z = forcing_phasor(c, om) / complex(1.0 - om * om, 2.0 * c[C_MU] * om)
+    den = complex(1.0 - om * om, 2.0 * c[C_MU] * om)
+    if den == 0.0:  # undamped, at resonance: unbounded
+        return math.inf, 0.0
+    z = forcing_phasor(c, om) / den
     return abs(z), -math.atan2(z.imag, z.real)
 
 
@@ -107,7 +116,7 @@ def jacobian(a, gam, om, c, order, mode, g0, jac, s, work):
 
 
 @njit(cache=True, nogil=True)
-def stable_from_jacobian(a, jac):
+def stable_from_jacobian(a, jac, c_mu):
     """1 when the slow flow ``(da/dT, dgamma/dT = G_gamma / a)`` is stable at a steady state
     with Jacobian ``jac`` (``G_gamma = 0`` there, so ``d(G_gamma/a) = dG_gamma / a``)."""
     j00 = jac[0, 0]
@@ -116,7 +125,11 @@ def stable_from_jacobian(a, jac):
     j11 = jac[1, 1] / a
     trace = j00 + j11
     det = j00 * j11 - j01 * j10
-    return 1 if (trace < 0.0 and det > 0.0) else 0
+    # without damping the slow flow is conservative: the trace is 0 up to the finite-
+    # difference error (relative 1e-7 of the eigenvalues +-i sqrt(det)), and a centre
+    # (det > 0) is neutrally stable, the state a sweep stays on
+    tol = 1e-4 * math.sqrt(abs(det)) if c_mu <= 0.0 else 0.0
+    return 1 if (trace < tol and det > 0.0) else 0
 
 
 @njit(cache=True, nogil=True)
@@ -351,7 +364,7 @@ def _store(tr, n, y, c, order, mode, sa, sw, sep_mode):
     pts[n, 1] = gam
     pts[n, 2] = om
     seps[n, :] = s
-    stab[n] = stable_from_jacobian(a, jacs[n])
+    stab[n] = stable_from_jacobian(a, jacs[n], c[C_MU])
 
 
 @njit(cache=True, nogil=True)
@@ -362,7 +375,8 @@ def trace_curve(c, order, mode, om_lo, om_hi, from_high, sa, tr, tans):
     where the curve leaves the window on either side. ``tr = (pts, seps, jacs, stable)``
     receives ``(a, gamma, Omega)``, the separation data, the Jacobian and the stability of
     every point, ``tans`` the scaled unit tangents. Returns ``(n_points, status, exit)``
-    with ``exit`` -1 (left the window below ``om_lo``), +1 (above ``om_hi``) or 0.
+    with ``exit`` -1 (left the window below ``om_lo``), +1 (above ``om_hi``), 2 (undamped:
+    the amplitude grows without bound along the backbone) or 0.
     """
     pts = tr[0]
     jacs = tr[2]
@@ -450,6 +464,8 @@ def trace_curve(c, order, mode, om_lo, om_hi, from_high, sa, tr, tans):
         if y[2] * sw < om_lo:
             return n, TRACE_OK, -1
         if y[0] > _A_MAX:  # amplitude beyond any physical meaning (scale: the linear peak)
+            if c[C_MU] <= 0.0:  # undamped: the branch runs up the backbone to infinity
+                return n, TRACE_OK, 2
             return n, TRACE_STEP_UNDERFLOW, 0
         if n >= max_pts - 2:
             return n, TRACE_TOO_MANY_POINTS, 0
@@ -546,7 +562,7 @@ def solve_on_grid(c, order, mode, tr, tans, n_pts, brk, grid, sa, sw, sol):
                 _g(a, gam, om, c, order, mode, s, g)
             else:
                 jacobian(a, gam, om, c, order, mode, g, jac, s, work)
-                sol_stable[k, b] = stable_from_jacobian(a, jac)
+                sol_stable[k, b] = stable_from_jacobian(a, jac, c[C_MU])
             sol_sep[k, b, :] = s
             n_sol[k] += 1
 
@@ -673,7 +689,7 @@ def _trace_window(c, order, mode, om_lo, om_hi, sa, max_pts):
         tr[2][n_a + k] = trb[2][src]
         tr[3][n_a + k] = trb[3][src]
         tans[n_a + k] = -tansb[src]
-    if status == TRACE_OK and side == -1 and status_b == TRACE_OK:
+    if status == TRACE_OK and side != 0 and status_b == TRACE_OK:
         status = TRACE_OK
     elif status_b != TRACE_OK:
         status = status_b
@@ -694,6 +710,8 @@ def sample_response(c, order, mode, grid, max_pts, sol, up, down, onsets):
     om_hi = hi + margin
     sw = max(om_hi - om_lo, 1e-6)
     a_lin, _ = linear_solution(c, 1.0)
+    if not math.isfinite(a_lin):  # undamped: scale as with 1 % damping
+        a_lin = abs(forcing_phasor(c, 1.0)) / 0.02
     sa = min(max(a_lin, 1e-6), 10.0)
     tr, tans, n_pts, brk, status = _trace_window(c, order, mode, om_lo, om_hi, sa, max_pts)
     if status == TRACE_UNFORCED:

@@ -2,8 +2,8 @@
 
 Two kinds of instance:
 
-- ``MeshOscillator()`` (default): the nondimensional equation of motion of seed 003 (Eqs.
-  11-12) with its coefficients as parameters; the nominal values are the example system of
+- ``MeshOscillator()`` (default): the nondimensional equation of motion of Eritenel and Parker
+  (Eqs. 11-12) with its coefficients as parameters; the nominal values are the example system of
   seed Fig. 4.
 - ``MeshOscillator(force=...)``: a dimensional gear mesh ``m x'' + c x' + C f(x, t) = F(t)``
   with a force-deflection function from :mod:`.forces` (LTCA table, user table, analytic);
@@ -56,7 +56,7 @@ _NONDIMENSIONAL_PARAMETERS = (
 
 _DIMENSIONAL_PARAMETERS = (
     _P("mass", "kg", 1.0, 1e-9, 1e9,
-       "equivalent mass of the mesh, I_p I_g / (I_p r_g^2 + I_g r_p^2) (seed 003)"),
+       "equivalent mass of the mesh, I_p I_g / (I_p r_g^2 + I_g r_p^2) (Eritenel and Parker)"),
     _P("damping_ratio", "1", 0.02, 0.0, 0.5, "damping ratio c / (2 m omega_n), seed: 2-5 %"),
     _P("mean_force", "N", 1000.0, 1e-6, 1e9, "mean mesh force F_0 (torque / base radius)"),
     _P("load_harmonic", "N", 0.0, 0.0, 1e9,
@@ -116,8 +116,21 @@ BRANCHES = ("lower", "middle", "upper")
 
 STATUS_CURVE = 16
 STATUS_SEPARATION = 17
+STATUS_FORCE_PEAK = 18
+STATUS_UNSETTLED = 19
 STATUS_MEANINGS = {STATUS_CURVE: "perturbation_curve_incomplete",
-                   STATUS_SEPARATION: "separation_beyond_validity"}
+                   STATUS_SEPARATION: "separation_beyond_validity",
+                   STATUS_FORCE_PEAK: "deflection_beyond_force_maximum",
+                   STATUS_UNSETTLED: "sweep_not_settled"}
+#: The reasons in words, written into the dataset attribute ``status_reasons`` for the codes
+#: that occur.
+STATUS_REASONS = {
+    STATUS_FORCE_PEAK: "the response reaches deflections where the force-deflection function "
+    "no longer increases (tangent stiffness <= 0, beyond its maximum): no steady state of "
+    "this kind exists there and a time integration may escape; the numbers are kept",
+    STATUS_UNSETTLED: "the transient cannot decay to settle_tolerance within "
+    "max_settle_periods (no or very little damping): the measured amplitudes include it",
+}
 
 
 def _check_frequencies(value: Any) -> np.ndarray:
@@ -163,14 +176,19 @@ _OPTIONS = (
            lower=0, allow_none=True),
     Option("settle_tolerance", 1e-3, "decay of a unit transient wanted in the settle periods",
            lower=1e-12, upper=0.5),
+    Option("max_settle_periods", 5000, "cap on the settle periods per sweep frequency (an "
+           "undamped or nearly undamped sample would need millions); a sample whose transient "
+           "cannot decay within it is flagged (status 19)", kind="int", lower=1,
+           upper=10_000_000),
     Option("measure_periods", 4, "periods measured per sweep frequency", lower=1, upper=1000),
     Option("points_per_period", 32, "samples per measured period", lower=8, upper=4096),
     Option("rtol", 1e-8, "relative tolerance of the integrator", lower=1e-13, upper=0.1),
     Option("atol", 1e-10, "absolute tolerance of the integrator (nondimensional)",
            lower=0.0, upper=1.0),
     Option("ode_method", "dop853", "integration method", choices=("dopri5", "dop853")),
-    Option("region_tolerance", 0.05, "relative departure from the linear amplitude that "
-           "separates region 1 from region 2", lower=0.0, upper=10.0),
+    Option("region_tolerance", 0.05, "relative change of the linear amplitude caused by the "
+           "stiffness nonlinearity at the response amplitude (backbone shift) that separates "
+           "region 1 from region 2", lower=0.0, upper=10.0),
     Option("onset_separation", 0.02, "largest fraction of the period out of contact still "
            "counted as the onset (region 3) rather than developed contact loss (region 4)",
            lower=0.0, upper=1.0),
@@ -204,7 +222,10 @@ class System:
 
 
 class MeshOscillator(Model):
-    """SDOF gear-mesh oscillator with a general periodic force-deflection function (seed 003).
+    """SDOF gear-mesh oscillator with a general periodic force-deflection function.
+
+    After Eritenel and Parker, "Nonlinear vibration of gears with tooth surface
+    modifications", ASME Journal of Vibration and Acoustics.
 
     Parameters
     ----------
@@ -221,7 +242,8 @@ class MeshOscillator(Model):
 
     name = "mesh_oscillator"
     description = ("SDOF gear mesh with a general force-deflection function: multiple-scales "
-                   "and numerical frequency response, contact loss, stability (seed 003)")
+                   "and numerical frequency response, contact loss, stability (after Eritenel "
+                   "and Parker)")
     version = "1.0"
     time_units = "1"
     time_long_name = "nondimensional time T = omega_n t"
@@ -258,6 +280,46 @@ class MeshOscillator(Model):
     def dimensional(self) -> bool:
         """Whether the model has a dimensional force-deflection function."""
         return self.force is not None
+
+    def precompile(self, verbose: bool = False) -> float:
+        """Compile (or load from the numba cache) every kernel a call can use; seconds.
+
+        The perturbation (continuation and slow flow, first and second order, closed-form
+        and numerical separation: one compiled signature), the right-hand sides and
+        switching functions of the three time-domain kernels (expanded, contact segments,
+        load-deflection table) with the integrator variants a call can choose (DOP853 and
+        DOPRI5, frozen sides) are compiled on their first use and cached on disk; from an
+        empty cache that costs minutes on a loaded machine. Run this once after installing
+        so that no later first call pays it. ``verbose`` prints each item with its time.
+        """
+        import time
+
+        from gearuq_plugins.mesh_oscillator.forces import LoadDeflectionTable, SegmentForce
+
+        phase = np.arange(8) / 8.0
+        loads = np.array([1.0, 2.0, 4.0])
+        table = LoadDeflectionTable(loads, phase, np.broadcast_to(
+            (loads / 100.0)[:, None], (3, 8)).copy(), np.zeros(8))
+        opts = {"n_frequencies": 3, "frequency_min": 0.9, "frequency_max": 1.1,
+                "settle_periods": 1, "measure_periods": 1}
+        items = [("perturbation and approximate solution", MeshOscillator(),
+                  {"method": "perturbation", "outputs": ["amplitude_up", "u_perturbation"]})]
+        for kind, model in (("expanded", MeshOscillator()),
+                            ("segments", MeshOscillator(SegmentForce.linear(100.0))),
+                            ("table", MeshOscillator(table))):
+            for ode in ("dop853", "dopri5"):
+                items.append((f"sweep {kind} kernel, {ode}", model,
+                              {"method": "sweep", "ode_method": ode, **opts}))
+        start = time.perf_counter()
+        for label, model, options in items:
+            t0 = time.perf_counter()
+            nominal = {"mean_force": 2.0, "mass": 1.0} if model.dimensional else {}
+            outputs = options.pop("outputs", ["amplitude_up"])
+            model.response(nominal, [0.0, 1.0], outputs=outputs, **options)
+            if verbose:
+                print(f"mesh_oscillator: {label}: {time.perf_counter() - t0:.1f} s",
+                      flush=True)
+        return time.perf_counter() - start
 
     def settings(self) -> dict[str, Any]:
         """Construction options (provenance)."""

@@ -63,8 +63,8 @@ SEP_NUMERICAL = 1
 SEP_MARGIN_ONLY = 2
 #: Samples of one period used to find the smallest contact margin (then refined by Newton).
 N_MIN_SAMPLES = 64
-#: Largest number of Illinois iterations for the mean shift -alpha_{0,0} Delta_0 in the
-#: numerical separation (it converges in about ten; the bound only guards the loop).
+#: Largest number of Illinois iterations for the separation's mean shift in the numerical
+#: separation (it converges in about ten; the bound only guards the loop).
 N_SEP_PASSES = 60
 
 # Layout of the separation vector ``s`` filled by the separation functions.
@@ -132,14 +132,30 @@ def separation_closed_form(a: float, gam: float, c: np.ndarray, order: int,
 
 
 @njit(cache=True, nogil=True)
-def margin_phasors(a: float, gam: float, c: np.ndarray, delta0: float,
+def separation_mean_shift(a: float, gam: float, c: np.ndarray, s: np.ndarray) -> float:
+    """Mean deflection caused by contact loss: minus the mean of ``H f~(u)``.
+
+    Averaging the equation of motion over a period, ``mean(u) = -mean(H f~) - ...``; with
+    ``H = Delta_0 + Delta_1 cos(theta - nu_1) + ...`` and ``f~ = alpha_{0,0} + a cos(theta -
+    gamma) + ...`` the separation contributes ``-alpha_{0,0} Delta_0 - (a Delta_1 / 2)
+    cos(gamma - nu_1)``. Seed Eq. 28 keeps only the first term (``Delta_1`` is ordered one
+    order smaller); for a short separation ``Delta_1 ~ 2 |Delta_0|`` and the two nearly cancel
+    (the force lost near the contact boundary is small), so the first alone has the wrong
+    sign once ``a > alpha_{0,0}`` (docs/theory/mesh_oscillator.md, section 4).
+    """
+    return -c[C_A00] * s[S_D0] - 0.5 * a * s[S_D1] * math.cos(gam - s[S_N1])
+
+
+@njit(cache=True, nogil=True)
+def margin_phasors(a: float, gam: float, c: np.ndarray, shift: float,
                    z: np.ndarray) -> float:
     """Harmonics of the contact margin ``u(theta) - u_c(theta)`` of the approximate solution.
 
     ``u`` is the first-order solution (seed Eq. 28 with every first-order term: fundamental,
-    alpha_{2,0} mean shift and second harmonic, alpha_{3,0} third harmonic, mean shift
-    ``-alpha_{0,0} Delta_0``, and the non-resonant responses to alpha_{1,1}, alpha_{1,2},
-    alpha_{0,2}); ``u_c = -1 + e_1 cos(theta - psi_1) + e_2 cos(2 theta - psi_2)``. Returns the
+    alpha_{2,0} mean shift and second harmonic, alpha_{3,0} third harmonic, and the
+    non-resonant responses to alpha_{1,1}, alpha_{1,2}, alpha_{0,2}) plus the separation's
+    mean shift ``shift`` (:func:`separation_mean_shift`);
+    ``u_c = -1 + e_1 cos(theta - psi_1) + e_2 cos(2 theta - psi_2)``. Returns the
     mean and fills ``z[k-1]`` (complex) so that the margin is
     ``mean + Re(sum_k z[k-1] exp(i k theta))``, ``theta = Omega T``.
     """
@@ -153,17 +169,18 @@ def margin_phasors(a: float, gam: float, c: np.ndarray, delta0: float,
             - c[C_E2] * complex(math.cos(c[C_PSI2]), -math.sin(c[C_PSI2])))
     z[2] = (c[C_A30] * a**3 / 32.0 * eg * eg * eg
             + a * c[C_A12] / 16.0 * eg * complex(math.cos(c[C_P12]), -math.sin(c[C_P12])))
-    return (1.0 - 0.5 * a20 * a * a - c[C_A00] * delta0
+    return (1.0 - 0.5 * a20 * a * a + shift
             - 0.5 * a * a11 * math.cos(gam - c[C_P11]))
 
 
 @njit(cache=True, nogil=True)
-def approximate_solution(a: float, gam: float, c: np.ndarray, delta0: float,
+def approximate_solution(a: float, gam: float, c: np.ndarray, shift: float,
                          theta: float) -> float:
     """First-order approximate solution ``u(theta)`` (seed Eq. 28 and the first-order terms
-    listed in :func:`margin_phasors`), ``theta = Omega T``."""
+    listed in :func:`margin_phasors`, with the separation's mean shift ``shift`` from
+    :func:`separation_mean_shift`), ``theta = Omega T``."""
     z = np.empty(3, dtype=np.complex128)
-    mean = margin_phasors(a, gam, c, delta0, z)
+    mean = margin_phasors(a, gam, c, shift, z)
     val = mean
     for k in range(3):
         e = complex(math.cos((k + 1) * theta), math.sin((k + 1) * theta))
@@ -350,10 +367,13 @@ def separation_numerical(a: float, gam: float, c: np.ndarray, s: np.ndarray) -> 
 
     The contact margin ``u(theta) - u_c(theta)`` of the approximate solution is a
     trigonometric polynomial; all its zeros over one period are located (any number of
-    contact losses per period). The mean shift ``-alpha_{0,0} Delta_0`` of Eq. 28 depends on
-    ``Delta_0`` itself: the separated fraction ``x = -Delta_0`` solves ``x = F(x)`` with
-    ``F`` non-increasing, so the root is bracketed by ``[0, F(0)]`` and found by the
-    Illinois method (plain fixed-point passes oscillate near the onset, where ``F`` is steep).
+    contact losses per period). The separation's own mean shift
+    ``S = -alpha_{0,0} Delta_0 - (a / 2) (Delta_1 cos nu_1 cos gamma + Delta_1 sin nu_1
+    sin gamma)`` (:func:`separation_mean_shift`) depends on the separation: it solves
+    ``S = G(S)``. ``phi(S) = G(S) - S`` is positive below ``-a/pi`` and negative above
+    ``alpha_{0,0} + a/pi`` (``0 <= -Delta_0 <= 1``, ``|mean(H cos)| <= 1/pi``): the root is
+    bracketed from ``S = 0`` and ``S = G(0)`` (or those bounds) and found by the Illinois
+    method (plain fixed-point passes oscillate near the onset, where ``G`` is steep).
     """
     z = np.empty(3, dtype=np.complex128)
     acc = np.empty(5)
@@ -362,35 +382,38 @@ def separation_numerical(a: float, gam: float, c: np.ndarray, s: np.ndarray) -> 
     mean0 = margin_phasors(a, gam, c, 0.0, z)
     _oscillation_samples(z, osc)
     a00 = c[C_A00]
-    # one call site of the (large) integrals in a loop keeps the compiled code small:
-    # pass 0 evaluates F(0), pass 1 F(F(0)), then Illinois steps on phi(x) = F(x) - x
-    x = x_lo = f_lo = x_hi = f_hi = 0.0
+    cg = math.cos(gam)
+    sg = math.sin(gam)
+    # one call site of the (large) integrals in a loop keeps the compiled code small
+    x = x_pos = f_pos = x_neg = f_neg = 0.0
+    have_pos = False
+    have_neg = False
     side = 0
     losses = 0
-    for it in range(N_SEP_PASSES + 2):
-        losses = _separation_integrals(mean0 + a00 * x, z, osc, acc)
-        fx = -acc[0] / two_pi - x
-        if it == 0:
-            if fx <= 0.0 or a00 == 0.0:  # in contact throughout, or no mean shift
-                break
-            f_lo = fx
-            x = x_hi = fx
-            continue
-        if it == 1:
-            f_hi = fx
-        elif fx > 0.0:
-            x_lo, f_lo = x, fx
-            if side == 1:
-                f_hi *= 0.5
-            side = 1
+    for it in range(N_SEP_PASSES + 3):
+        losses = _separation_integrals(mean0 + x, z, osc, acc)
+        g = -(a00 * acc[0] + a * (cg * acc[1] + sg * acc[2])) / two_pi
+        fx = g - x
+        if abs(fx) <= 1e-15:
+            break  # acc holds the integrals at the final x (S = 0: in contact throughout)
+        if fx > 0.0:
+            if have_neg and side == 1:  # Illinois: the same end kept twice
+                f_neg *= 0.5
+            x_pos, f_pos, have_pos, side = x, fx, True, 1
         else:
-            x_hi, f_hi = x, fx
-            if side == -1:
-                f_lo *= 0.5
-            side = -1
-        if abs(fx) <= 1e-15 or f_hi == f_lo or x_hi - x_lo <= 1e-15:
-            break  # acc holds the integrals at the final x
-        x = (x_lo * f_hi - x_hi * f_lo) / (f_hi - f_lo)
+            if have_pos and side == -1:
+                f_pos *= 0.5
+            x_neg, f_neg, have_neg, side = x, fx, True, -1
+        if have_pos and have_neg:
+            if abs(x_neg - x_pos) <= 1e-15:
+                break
+            x = (x_pos * f_neg - x_neg * f_pos) / (f_neg - f_pos)
+        elif it == 0:
+            x = g  # the fixed-point step: usually across the root
+        elif fx > 0.0:  # a point where phi < 0 for certain
+            x = a00 + a / math.pi + 1e-9
+        else:  # a point where phi > 0 for certain
+            x = -a / math.pi - 1e-9
     s[S_D0] = acc[0] / two_pi
     # H = sum Delta_r cos(r theta - nu_r): Delta_r cos nu_r = (1/pi) int H cos(r theta) etc.
     s[S_D1] = math.hypot(acc[1], acc[2]) / math.pi

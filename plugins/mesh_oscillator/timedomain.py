@@ -40,15 +40,19 @@ def time_problem(model: Any, system: Any, options: dict[str, Any]) -> sweeps.Osc
 
 
 def initial_linear(coefs: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """State ``(u, u')`` at ``theta = 0`` of the linear steady state at ``omega``, (n, 2)."""
+    """State ``(u, u')`` at ``theta = 0`` of the linear steady state at ``omega``, (n, 2)
+    (at rest where none exists: no damping, ``omega = 1``)."""
     q = coefs[:, sf.C_Q1] * omega ** coefs[:, sf.C_QEXP]
     force = q * np.exp(-1j * coefs[:, sf.C_R1]) - coefs[:, sf.C_A01]
-    z = force / (1.0 - omega**2 + 2j * coefs[:, sf.C_MU] * omega)
+    den = 1.0 - omega**2 + 2j * coefs[:, sf.C_MU] * omega
+    # undamped exactly at resonance there is no linear steady state: start at rest (x_m)
+    z = np.where(den == 0.0, 0.0, force / np.where(den == 0.0, 1.0, den))
     return np.stack([z.real, -omega * z.imag], axis=1)
 
 
 def _perturbation_state(coefs: np.ndarray, omega: np.ndarray, options: dict[str, Any]):
-    """(a, gamma, Delta_0) of the upward-sweep steady state at each sample's ``omega``."""
+    """(a, gamma, separation mean shift) of the upward-sweep steady state at each sample's
+    ``omega`` (:func:`slowflow.separation_mean_shift`)."""
     from gearuq_plugins.mesh_oscillator.perturbation import frequency_response
 
     grids = np.linspace(np.maximum(0.5 * omega, omega - 0.3), omega, 31).T
@@ -56,8 +60,10 @@ def _perturbation_state(coefs: np.ndarray, omega: np.ndarray, options: dict[str,
                              separation=options["separation"])
     a = res.path("up")[:, -1]
     gam = res.path("up", "phase")[:, -1]
-    d0 = res.path("up", "separation")[:, -1, sf.S_D0]
-    return a, gam, d0, res.status
+    sep = res.path("up", "separation")[:, -1, :]
+    shift = np.array([sf.separation_mean_shift(a[i], gam[i], coefs[i], sep[i])
+                      if np.isfinite(a[i]) else np.nan for i in range(a.size)])
+    return a, gam, shift, res.status
 
 
 def _force_values(model, system, params, u, theta, contact, options):
@@ -85,6 +91,7 @@ def _force_values(model, system, params, u, theta, contact, options):
 def time_block(model, system, params, t, outputs, options, out, extra, status) -> None:
     """Integrate every sample at its ``frequency_ratio`` and fill the time outputs."""
     from gearuq.ode import solve_batch
+    from gearuq_plugins.mesh_oscillator.evaluate import settle_schedule
 
     if t.size and t[0] < 0.0:
         raise ValueError(f"t: instants must be >= 0 (start of the response), got {t[0]}")
@@ -92,9 +99,7 @@ def time_block(model, system, params, t, outputs, options, out, extra, status) -
     omega = params["frequency_ratio"]
     wn = system.expansion.natural_frequency if model.dimensional else np.ones(n)
     tt = t[None, :] * wn[:, None] if options["time"] == "s" else np.broadcast_to(t, (n, t.size))
-    settle = (sweeps.settle_periods(system.mu, omega, options["settle_tolerance"])
-              if options["settle_periods"] is None
-              else np.full(n, options["settle_periods"], dtype=np.int64))
+    settle = settle_schedule(system.mu, omega, options, status)
     offset = 2.0 * math.pi * settle / omega
     t_abs = tt + offset[:, None]
     # the integrator needs strictly increasing instants: integrate the distinct ones
@@ -122,11 +127,12 @@ def time_block(model, system, params, t, outputs, options, out, extra, status) -
     extra["ode_steps_time"] = ("sample", res.n_steps, {"units": "1",
                                                        "long_name": "accepted steps"})
     if "u_perturbation" in outputs:
-        a, gam, d0, st = _perturbation_state(coefs, omega, options)
+        a, gam, shift, st = _perturbation_state(coefs, omega, options)
         up = np.empty_like(u)
         for i in range(n):
             for j in range(theta.shape[1]):
-                up[i, j] = sf.approximate_solution(a[i], gam[i], coefs[i], d0[i], theta[i, j])
+                up[i, j] = sf.approximate_solution(a[i], gam[i], coefs[i], shift[i],
+                                                  theta[i, j])
         out["u_perturbation"] = up
     if model.dimensional:
         ex = system.expansion
