@@ -17,6 +17,9 @@ method          what it does
 ``subset``      subset simulation (modified Metropolis or aCS), also for first passage over
                 time
 ``akmcs``       active-learning Kriging on a Monte Carlo population (AK-MCS, AK-SYS)
+``mfis``        multi-fidelity importance sampling: a cheap model (``low_fidelity=``) explores
+                the failure domain, the expensive one runs only on draws from a defensive
+                mixture fitted there
 ==============  ===============================================================================
 """
 
@@ -31,7 +34,7 @@ import xarray as xr
 
 from gearuq.engines.common import resolve_seed
 from gearuq.failure.evaluator import LimitStateEvaluator
-from gearuq.failure.methods import akmcs, form, importance, mc, subset
+from gearuq.failure.methods import akmcs, form, importance, mc, mfis, subset
 from gearuq.model import Model, Option
 from gearuq.space import ParameterSpace
 
@@ -57,6 +60,8 @@ METHOD_TABLE: dict[str, MethodEntry] = {
                               "importance sampling around the design points"),
     "subset": MethodEntry(subset.SETTINGS, subset.run_subset, "subset simulation"),
     "akmcs": MethodEntry(akmcs.SETTINGS, akmcs.run_akmcs, "active-learning Kriging (AK-MCS)"),
+    "mfis": MethodEntry(mfis.SETTINGS, mfis.run_mfis,
+                        "multi-fidelity importance sampling (a cheap model explores)"),
 }
 
 #: Method names accepted by :func:`failure_probability`.
@@ -129,7 +134,7 @@ def failure_probability(
         passage (``min_t g``).
     t : array_like, optional
         Output instants (required for time-dependent outputs).
-    method : {"mc", "form", "sorm", "importance", "subset", "akmcs"}
+    method : {"mc", "form", "sorm", "importance", "subset", "akmcs", "mfis"}
         See the module docstring; :func:`method_settings` lists each method's settings.
     rng : int, Generator or None
         Seed (``None``: fresh, recorded in ``attrs["seed"]``).
@@ -173,5 +178,11 @@ def failure_probability(
     ev = LimitStateEvaluator(model, space, limit_state, t, model_options=model_options,
                              executor=executor, chunk_size=chunk_size, store=store,
                              engine=f"failure_probability/{key}", seed=seed,
-                             fingerprint={"settings": s})
+                             fingerprint={"settings": _jsonable(s)})
     return METHOD_TABLE[key].run(ev, s, seed, float(confidence))
+
+
+def _jsonable(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """Settings for a store's fingerprint: a model by its name and version, not its repr."""
+    return {k: (f"{v.name} {v.version}" if isinstance(v, Model) else v)
+            for k, v in settings.items()}

@@ -48,7 +48,8 @@ from gearuq.failure.methods.form import FORM_SETTINGS, form_design_points
 from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
-__all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape"]
+__all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape",
+           "weighted_estimate", "PARETO_LIMIT"]
 
 
 def _check_starts(value: Any) -> Any:
@@ -254,14 +255,19 @@ def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, con
                         "gap": ok & (res["g"] <= 0.0) & ~(res["g_half"] <= 0.0)})
         n_est += m
         b += 1
-        est = _estimate(batches, z)
+        est = weighted_estimate(batches, z)
         if est["cov"] <= s["target_cov"] or n_est >= s["max_samples"]:
             break
     return _report(ev, fs, seed, confidence, est, found, starts, mix,
                    (form_runs, adapt_runs), t0)
 
 
-def _estimate(batches: list[dict[str, np.ndarray]], z: float) -> dict[str, float]:
+def weighted_estimate(batches: list[dict[str, np.ndarray]], z: float) -> dict[str, float]:
+    """Importance-sampling estimate, interval and weight diagnostics from sample batches.
+
+    Each batch holds the weights ``w``, and boolean ``fail``, ``invalid`` and ``gap`` (fails
+    on the full time grid but not on every other instant) per sample.
+    """
     w = np.concatenate([bt["w"] for bt in batches])
     fail = np.concatenate([bt["fail"] for bt in batches])
     invalid = np.concatenate([bt["invalid"] for bt in batches])

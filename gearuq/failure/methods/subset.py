@@ -45,6 +45,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -55,7 +56,8 @@ from gearuq.failure.evaluator import LimitStateEvaluator
 from gearuq.failure.report import failure_report
 from gearuq.model import Option
 
-__all__ = ["SETTINGS", "run_subset", "chain_correlation_factor", "level_cov"]
+__all__ = ["SETTINGS", "run_subset", "simulate", "Walk", "chain_correlation_factor",
+           "level_cov"]
 
 
 def _check_p0(value: Any) -> float:
@@ -157,6 +159,53 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
                ) -> xr.Dataset:
     """Subset simulation; see the module docstring."""
     t0 = time.perf_counter()
+    walk = simulate(ev, s, seed)
+    if walk.levels is None:
+        return failure_report(ev, "subset", pf=math.nan, interval_kind="none",
+                              confidence=confidence, settings=s, seed=seed,
+                              wall_time=time.perf_counter() - t0, status=2,
+                              message=walk.message)
+    return _report(ev, s, seed, confidence, walk.levels, walk.status, walk.message, t0)
+
+
+@dataclass
+class Walk:
+    """What one subset-simulation run found.
+
+    Attributes
+    ----------
+    levels : list of dict or None
+        Per level: threshold, conditional probability, chain correlation, CoV, counts
+        (None when level 0 had no valid run).
+    u, g : ndarray
+        The last level's samples (standard normal space) and limit-state values (``-inf``
+        for an invalid run).
+    status : int
+    message : str
+    """
+
+    levels: list[dict[str, Any]] | None
+    u: np.ndarray
+    g: np.ndarray
+    status: int = 0
+    message: str = ""
+
+    @property
+    def pf(self) -> float:
+        """Product of the levels' conditional probabilities."""
+        return float(np.prod([lv["p"] for lv in self.levels])) if self.levels else math.nan
+
+    def failing(self) -> np.ndarray:
+        """The last level's samples that fail (``g <= 0``), valid or not."""
+        return self.u[self.g <= 0.0]
+
+
+def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int) -> Walk:
+    """Run the levels of subset simulation; return the levels and the last level's samples.
+
+    Also the explorer of multi-fidelity importance sampling, which fits its density to the
+    last level's failing samples of a cheap model.
+    """
     n, p0 = s["n_per_level"], s["p0"]
     sampler = _Sampler(s["mcmc"], s["proposal_std"])
     n_seeds = max(1, int(round(n * p0)))
@@ -168,10 +217,7 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
     # the model fails, and the last level tells which share of the failing samples is valid
     g = np.where(res["status"] == 0, res["g"], -np.inf)
     if not np.any(res["status"] == 0):
-        return failure_report(ev, "subset", pf=math.nan, interval_kind="none",
-                              confidence=confidence, settings=s, seed=seed,
-                              wall_time=time.perf_counter() - t0, status=2,
-                              message=f"every one of the {n} model runs of level 0 failed")
+        return Walk(None, u, g, 2, f"every one of the {n} model runs of level 0 failed")
     chains = None  # (n_seeds, n_states) indices of the level's samples, for gamma
     levels: list[dict[str, Any]] = []
     status, message = 0, ""
@@ -199,7 +245,7 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
                                          seed, level + 1)
         levels[-1]["acceptance"] = acc[0] / max(acc[2], 1)
         levels[-1]["accepted"], levels[-1]["invalid_candidates"] = acc[0], acc[1]
-    return _report(ev, s, seed, confidence, levels, status, message, t0)
+    return Walk(levels, u, g, status, message)
 
 
 class _Sampler:

@@ -1,0 +1,228 @@
+"""Multi-fidelity importance sampling: a cheap model finds where failure lives, the expensive
+one is run only on draws from a density fitted there (Peherstorfer, Cui, Marzouk and Willcox
+2016).
+
+1. **Explore on the low-fidelity model** ``LF`` (any :class:`~gearuq.model.Model` whose
+   parameters include every random parameter of the space, a surrogate or a fidelity link):
+   subset simulation on ``LF`` with the same limit state (or ``low_fidelity_limit_state``)
+   gives the last level's failing samples, distributed about as the standard normal restricted
+   to ``LF``'s failure domain.
+2. **Fit the biasing density**: a Gaussian mixture in the standard normal space, the number of
+   components chosen by BIC up to ``max_components`` (scikit-learn ``GaussianMixture``), plus
+   a **defensive** standard normal component of share ``defensive``. The defensive share
+   bounds every weight by ``1 / defensive``: a failure region of the expensive model that
+   ``LF`` does not see still has a sampling density, so the estimator is **unbiased whatever
+   ``LF``'s quality**; a useless ``LF`` costs at most the variance of sampling with the
+   defensive share alone.
+3. **Estimate on the high-fidelity model**: ``pf = mean(1_F w)`` over draws of the mixture, in
+   batches until the CoV reaches ``target_cov`` or ``max_samples``; interval ``pf +- z se``.
+
+The same checks as importance sampling set the status: degenerate or heavy-tailed weights
+(3), invalid runs (6, interval over both readings); ``LF`` finding no failure gives
+a density of the defensive component alone, i.e. crude Monte Carlo on the expensive model,
+with status 8 said in words. High- and low-fidelity runs and their wall times are reported
+apart (``n_model_runs`` counts the expensive model only).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy import stats
+
+from gearuq.failure.evaluator import LimitStateEvaluator
+from gearuq.failure.methods import subset
+from gearuq.failure.methods.importance import PARETO_LIMIT, Mixture, weighted_estimate
+from gearuq.failure.report import Reason, failure_report
+from gearuq.model import Model, Option
+
+__all__ = ["SETTINGS", "run_mfis", "fit_mixture"]
+
+
+def _check_model(value: Any) -> Any:
+    if value is None:
+        raise ValueError("low_fidelity: required for method 'mfis' (a Model or a registered "
+                         "model name over the same parameter space)")
+    if not isinstance(value, (Model, str)):
+        raise ValueError(f"low_fidelity: expected a Model or a registered model name, got "
+                         f"{type(value).__name__}")
+    return value
+
+
+def _check_mapping(value: Any) -> Any:
+    if value is not None and not isinstance(value, Mapping):
+        raise ValueError(f"low_fidelity_options: expected a mapping, got {value!r}")
+    return value
+
+
+SETTINGS = (
+    Option("low_fidelity", None, "the cheap model (Model or registered name) that explores the "
+           "failure domain; its parameters must include every random parameter of the space",
+           kind="any", check=_check_model, allow_none=True),
+    Option("low_fidelity_options", None, "declared model options of the cheap model",
+           kind="any", check=_check_mapping, allow_none=True),
+    Option("low_fidelity_limit_state", None, "limit state on the cheap model's outputs "
+           "(default: the same as the expensive model's)", kind="any", allow_none=True),
+    Option("n_per_level", 2000, "subset-simulation samples per level on the cheap model",
+           lower=100),
+    Option("max_components", 4, "largest number of mixture components (chosen by BIC)",
+           lower=1, upper=20),
+    Option("defensive", 0.1, "share of the defensive standard normal component", lower=0.01,
+           upper=0.9),
+    Option("n_samples", 500, "expensive-model samples per batch", lower=10),
+    Option("target_cov", 0.1, "stop when the CoV of pf reaches this", lower=1e-4, upper=1.0),
+    Option("max_samples", 10_000, "largest number of expensive-model samples", lower=10),
+)
+
+
+def fit_mixture(u: np.ndarray, max_components: int, defensive: float, seed: int) -> Mixture:
+    """Gaussian mixture (components by BIC) fitted to points ``u`` of the standard normal
+    space, with a defensive standard normal component; with fewer than ``2 (d + 1)`` points
+    one component at their mean with the unit covariance."""
+    from sklearn.mixture import GaussianMixture
+    from threadpoolctl import threadpool_limits
+
+    n, d = u.shape
+    if n < 2 * (d + 1):
+        centre = u.mean(axis=0)[None, :] if n else np.zeros((1, d))
+        return Mixture(centre, np.eye(d)[None], np.ones(1), defensive)
+    best, best_bic = None, math.inf
+    kinds = "full" if n >= 10 * d else "diag"
+    with threadpool_limits(1):
+        for k in range(1, max_components + 1):
+            if n < k * 2 * (d + 1):
+                break
+            gm = GaussianMixture(k, covariance_type=kinds, reg_covar=1e-3,
+                                 random_state=seed % 2**32, n_init=2).fit(u)
+            bic = gm.bic(u)
+            if bic < best_bic:
+                best, best_bic = gm, bic
+    covs = best.covariances_ if kinds == "full" else np.array([np.diag(c) for c in
+                                                                best.covariances_])
+    # a component narrower than the failure set it stands for starves its edges: widen the
+    # smallest axes to at least 0.3 (standard normal units)
+    val, vec = np.linalg.eigh(covs)
+    covs = np.einsum("kij,kj,klj->kil", vec, np.clip(val, 0.3**2, 9.0), vec)
+    return Mixture(best.means_, covs, best.weights_, defensive)
+
+
+def _low_fidelity(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
+                  ) -> LimitStateEvaluator:
+    from gearuq.registry import get_model
+
+    lf = _check_model(s["low_fidelity"])
+    lf = get_model(lf) if isinstance(lf, str) else lf
+    missing = [n for n in ev.names if n not in lf.parameter_names]
+    if missing:
+        raise ValueError(
+            f"low_fidelity: model {lf.name!r} has no parameter(s) {', '.join(map(repr, missing))}"
+            f" of the parameter space; its parameters: {', '.join(lf.parameter_names)}. Wrap it "
+            "in a fidelity link that maps the space onto its inputs")
+    limit = s["low_fidelity_limit_state"] or ev.limit_state
+    t = ev.request.t
+    return LimitStateEvaluator(lf, ev.space, limit, t,
+                               model_options=s["low_fidelity_options"], executor=ev.executor,
+                               store=None if ev.store is None else ev.store / "low_fidelity",
+                               engine="failure_probability/mfis/low_fidelity", seed=seed)
+
+
+def run_mfis(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float
+             ) -> xr.Dataset:
+    """Multi-fidelity importance sampling; see the module docstring."""
+    t0 = time.perf_counter()
+    ev_lf = _low_fidelity(ev, s, seed)
+    sub = {o.name: o.default for o in subset.SETTINGS}
+    sub["n_per_level"] = s["n_per_level"]
+    walk = subset.simulate(ev_lf, sub, seed)
+    t_lf = time.perf_counter() - t0
+    reasons: list[Reason] = []
+    fail_u = walk.failing() if walk.levels else np.empty((0, ev.dim))
+    if fail_u.shape[0] == 0:
+        mix = Mixture(np.zeros((1, ev.dim)), np.eye(ev.dim)[None], np.ones(1), 1.0 - 1e-12)
+        reasons.append((8, "the low-fidelity model found no failure: the expensive model is "
+                        "sampled by crude Monte Carlo (the defensive component alone)"))
+    else:
+        mix = fit_mixture(fail_u, s["max_components"], s["defensive"], seed)
+    batches: list[dict[str, np.ndarray]] = []
+    n_est, b = 0, 0
+    z = stats.norm.isf((1 - confidence) / 2)
+    est: dict[str, float] = {}
+    while n_est < s["max_samples"]:
+        rng = np.random.default_rng(np.random.SeedSequence([seed, 31, b]))
+        m = min(s["n_samples"], s["max_samples"] - n_est)
+        u = mix.sample(m, rng)
+        res = ev.evaluate(u, f"mfis/batch{b}")
+        w = np.exp(mix.log_weights(u))
+        ok = res["status"] == 0
+        batches.append({"w": w, "fail": ok & (res["g"] <= 0.0), "invalid": ~ok,
+                        "gap": ok & (res["g"] <= 0.0) & ~(res["g_half"] <= 0.0)})
+        n_est += m
+        b += 1
+        est = weighted_estimate(batches, z)
+        if est["cov"] <= s["target_cov"]:
+            break
+    return _report(ev, s, seed, confidence, est, mix, walk, ev_lf, reasons, t0, t_lf)
+
+
+def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
+            est: dict[str, float], mix: Mixture, walk: subset.Walk, ev_lf: LimitStateEvaluator,
+            reasons: list[Reason], t0: float, t_lf: float) -> xr.Dataset:
+    status, message, bound = 0, "", False
+    pf, lower, upper = est["pf"], est["lower"], est["upper"]
+    if est["n_fail"] == 0:
+        status, bound = 4, True
+        pf, lower = math.nan, math.nan
+        upper = max(upper, 3.0 / est["n"])
+        message = ("no expensive-model sample failed: pf_upper is a rough bound only (the "
+                   "low-fidelity model may lead away from the failure domain)")
+    elif est["max_share"] > 0.5 or est["ess"] < 10:
+        status = 3
+        message = (f"weights degenerate: one sample carries {est['max_share']:.0%} of the "
+                   f"estimate, effective sample size {est['ess']:.1f}: the low-fidelity model "
+                   "missed part of the failure domain, which the defensive component hit")
+    elif est["pareto_k"] > PARETO_LIMIT:
+        status = 3
+        message = (f"heavy-tailed weights (generalised Pareto shape k = {est['pareto_k']:.2f} > "
+                   f"{PARETO_LIMIT}): the interval is not reliable")
+    elif est["cov"] > s["target_cov"]:
+        status = 1
+        message = f"max_samples reached with CoV {est['cov']:.3f} > target {s['target_cov']}"
+    if est["n_invalid"]:
+        reasons.append((6, f"{est['n_invalid']} of {est['n']} expensive-model samples were "
+                        f"invalid: as failed pf would be {est['pf_invalid_failed']:.4g}; the "
+                        "interval covers both readings"))
+    extra = {
+        "n_low_fidelity_runs": ((), np.int64(ev_lf.n_runs), {"units": "1", "long_name":
+                                "runs of the low-fidelity model (not in n_model_runs)"}),
+        "low_fidelity_wall_time": ((), float(t_lf), {"units": "s", "long_name":
+                                   "wall time of the low-fidelity exploration"}),
+        "high_fidelity_wall_time": ((), float(time.perf_counter() - t0 - t_lf), {
+            "units": "s", "long_name": "wall time of the expensive-model sampling"}),
+        "pf_low_fidelity": ((), walk.pf, {"units": "1", "long_name":
+                            "subset-simulation estimate of the low-fidelity model"}),
+        "n_components": ((), np.int64(mix.means.shape[0]), {"units": "1", "long_name":
+                         "Gaussian components of the biasing density (defensive excluded)"}),
+        "n_failures": ((), np.int64(est["n_fail"]), {"units": "1", "long_name":
+                       "failing expensive-model samples"}),
+        "effective_sample_size": ((), est["ess"], {"units": "1", "long_name":
+                                  "(sum w)^2 / sum w^2 over failing samples"}),
+        "max_weight_share": ((), est["max_share"], {"units": "1", "long_name":
+                             "largest share of one sample in the pf estimate"}),
+        "pareto_k": ((), est["pareto_k"], {"units": "1", "long_name":
+                     "generalised Pareto shape of the largest contributions"}),
+    }
+    settings = {k: (v.name if isinstance(v, Model) else v) for k, v in s.items()}
+    return failure_report(
+        ev, "mfis", pf=pf, pf_lower=lower, pf_upper=upper, cov=est["cov"],
+        interval_kind="normal approximation pf +- z se of the importance-sampling estimator "
+                      "(expensive-model runs only)",
+        confidence=confidence, settings=settings, seed=seed,
+        wall_time=time.perf_counter() - t0, status=status, message=message, reasons=reasons,
+        grid_gap=est["grid_gap"] if ev.time_dependent else math.nan, pf_is_upper_bound=bound,
+        extra=extra, extra_attrs={"low_fidelity_model": ev_lf.model.name,
+                                  "defensive_share": float(mix.defensive)})
