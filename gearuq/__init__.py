@@ -37,6 +37,7 @@ _LAZY = {
     "sobol_analysis": "gearuq.engines.sensitivity",
     "morris_screening": "gearuq.engines.sensitivity",
     "failure_probability": "gearuq.failure.api",
+    "multifidelity_estimate": "gearuq.engines.multifidelity",
     # reliability, limit states, fitting
     "reliability": "gearuq.failure.samples",
     "Band": "gearuq.failure.modes",
