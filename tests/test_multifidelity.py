@@ -66,14 +66,16 @@ def test_allocation_agrees_with_mxmcpy():
         theirs.variance, rel=1e-2)
 
 
-@pytest.mark.parametrize("statistic,reference", [("mean", MEAN), ("variance", VARIANCE)])
-def test_unbiased_with_intervals_that_hold(statistic, reference):
+@pytest.mark.parametrize("statistic,reference,estimator", [
+    ("mean", MEAN, "mfmc"), ("variance", VARIANCE, "mfmc"), ("mean", MEAN, "acvmf")])
+def test_unbiased_with_intervals_that_hold(statistic, reference, estimator):
     """40 seeds: the mean estimate within 3 standard errors of the exact moment, the 95 %
     intervals holding it in at least 32 of 40 (binomial 0.1 % quantile at p = 0.95 is 33)."""
     est, held = [], 0
     for seed in range(40):
         r = multifidelity_estimate(MODELS, SPACE, "y", statistic=statistic, budget=150.0,
-                                   costs=COSTS, pilot=50, rng=seed, executor="serial")
+                                   costs=COSTS, pilot=50, rng=seed, executor="serial",
+                                   estimator=estimator)
         est.append(float(r["estimate"]))
         held += float(r["estimate_lower"]) <= reference <= float(r["estimate_upper"])
     est = np.array(est)
@@ -109,6 +111,23 @@ def test_exceedance_probability_of_a_moderate_level():
     assert held >= stats.binom.ppf(0.001, 20, 0.95)
 
 
+def test_acvmf_allocation_minimises_its_variance():
+    """The optimiser's ratios beat every ratio on a grid around them (two cheap models)."""
+    from gearuq.engines.multifidelity import _acvmf_variance, acvmf_allocation
+
+    sd = np.array([1.0, 0.9, 1.2])
+    corr = np.array([[1.0, 0.95, 0.8], [0.95, 1.0, 0.85], [0.8, 0.85, 1.0]])
+    cov = corr * np.outer(sd, sd)
+    costs = np.array([1.0, 0.05, 0.01])
+    n, r = acvmf_allocation(costs, cov, 100.0)
+    best = _acvmf_variance(cov, r, n)
+    for f1 in (0.7, 0.9, 1.1, 1.4):
+        for f2 in (0.7, 0.9, 1.1, 1.4):
+            rr = np.maximum(r * [f1, f2], 1.0 + 1e-9)
+            assert best <= _acvmf_variance(cov, rr, 100.0 / (1.0 + costs[1:] @ rr)) * (1 + 1e-6)
+    assert 100.0 == pytest.approx(n * (costs[0] + costs[1:] @ r))
+
+
 def test_bad_input():
     with pytest.raises(ValueError, match="at least one cheaper"):
         multifidelity_estimate(MODELS[:1], SPACE, "y", budget=10.0)
@@ -121,3 +140,5 @@ def test_bad_input():
         multifidelity_estimate([MODELS[0], other], SPACE, "y", budget=10.0)
     with pytest.raises(ValueError, match="statistic"):
         multifidelity_estimate(MODELS, SPACE, "y", budget=10.0, statistic="median")
+    with pytest.raises(ValueError, match="estimator"):
+        multifidelity_estimate(MODELS, SPACE, "y", budget=10.0, estimator="mlmc")

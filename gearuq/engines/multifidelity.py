@@ -26,6 +26,17 @@ sample variances of the nested sets, ``alpha_k`` from the correlation of the squ
 deviations (Qian, Peherstorfer, O'Malley, Vesselinov and Willcox 2018), its interval from the
 same formula with the squared deviations' moments (asymptotic).
 
+``estimator="acvmf"`` is the approximate control variate of Gorodetsky, Geraci, Eldred and
+Jakeman (2020, "A generalized approximate control variate framework for multifidelity
+uncertainty quantification", J. Comput. Phys. 408, 109257), its MF variant: every cheap model
+runs on the expensive model's ``N`` samples and on the first ``r_i N`` of one shared pool,
+``y = ybar_0 + sum_i alpha_i (ybar_i(N) - ybar_i(r_i N))``; with ``F_ij = 1 - 1/min(r_i,
+r_j)``, ``alpha = -(C o F)^-1 (c o diag F)`` and ``Var = (sigma_0^2 - (c o f)^T (C o F)^-1
+(c o f)) / N``; the ratios ``r_i >= 1`` minimise that variance for the budget (numerically,
+from MFMC's ratios). Unlike MFMC it needs no ordering by correlation and keeps every model:
+it can only gain from one more (up to the optimiser), where MFMC must drop a model that
+breaks its condition.
+
 The report gives the variance reduction against plain Monte Carlo of the expensive model at
 the same cost, ``sigma_0^2 w_0 / (B Var)``, the pilot included in the cost or not (both).
 """
@@ -47,10 +58,13 @@ from gearuq.failure.modes import as_limit_state
 from gearuq.model import Model
 from gearuq.space import ParameterSpace
 
-__all__ = ["multifidelity_estimate", "mfmc_allocation", "STATISTICS"]
+__all__ = ["multifidelity_estimate", "mfmc_allocation", "acvmf_allocation", "STATISTICS",
+           "ESTIMATORS"]
 
 #: Statistics :func:`multifidelity_estimate` estimates.
 STATISTICS = ("mean", "variance", "probability")
+#: Estimators :func:`multifidelity_estimate` offers.
+ESTIMATORS = ("mfmc", "acvmf")
 
 
 def mfmc_allocation(costs: Sequence[float], rho: Sequence[float], budget: float
@@ -106,6 +120,61 @@ def _mfmc_variance(m: np.ndarray, sigma: np.ndarray, rho: np.ndarray) -> float:
     return float(var)
 
 
+def _acvmf_terms(cov: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``C o F`` and ``c o f`` of ACV-MF for ratios ``r`` (cheap models only)."""
+    rmin = np.minimum.outer(r, r)
+    big_f = 1.0 - 1.0 / rmin
+    f = 1.0 - 1.0 / r
+    return cov[1:, 1:] * big_f, cov[0, 1:] * f
+
+
+def _acvmf_variance(cov: np.ndarray, r: np.ndarray, n: float) -> float:
+    """Variance of the optimal ACV-MF estimator with ``n`` expensive samples."""
+    cf, cvec = _acvmf_terms(cov, r)
+    gain = float(cvec @ np.linalg.lstsq(cf, cvec, rcond=None)[0])
+    return (cov[0, 0] - gain) / n
+
+
+def acvmf_allocation(costs: Sequence[float], cov: np.ndarray, budget: float
+                     ) -> tuple[float, np.ndarray]:
+    """ACV-MF: expensive samples ``N`` and ratios ``r_i >= 1`` minimising the variance.
+
+    Parameters
+    ----------
+    costs : sequence of float
+        Cost per sample, the expensive model first.
+    cov : ndarray (K, K)
+        Covariance of the models' quantities.
+    budget : float
+
+    Returns
+    -------
+    n : float
+        Expensive-model samples (not rounded).
+    r : ndarray
+        Ratio of each cheap model's samples to ``n``.
+    """
+    from scipy import optimize
+
+    w = np.asarray(costs, dtype=float)
+    cov = np.asarray(cov, dtype=float)
+    sd = np.sqrt(np.diag(cov))
+    rho = cov[0] / (sd[0] * np.where(sd > 0, sd, 1.0))
+
+    def objective(z: np.ndarray) -> float:
+        r = 1.0 + np.exp(z)
+        n = budget / (w[0] + w[1:] @ r)
+        return math.log(max(_acvmf_variance(cov, r, n), 1e-300))
+
+    # start: the two-model MFMC ratio of each cheap model alone
+    r0 = np.sqrt(w[0] * rho[1:] ** 2 / (w[1:] * np.maximum(1 - rho[1:] ** 2, 1e-6)))
+    z0 = np.log(np.maximum(r0 - 1.0, 1e-3))
+    best = optimize.minimize(objective, z0, method="Nelder-Mead",
+                             options={"xatol": 1e-6, "fatol": 1e-10, "maxiter": 4000})
+    r = 1.0 + np.exp(best.x)
+    return budget / (w[0] + w[1:] @ r), r
+
+
 class _Quantity:
     """The scalar per sample each model contributes: an output, or a failure indicator."""
 
@@ -138,6 +207,7 @@ def multifidelity_estimate(
     t: Any = None,
     *,
     statistic: str = "mean",
+    estimator: str = "mfmc",
     budget: float,
     pilot: int = 100,
     costs: Sequence[float] | None = None,
@@ -161,6 +231,8 @@ def multifidelity_estimate(
     t : array_like, optional
         Output instants (time-dependent limit states use their first-passage value).
     statistic : {"mean", "variance", "probability"}
+    estimator : {"mfmc", "acvmf"}
+        Multifidelity Monte Carlo or the approximate control variate (MF variant).
     budget : float
         Cost to spend after the pilot, in the units of ``costs`` (seconds when measured).
     pilot : int
@@ -188,6 +260,8 @@ def multifidelity_estimate(
     """
     if statistic not in STATISTICS:
         raise ValueError(f"statistic: unknown {statistic!r}; valid: {', '.join(STATISTICS)}")
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator: unknown {estimator!r}; valid: {', '.join(ESTIMATORS)}")
     models = [resolve_model(m) for m in models]
     if len(models) < 2:
         raise ValueError(f"models: give the expensive model and at least one cheaper one, got "
@@ -236,17 +310,26 @@ def multifidelity_estimate(
     w = np.asarray(costs if costs is not None else measured, dtype=float)
     stat = _statistic_samples(np.array(pilot_q), statistic)
     rho = np.array([np.corrcoef(stat[0], s)[0, 1] for s in stat])
-    order = [0] + sorted(range(1, len(models)), key=lambda k: -abs(rho[k]))
-    m_float, kept_pos = mfmc_allocation(w[order], rho[order], budget)
-    kept = [order[i] for i in kept_pos]
-    m = np.maximum(np.floor(m_float).astype(int), 2)
-    m = np.maximum.accumulate(m)
-    x_all = space.sample(int(m[-1]), rule="random", rng=seed + 1)
+    if estimator == "acvmf":
+        n_hf, ratios = acvmf_allocation(w, np.cov(stat), budget)
+        kept = list(range(len(models)))
+        m = np.concatenate([[max(int(n_hf), 2)], np.maximum(
+            np.floor(ratios * max(int(n_hf), 2)).astype(int), max(int(n_hf), 2) + 1)])
+    else:
+        order = [0] + sorted(range(1, len(models)), key=lambda k: -abs(rho[k]))
+        m_float, kept_pos = mfmc_allocation(w[order], rho[order], budget)
+        kept = [order[i] for i in kept_pos]
+        m = np.maximum(np.floor(m_float).astype(int), 2)
+        m = np.maximum.accumulate(m)
+    x_all = space.sample(int(m.max()), rule="random", rng=seed + 1)
     ys = []
     for i, k in enumerate(kept):
         x_k = {name: v[: m[i]] for name, v in x_all.items()}
         ys.append(run(k, x_k, f"level{i}")[0])
-    est, var, alpha, sig, rho_run = _combine(ys, m, statistic)
+    if estimator == "acvmf":
+        est, var, alpha, sig, rho_run = _combine_acvmf(ys, m, statistic)
+    else:
+        est, var, alpha, sig, rho_run = _combine(ys, m, statistic)
     z = stats.norm.isf((1 - confidence) / 2)
     se = math.sqrt(max(var, 0.0))
     spent = float(np.dot(w[kept], m))
@@ -290,7 +373,8 @@ def multifidelity_estimate(
         coords={"fidelity": ("fidelity", [m_.name for m_ in models])},
     )
     out.attrs.update(provenance("multifidelity_estimate", models[0], requests[0], space, seed,
-                                statistic=statistic, budget=float(budget), pilot=int(pilot),
+                                statistic=statistic, estimator=estimator,
+                                budget=float(budget), pilot=int(pilot),
                                 models=[m_.name for m_ in models]))
     out.attrs["interval_kind"] = ("normal, estimator variance from the run's shared samples "
                                   "(Peherstorfer et al. 2016)")
@@ -324,3 +408,25 @@ def _combine(ys: list[np.ndarray], m: np.ndarray, statistic: str
         est += alpha[i] * (level_stat(ys[i][: m[i]]) - level_stat(ys[i][: m[i - 1]]))
     var = _mfmc_variance(m.astype(float), np.where(sig > 0, sig, 1e-300), rho)
     return float(est), var, alpha, sig, rho
+
+
+def _combine_acvmf(ys: list[np.ndarray], m: np.ndarray, statistic: str
+                   ) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray]:
+    """ACV-MF estimate and variance; ``ys[0]`` on ``m[0]`` samples, ``ys[i]`` on ``m[i]``
+    (the first ``m[0]`` shared with the expensive model)."""
+    n = int(m[0])
+    shared = _statistic_samples(np.array([y[:n] for y in ys]), statistic)
+    cov = np.cov(shared)
+    sig = np.sqrt(np.diag(cov))
+    rho = cov[0] / (sig[0] * np.where(sig > 0, sig, 1.0))
+    r = m[1:] / n
+    cf, cvec = _acvmf_terms(cov, r)
+    alpha = np.concatenate([[1.0], -np.linalg.lstsq(cf, cvec, rcond=None)[0]])
+
+    def level_stat(y: np.ndarray) -> float:
+        return float(np.var(y, ddof=1) if statistic == "variance" else np.mean(y))
+
+    est = level_stat(ys[0][:n])
+    for i in range(1, len(ys)):
+        est += alpha[i] * (level_stat(ys[i][:n]) - level_stat(ys[i][: m[i]]))
+    return float(est), _acvmf_variance(cov, r, n), alpha, sig, rho
