@@ -34,7 +34,7 @@ import xarray as xr
 
 from gearuq._version import __version__
 from gearuq.execution.lifeline import check_parent
-from gearuq.io import CHECKSUMMED, netcdf_lock, write_text_atomic
+from gearuq.io import CHECKSUMMED, netcdf_lock, write_error, write_text_atomic
 
 __all__ = ["ChunkStore", "StoreMismatchError", "StoreLockedError", "IntegrityError",
            "write_chunk", "file_sha256", "jsonable"]
@@ -110,7 +110,10 @@ def write_chunk(store: str | os.PathLike, index: int, ds: xr.Dataset) -> Path:
     check_parent(f"write {path}")
     part = path.with_name(f"{path.name}.{os.getpid()}.part.tmp")
     try:
-        save(ds, part)
+        try:
+            save(ds, part)
+        except OSError as exc:  # name the chunk, not its temporary
+            raise write_error(path, exc.__cause__ or exc, int(ds.nbytes)) from exc
         digest = file_sha256(part)
         check_parent(f"commit {path}")
         os.replace(part, path)
