@@ -122,3 +122,25 @@ def test_chunk_write_refuses_once_the_parent_is_gone(tmp_path, monkeypatch):
     write_chunk(tmp_path, 3, _tiny())
     assert sorted(p.name for p in tmp_path.iterdir()) == ["chunk_000003.nc",
                                                           "chunk_000003.nc.sha256"]
+
+
+def _product(x1, x2):
+    return x1 * x2
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no forkserver on Windows")
+def test_forkserver_workers_watch_their_real_parent():
+    # a forkserver worker's parent is the fork server, not the run: the guard must not
+    # mistake that for an orphan (every chunk would then fail in the executor)
+    import gearuq
+    from gearuq.engines.montecarlo import monte_carlo
+    from gearuq.execution import ProcessRunner
+
+    model = gearuq.FunctionModel(_product, ["x1", "x2"], ["y"], name="product")
+    space = gearuq.ParameterSpace.normal(x1=(0.0, 1.0), x2=(0.0, 1.0))
+    kwargs = dict(n_samples=120, rng=4, chunk_size=30, progress=False)
+    ref = monte_carlo(model, space, executor="serial", **kwargs)
+    with ProcessRunner(2, mp_context="forkserver") as runner:
+        ds = monte_carlo(model, space, executor=runner, **kwargs)
+    assert "failures" not in ds.attrs
+    np.testing.assert_array_equal(ds["y"].values, ref["y"].values)

@@ -83,19 +83,23 @@ def _watch(parent: int) -> None:
             os._exit(EXIT_ORPHANED)  # no cleanup: nothing of a dead run may be written
 
 
-def install(parent: int, kill_with_parent: bool = True) -> None:
-    """Worker initializer: end this process when ``parent`` ends.
+def install(parent: int | None, kill_with_parent: bool = True) -> None:
+    """Worker initializer: end this process when its parent ends.
 
     Parameters
     ----------
-    parent : int
-        Pid of the process that started the worker.
+    parent : int or None
+        Pid of the process that started the worker, or ``None`` when an intermediary
+        started it (multiprocessing's ``forkserver``, which itself ends with the run): the
+        current parent is watched then.
     kill_with_parent : bool
         Also use Linux's parent-death signal. The kernel sends it when the *thread* that
         started the worker ends, so the caller passes ``True`` only when the pool is started
         from its main thread.
     """
     global _PARENT
+    if parent is None:
+        parent = os.getppid()
     _PARENT = parent
     if kill_with_parent:
         _kill_with_parent()

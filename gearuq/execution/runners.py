@@ -219,10 +219,11 @@ class ProcessRunner(Runner):
             # the parent-death signal follows the thread that starts a worker: use it only
             # when that is the main thread (workers are started by the submitting thread)
             main = threading.current_thread() is threading.main_thread()
+            parent = None if self.mp_context == "forkserver" else os.getpid()
             self._pool = cf.ProcessPoolExecutor(
                 max_workers=self.n_workers,
                 mp_context=multiprocessing.get_context(self.mp_context),
-                initializer=lifeline.install, initargs=(os.getpid(), main),
+                initializer=lifeline.install, initargs=(parent, main),
             )
         return self._pool
 
