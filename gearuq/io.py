@@ -154,6 +154,18 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
     -------
     pathlib.Path
         The written path.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be written; the message names it, and a full device is reported
+        as such (``errno.ENOSPC``, with the free space and the file's size).
+
+    Notes
+    -----
+    The temporary file is named after the host and process that write it; each save removes
+    the temporaries of the same path left by processes of this host that no longer exist
+    (a save killed mid-write).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -436,8 +436,8 @@ def evaluate_chunks(
         The model's code fingerprint, the request, a digest of the design and the chunk size
         are always included.
     memory_limit : float, optional
-        Bytes a result held in memory may take (default: 60 % of the available memory);
-        larger runs without a store are refused before they start.
+        Bytes a result held in memory may take, > 0 (``inf``: no limit; default: 60 % of the
+        available memory); larger runs without a store are refused before they start.
     wait : float
         Seconds to wait for a store that another run holds (default: as long as it takes).
 
@@ -456,6 +456,9 @@ def evaluate_chunks(
         Bad design, chunk size or executor; :class:`StoreMismatchError` for a foreign store.
     MemoryError
         A result that would not fit in ``memory_limit`` without a store.
+    OSError
+        A chunk cannot be written (the message names the file; a full device says so), or
+        a store that cannot be written lacks chunks.
     RuntimeError
         If every sample failed (nothing to return; the message holds the first error).
     """

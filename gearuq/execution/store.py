@@ -11,6 +11,11 @@ A store is a directory::
 A chunk counts as stored only when its file and its checksum exist and agree; anything else
 (an interrupted write, a flipped byte) is recomputed on resume with a warning, and reported
 with the file's name when loaded directly.
+
+A store that cannot be written (read-only media, no permission) is opened without the lock:
+nobody can add to it, and its complete, verified chunks are reused; if chunks are missing the
+run stops and says so. Worker processes never write a chunk after their run is gone
+(:mod:`gearuq.execution.lifeline`).
 """
 
 from __future__ import annotations
