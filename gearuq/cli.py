@@ -108,16 +108,35 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_compile(args: argparse.Namespace) -> int:
+    import inspect
+    import time
+
     from gearuq import registry
 
     names = args.names or registry.list_models()
+    width = max((len(n) for n in names), default=4)
     for name in names:
         model = registry.get_model(name)
         precompile = getattr(model, "precompile", None)
-        if precompile is None:
-            print(f"{name:<18} nothing to compile")
+        if not callable(precompile):
+            print(f"{name:<{width}}  no precompile() step: anything this model compiles is "
+                  "compiled on its first call", flush=True)
             continue
-        print(f"{name:<18} compiled or loaded from the cache in {precompile():.1f} s", flush=True)
+        try:
+            verbose = "verbose" in inspect.signature(precompile).parameters
+        except (TypeError, ValueError):
+            verbose = False
+        print(f"{name:<{width}}  precompile(): compiling, or loading from the on-disk cache, "
+              f"what its calls need{' (item by item below)' if verbose else ''}", flush=True)
+        start = time.perf_counter()
+        reported = precompile(verbose=True) if verbose else precompile()
+        elapsed = time.perf_counter() - start
+        detail = ""
+        if isinstance(reported, (int, float)) and not isinstance(reported, bool):
+            detail = f" (the model reports {float(reported):.1f} s of compiling or loading)"
+        elif isinstance(reported, str) and reported.strip():
+            detail = f": {reported.strip()}"
+        print(f"{name:<{width}}  precompile() done in {elapsed:.1f} s{detail}", flush=True)
     return 0
 
 
@@ -132,6 +151,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
             print(name)
         return 0
     if args.what not in BUILTIN_BENCHES:
+        plugins = registry.list_benchmarks()
+        if args.what not in plugins:
+            raise ValueError(
+                f"bench: unknown benchmark {args.what!r}; valid: built-in "
+                f"{', '.join(BUILTIN_BENCHES)}; from plugins: {', '.join(plugins) or 'none'}")
         registry.get_benchmark(args.what)(args.out, quick=args.quick)
         return 0
     if args.what == "reliability":

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
-import tempfile
+import secrets
+import shutil
+import socket
 import threading
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -63,6 +67,9 @@ def sanitize_attrs(ds: xr.Dataset) -> xr.Dataset:
 
 
 CHECKSUM = "checksum"
+#: Global attribute listing the variables that carry a checksum (itself covered by the global
+#: checksum), so that a deleted variable checksum is noticed.
+CHECKSUMMED = "checksummed_variables"
 _HASHABLE = "biufcUSO"
 
 
@@ -147,6 +154,18 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
     -------
     pathlib.Path
         The written path.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be written; the message names it, and a full device is reported
+        as such (``errno.ENOSPC``, with the free space and the file's size).
+
+    Notes
+    -----
+    The temporary file is named after the host and process that write it; each save removes
+    the temporaries of the same path left by processes of this host that no longer exist
+    (a save killed mid-write).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -166,18 +185,156 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
             encoding[str(name)] = enc
         if checksum and var.dtype.kind in _HASHABLE:
             var.attrs[CHECKSUM] = _digest_variable(var, var.attrs)
+    if not checksum:  # drop stale checksums of an earlier save: they would not match
+        ds.attrs.pop(CHECKSUM, None)
+        ds.attrs.pop(CHECKSUMMED, None)
+        for var in ds.variables.values():
+            var.attrs.pop(CHECKSUM, None)
     if checksum:
+        ds.attrs[CHECKSUMMED] = json.dumps(sorted(
+            str(k) for k, v in ds.variables.items() if CHECKSUM in v.attrs))
         ds.attrs[CHECKSUM] = _global_digest(ds.attrs)
-    fd, tmp = tempfile.mkstemp(suffix=".nc.tmp", dir=path.parent)
-    os.close(fd)
+    clean_stale_temporaries(path)
+    tmp = temporary_path(path)
     try:
-        with netcdf_lock():
-            ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        try:
+            with netcdf_lock():
+                ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+            os.chmod(tmp, 0o666 & ~_umask())
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+    except (OSError, RuntimeError) as exc:
+        raise write_error(path, exc, int(ds.nbytes)) from exc
+    return path
+
+
+# --------------------------------------------------------------------------- temporaries
+def temporary_path(path: str | os.PathLike) -> Path:
+    """A temporary file next to ``path`` whose name tells who writes it.
+
+    ``<name>.<host>.<pid>.<random>.tmp``: a later save to the same path removes it if that
+    process is gone (:func:`clean_stale_temporaries`).
+    """
+    path = Path(path)
+    host = socket.gethostname().replace(".", "_") or "host"
+    return path.with_name(f"{path.name}.{host}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+
+
+def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists on this machine (``True`` when it cannot be told)."""
+    if pid == os.getpid():
+        return True
+    if os.name != "posix":
+        return True  # os.kill would terminate it on Windows: never guess there
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True  # exists, owned by another user
+    return True
+
+
+def clean_stale_temporaries(path: str | os.PathLike) -> list[Path]:
+    """Remove temporaries of ``path`` left by writers that died (SIGKILL, power loss).
+
+    Only files named by :func:`temporary_path` on this host whose process no longer exists
+    are removed; a live writer's file, another host's and any other file are left alone.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The removed files.
+    """
+    path = Path(path)
+    host = socket.gethostname().replace(".", "_") or "host"
+    removed = []
+    try:
+        candidates = list(path.parent.glob(f"{_glob_escape(path.name)}.*.tmp"))
+    except OSError:
+        return removed
+    for tmp in candidates:
+        middle = tmp.name[len(path.name) + 1:-len(".tmp")]
+        parts = middle.rsplit(".", 2)
+        if len(parts) != 3 or parts[0] != host or not parts[1].isdigit():
+            continue
+        if not _pid_alive(int(parts[1])):
+            try:
+                tmp.unlink()
+            except OSError:
+                continue
+            removed.append(tmp)
+    return removed
+
+
+def _glob_escape(name: str) -> str:
+    import glob
+
+    return glob.escape(name)
+
+
+# --------------------------------------------------------------------------- write errors
+def _fmt_bytes(b: float) -> str:
+    for unit in ("B", "KB", "MB", "GB", "TB"):
+        if b < 1024 or unit == "TB":
+            return f"{int(b)} B" if unit == "B" else f"{b:.1f} {unit}"
+        b /= 1024
+    return f"{b:.1f} TB"  # pragma: no cover
+
+
+#: Below this many free bytes beyond what a file needs, a failed write is put down to space.
+_SPACE_MARGIN = 1 << 20
+
+
+def write_error(path: str | os.PathLike, exc: BaseException, need: int = 0) -> OSError:
+    """An :class:`OSError` that names the file a write failed on, and a full device.
+
+    HDF5 reports a full disk as ``RuntimeError: NetCDF: HDF error``, with neither the file
+    nor the cause. The device is called full when the error says so (``ENOSPC``,
+    ``EDQUOT``) or when it has less room than the file needs (``need`` bytes) plus a margin.
+
+    Parameters
+    ----------
+    path : path-like
+        The file being written.
+    exc : BaseException
+        The original error.
+    need : int
+        Approximate size of the file in bytes (0: unknown).
+    """
+    path = Path(path)
+    code = getattr(exc, "errno", None)
+    try:
+        usage = shutil.disk_usage(path.parent)
+    except OSError:
+        usage = None
+    full = code in (errno.ENOSPC, getattr(errno, "EDQUOT", -1)) or (
+        usage is not None and usage.free < need + _SPACE_MARGIN)
+    if full:
+        room = "" if usage is None else (
+            f": {_fmt_bytes(usage.free)} free of {_fmt_bytes(usage.total)}")
+        size = f", and this file needs about {_fmt_bytes(need)}" if need else ""
+        return OSError(errno.ENOSPC,
+                       f"cannot write {path}: no space left on the device holding "
+                       f"{path.parent}{room}{size}; free some space or write elsewhere "
+                       f"({type(exc).__name__}: {exc})")
+    return OSError(code if code is not None else errno.EIO,
+                   f"cannot write {path}: {type(exc).__name__}: {exc}")
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+    """Write a small text file atomically (temporary file, then rename); errors name it."""
+    path = Path(path)
+    tmp = temporary_path(path)
+    try:
+        try:
+            tmp.write_text(text)
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+    except OSError as exc:
+        raise write_error(path, exc, len(text.encode())) from exc
     return path
 
 
@@ -217,8 +374,29 @@ def verify(ds: xr.Dataset, path: str | os.PathLike = "<dataset>") -> None:
             raise IntegrityError(f"{path}: variable {name!r} does not match its checksum "
                                  "(the file was changed or damaged after it was written)")
     want = ds.attrs.get(CHECKSUM)
-    if want is not None and _global_digest(ds.attrs) != want:
+    if want is None:
+        warnings.warn(
+            f"{path} has no {CHECKSUM!r} attribute: its contents cannot be verified (it was "
+            "written without checksums, by another program, or the attribute was removed); "
+            "loading it unverified", RuntimeWarning, stacklevel=3)
+        return
+    if _global_digest(ds.attrs) != want:
         raise IntegrityError(f"{path}: the global attributes do not match their checksum")
+    try:
+        listed = json.loads(str(ds.attrs.get(CHECKSUMMED, "[]")))
+    except ValueError:
+        listed = []
+    missing = [str(v) for v in listed if v in ds.variables
+               and CHECKSUM not in ds.variables[v].attrs]
+    gone = [str(v) for v in listed if v not in ds.variables]
+    if gone:
+        raise IntegrityError(f"{path}: variable(s) {', '.join(map(repr, gone))} were written "
+                             "with a checksum but are missing from the file")
+    if missing:
+        warnings.warn(
+            f"{path}: variable(s) {', '.join(map(repr, missing))} lost their {CHECKSUM!r} "
+            "attribute after the file was written: their values cannot be verified; "
+            "loading them unverified", RuntimeWarning, stacklevel=3)
 
 
 def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool = True
@@ -276,6 +454,7 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
         except RuntimeError as exc:
             raise _locate_read_error(path, exc) from exc
     ds.attrs.pop(CHECKSUM, None)
+    ds.attrs.pop(CHECKSUMMED, None)
     for var in ds.variables.values():
         var.attrs.pop(CHECKSUM, None)
     return ds

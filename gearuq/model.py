@@ -433,7 +433,7 @@ class Model:
                 f"model {self.name!r}: unknown parameter(s) {', '.join(map(repr, unknown))}; "
                 f"valid: {', '.join(self.parameter_names)}"
             )
-        arrays = {k: np.asarray(v, dtype=float) for k, v in params.items()}
+        arrays = {k: self._numeric(k, v) for k, v in params.items()}
         lengths = {k: a.shape[0] for k, a in arrays.items() if a.ndim == 1}
         for k, a in arrays.items():
             if a.ndim > 1:
@@ -467,6 +467,36 @@ class Model:
                 )
             out[p.name] = np.ascontiguousarray(a)
         return out
+
+    def _numeric(self, name: str, value: Any) -> np.ndarray:
+        """Parameter ``name``'s values as a float array, or a ValueError naming it."""
+        try:
+            a = np.asarray(value)
+            if a.dtype.kind in "biuf":
+                return np.asarray(a, dtype=float)
+            # text, complex, None, mixed lists: look at the values as given, one by one (a
+            # complex cast to float would silently drop its imaginary part)
+            items = np.asarray(value, dtype=object)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"parameter {name!r}: cannot read {_brief(value)} as an array of "
+                             f"numbers ({exc}); {self._valid_numbers(name)}") from None
+        for i, v in enumerate(items.ravel()):
+            if isinstance(v, (bool, int, float, np.bool_, np.integer, np.floating)):
+                continue
+            if isinstance(v, (complex, np.complexfloating)):
+                kind = "a complex number"
+            elif isinstance(v, (str, bytes, np.str_, np.bytes_)):
+                kind = "text"
+            else:
+                kind = f"of type {type(v).__name__}"
+            v = v.item() if isinstance(v, np.generic) else v
+            where = "" if items.ndim == 0 else f" at sample {i}"
+            raise ValueError(f"parameter {name!r}: value {_brief(v)}{where} is {kind}, not a "
+                             f"real number; {self._valid_numbers(name)}")
+        return items.astype(float)
+
+    def _valid_numbers(self, name: str) -> str:
+        return f"valid: real numbers in {self.parameter(name).range_text()}"
 
     def validate_time(self, t: Any) -> np.ndarray:
         """Return ``t`` as a non-empty, finite, non-decreasing 1-D float array."""
@@ -671,6 +701,12 @@ def status_attrs(extra: Mapping[int, str] | None = None) -> dict[str, Any]:
         "flag_meanings": " ".join(meanings[c].replace(" ", "_") for c in codes),
         "role": "status",
     }
+
+
+def _brief(value: Any, limit: int = 60) -> str:
+    """``repr(value)`` shortened for an error message."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _attr_value(v: Any) -> Any:

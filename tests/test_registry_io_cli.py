@@ -45,7 +45,10 @@ def test_broken_plugin_reported_without_breaking_others(monkeypatch):
     assert gearuq.get_model("linear_oscillator").name == "linear_oscillator"
 
 
-def test_register_function_model():
+def test_register_function_model(monkeypatch):
+    # a registration lives for the process: keep it out of later tests (test_docs checks
+    # that every registered model has a theory page)
+    monkeypatch.setattr(registry, "_RUNTIME", dict(registry._RUNTIME))
     fm = FunctionModel(lambda a: 2 * a, [Parameter("a", "m", 1.0, 0.0, 10.0)],
                        [Output("y", "m", ("sample",))], name="double")
     registry.register_model("double_test", lambda: fm, overwrite=True)

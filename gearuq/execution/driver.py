@@ -21,6 +21,7 @@ any chunk size and any executor, provided the model treats its samples independe
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -137,6 +138,25 @@ def design_digest(design: Mapping[str, np.ndarray]) -> str:
         h.update(k.encode())
         h.update(np.ascontiguousarray(np.asarray(design[k], dtype=float)).tobytes())
     return h.hexdigest()
+
+
+def _check_memory_limit(memory_limit: Any) -> float:
+    """``memory_limit`` as bytes (default: 60 % of the available memory), validated."""
+    if memory_limit is None:
+        return 0.6 * available_memory()
+    if isinstance(memory_limit, (bool, np.bool_, str, bytes)):
+        limit = math.nan
+    else:
+        try:
+            limit = float(memory_limit)
+        except (TypeError, ValueError):
+            limit = math.nan
+    if not limit > 0:  # also rejects NaN
+        raise ValueError(
+            f"memory_limit: {memory_limit!r} is not valid; give the bytes a result held in "
+            "memory may take, a number > 0 (inf: no limit), or None for 60 % of the "
+            "available memory")
+    return limit
 
 
 def _check_memory(n: int, bps: int, limit: float, store: Any, measured: bool) -> None:
@@ -416,8 +436,8 @@ def evaluate_chunks(
         The model's code fingerprint, the request, a digest of the design and the chunk size
         are always included.
     memory_limit : float, optional
-        Bytes a result held in memory may take (default: 60 % of the available memory);
-        larger runs without a store are refused before they start.
+        Bytes a result held in memory may take, > 0 (``inf``: no limit; default: 60 % of the
+        available memory); larger runs without a store are refused before they start.
     wait : float
         Seconds to wait for a store that another run holds (default: as long as it takes).
 
@@ -436,6 +456,9 @@ def evaluate_chunks(
         Bad design, chunk size or executor; :class:`StoreMismatchError` for a foreign store.
     MemoryError
         A result that would not fit in ``memory_limit`` without a store.
+    OSError
+        A chunk cannot be written (the message names the file; a full device says so), or
+        a store that cannot be written lacks chunks.
     RuntimeError
         If every sample failed (nothing to return; the message holds the first error).
     """
@@ -453,7 +476,7 @@ def evaluate_chunks(
     bps = estimate_bytes_per_sample(model, request)
     chunk_size = _check_chunk_size(chunk_size, n, bps)
     bounds = chunk_bounds(n, chunk_size)
-    limit = float(memory_limit) if memory_limit is not None else 0.6 * available_memory()
+    limit = _check_memory_limit(memory_limit)
     _check_memory(n, bps, limit, store, measured=False)
 
     chunk_store = None
@@ -466,6 +489,12 @@ def evaluate_chunks(
         reused = [] if chunk_store is None else chunk_store.valid_chunks(
             {i: e - s for i, (s, e) in enumerate(bounds)})
         todo = [i for i in range(len(bounds)) if i not in set(reused)]
+        if chunk_store is not None and chunk_store.read_only and todo:
+            raise OSError(
+                errno.EROFS,
+                f"store {chunk_store.path} cannot be written ({chunk_store.read_only}) and "
+                f"{len(todo)} of its {len(bounds)} chunks are missing or corrupt; copy it to "
+                "writable storage to complete it, or use another store directory")
         done = sum(bounds[i][1] - bounds[i][0] for i in reused)
         bar = _progress_bar(progress, n, done, model.name) if todo else None
         run = _Run(model, request, params, bounds, chunk_store, bar, limit, bps)

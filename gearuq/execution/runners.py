@@ -31,6 +31,7 @@ import multiprocessing
 import os
 import pickle
 import sys
+import threading
 import traceback
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -38,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from gearuq.execution import lifeline
 from gearuq.execution.tasks import ChunkResult, run_chunk
 from gearuq.model import Model, Request
 
@@ -191,7 +193,9 @@ class ProcessRunner(Runner):
 
     A worker that dies (segfault, out-of-memory kill) breaks the pool: the chunks that had
     not finished come back as :class:`ExecutorFailure` and the next :meth:`run` starts a
-    fresh pool (the driver retries them, then isolates the culprit).
+    fresh pool (the driver retries them, then isolates the culprit). Conversely, workers end
+    within a fraction of a second when the calling process dies, and never write a chunk
+    after it is gone (:mod:`gearuq.execution.lifeline`).
 
     Parameters
     ----------
@@ -212,9 +216,14 @@ class ProcessRunner(Runner):
 
     def _get_pool(self) -> cf.ProcessPoolExecutor:
         if self._pool is None:
+            # the parent-death signal follows the thread that starts a worker: use it only
+            # when that is the main thread (workers are started by the submitting thread)
+            main = threading.current_thread() is threading.main_thread()
+            parent = None if self.mp_context == "forkserver" else os.getpid()
             self._pool = cf.ProcessPoolExecutor(
                 max_workers=self.n_workers,
                 mp_context=multiprocessing.get_context(self.mp_context),
+                initializer=lifeline.install, initargs=(parent, main),
             )
         return self._pool
 

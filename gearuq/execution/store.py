@@ -11,11 +11,17 @@ A store is a directory::
 A chunk counts as stored only when its file and its checksum exist and agree; anything else
 (an interrupted write, a flipped byte) is recomputed on resume with a warning, and reported
 with the file's name when loaded directly.
+
+A store that cannot be written (read-only media, no permission) is opened without the lock:
+nobody can add to it, and its complete, verified chunks are reused; if chunks are missing the
+run stops and says so. Worker processes never write a chunk after their run is gone
+(:mod:`gearuq.execution.lifeline`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import math
@@ -32,13 +38,16 @@ import numpy as np
 import xarray as xr
 
 from gearuq._version import __version__
-from gearuq.io import netcdf_lock
+from gearuq.execution.lifeline import check_parent
+from gearuq.io import CHECKSUMMED, netcdf_lock, write_error, write_text_atomic
 
 __all__ = ["ChunkStore", "StoreMismatchError", "StoreLockedError", "IntegrityError",
            "write_chunk", "file_sha256", "jsonable"]
 
 MANIFEST = "manifest.json"
 LOCK = ".lock"
+#: errno values of a store that cannot be written (read-only media, no permission).
+_UNWRITABLE = (errno.EROFS, errno.EACCES, errno.EPERM)
 
 
 class StoreMismatchError(ValueError):
@@ -87,15 +96,40 @@ def chunk_path(store: str | os.PathLike, index: int) -> Path:
 
 
 def write_chunk(store: str | os.PathLike, index: int, ds: xr.Dataset) -> Path:
-    """Write one chunk atomically, then its checksum file (the chunk's commit record)."""
+    """Write one chunk atomically, then its checksum file (the chunk's commit record).
+
+    In a worker process whose run is gone (killed), nothing is written: the chunk is written
+    under a temporary name and renamed only after checking that the run still exists, so an
+    orphaned worker never adds a chunk to a store that a new run may already own.
+
+    Raises
+    ------
+    gearuq.execution.lifeline.ParentGoneError
+        In a worker whose parent process is gone.
+    OSError
+        If the file cannot be written (the message names the file; a full device says so).
+    """
     from gearuq.io import save
 
-    path = save(ds, chunk_path(store, index))
-    digest = file_sha256(path)
-    side = path.with_name(path.name + ".sha256")
-    tmp = side.with_name(f"{side.name}.{os.getpid()}.tmp")
-    tmp.write_text(digest + "\n")
-    os.replace(tmp, side)
+    path = chunk_path(store, index)
+    check_parent(f"write {path}")
+    part = path.with_name(f"{path.name}.{os.getpid()}.part.tmp")
+    try:
+        try:
+            save(ds, part)
+        except OSError as exc:  # name the chunk, not its temporary
+            raise write_error(path, exc.__cause__ or exc, int(ds.nbytes)) from exc
+        digest = file_sha256(part)
+        check_parent(f"commit {path}")
+        os.replace(part, path)
+    finally:
+        part.unlink(missing_ok=True)
+    try:
+        check_parent(f"commit {path}")
+    except BaseException:
+        path.unlink(missing_ok=True)  # no commit record: it would be discarded anyway
+        raise
+    write_text_atomic(path.with_name(path.name + ".sha256"), digest + "\n")
     return path
 
 
@@ -181,15 +215,39 @@ class ChunkStore:
                  *, wait: float = math.inf) -> None:
         self.path = Path(path)
         self.fingerprint = jsonable(dict(fingerprint))
-        self.path.mkdir(parents=True, exist_ok=True)
+        #: Why the store cannot be written (read-only media or no permission), or ``None``.
+        self.read_only: str | None = None
+        if not self.path.is_dir():
+            self.path.mkdir(parents=True, exist_ok=True)
         self._lock = _FileLock(self.path / LOCK)
-        self._acquire(wait)
+        try:
+            self._acquire(wait)
+        except OSError as exc:
+            if exc.errno not in _UNWRITABLE:
+                raise
+            self._open_read_only(exc)
+            return
         try:
             self._check_or_create()
         except BaseException:
             self.close()
             raise
         self._clean_temporaries()
+
+    def _open_read_only(self, exc: OSError) -> None:
+        """Use a store that cannot be written: read its finished chunks, take no lock.
+
+        Nobody can add to a store on read-only media, so there is nothing to lock against;
+        every chunk that is read has a checksum record and is verified first.
+        """
+        self.read_only = f"{exc.strerror or exc}"
+        stored = self._stored_fingerprint()
+        if stored is None:
+            raise ValueError(
+                f"store {self.path} cannot be written ({self.read_only}) and holds no "
+                f"{MANIFEST}: there is nothing to reuse; use a writable directory") from exc
+        if stored != self.fingerprint:
+            raise StoreMismatchError(self._mismatch_text(stored))
 
     # ------------------------------------------------------------------ lock + manifest
     def _acquire(self, wait: float) -> None:
@@ -237,10 +295,7 @@ class ChunkStore:
                 "gearuq_version": __version__,
                 "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                 "fingerprint": self.fingerprint}
-        tmp = self.path / f"{MANIFEST}.{os.getpid()}.tmp"
-        tmp.write_text(json.dumps(data, indent=1, sort_keys=True))
-        _chmod_default(tmp)
-        os.replace(tmp, self.path / MANIFEST)
+        write_text_atomic(self.path / MANIFEST, json.dumps(data, indent=1, sort_keys=True))
 
     def _mismatch_text(self, stored: Mapping[str, Any]) -> str:
         diffs = []
@@ -285,33 +340,46 @@ class ChunkStore:
                 out.append(int(p.stem.split("_")[1]))
         return sorted(out)
 
-    def verify(self, index: int) -> None:
-        """Raise :class:`IntegrityError` naming the file if chunk ``index`` is corrupt."""
+    def _problem(self, index: int) -> str | None:
+        """What is wrong with stored chunk ``index`` (``None``: it matches its record)."""
         path = self.chunk_path(index)
         side = path.with_name(path.name + ".sha256")
         try:
             expected = side.read_text().strip()
         except OSError as exc:
-            raise IntegrityError(f"store chunk {path}: no checksum record ({exc})") from None
+            return f"store chunk {path}: no checksum record ({exc})"
         actual = file_sha256(path)
         if actual != expected:
-            raise IntegrityError(
-                f"store chunk {path} is corrupt: SHA-256 {actual[:16]}... differs from its "
-                f"record {expected[:16]}...; delete it (and {side.name}) to recompute it")
+            return (f"store chunk {path} is corrupt: SHA-256 {actual[:16]}... differs from "
+                    f"its record {expected[:16]}... in {side.name}")
+        return None
+
+    def verify(self, index: int) -> None:
+        """Raise :class:`IntegrityError` naming the file if chunk ``index`` is corrupt."""
+        problem = self._problem(index)
+        if problem is not None:
+            side = self.chunk_path(index).name + ".sha256"
+            raise IntegrityError(f"{problem}; delete it (and {side}) and run the same call "
+                                 "again with this store to recompute it")
 
     def valid_chunks(self, expected_sizes: Mapping[int, int]) -> list[int]:
-        """Stored chunks that pass their checksum; corrupt ones are removed with a warning."""
+        """Stored chunks that pass their checksum; corrupt ones are deleted with a warning
+        (and so computed again by the run), or only reported in a read-only store."""
         good = []
         for i in self.stored_chunks():
             if i not in expected_sizes:
                 continue
-            try:
-                self.verify(i)
-            except IntegrityError as exc:
-                warnings.warn(f"{exc}; it is recomputed", RuntimeWarning, stacklevel=3)
+            problem = self._problem(i)
+            if problem is None:
+                good.append(i)
+            elif self.read_only:
+                warnings.warn(f"{problem}; the store cannot be written ({self.read_only}), so "
+                              "it is left in place and cannot be recomputed here",
+                              RuntimeWarning, stacklevel=3)
+            else:
                 self.discard(i)
-                continue
-            good.append(i)
+                warnings.warn(f"{problem}; it was deleted and this run computes it again",
+                              RuntimeWarning, stacklevel=3)
         return good
 
     def discard(self, index: int) -> None:
@@ -351,6 +419,7 @@ class ChunkStore:
         for v in ds.variables.values():
             v.attrs.pop("checksum", None)
         ds.attrs.pop("checksum", None)
+        ds.attrs.pop(CHECKSUMMED, None)
         return ds
 
 
@@ -372,14 +441,6 @@ def limit_chunk_cache() -> None:
         size, nelems, preemption = netCDF4.get_chunk_cache()
         if size > CHUNK_CACHE_BYTES:
             netCDF4.set_chunk_cache(CHUNK_CACHE_BYTES, nelems, preemption)
-
-
-def _chmod_default(path: Path) -> None:
-    """Give a file the permissions the user's umask allows (temp files are created 0600)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    with contextlib.suppress(OSError):
-        os.chmod(path, 0o666 & ~mask)
 
 
 def _short(v: Any, limit: int = 120) -> str:

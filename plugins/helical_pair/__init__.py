@@ -258,7 +258,18 @@ class HelicalPair(Model):
         return {"units": "1", "long_name": self.time_long_name}
 
     def _evaluate(self, params, t, outputs, **options):
-        """Set-up -> integration (only if a state is needed) -> outputs."""
+        """Set-up -> integration (only if a state is needed) -> outputs.
+
+        Repeated instants in ``t`` (allowed, as by every model: ``t`` need only be
+        non-decreasing) are integrated once; their columns are copies. The integrator needs
+        strictly increasing output instants, and every output is a pointwise function of the
+        state at its instant, so the copies are exact.
+        """
+        distinct, where = np.unique(t, return_inverse=True)
+        if distinct.size < t.size:
+            ev = self._evaluate(params, distinct, outputs, **options)
+            return _repeat_instants(ev, where.ravel(),
+                                    {o: self.output(o).dims for o in outputs})
         from gearuq.model import Evaluation
         from gearuq_plugins.helical_pair.outputs import assemble, describe_scale, needed_states
         from gearuq_plugins.helical_pair.simulate import integrate
@@ -282,3 +293,17 @@ class HelicalPair(Model):
                                 length_scale=options["length_scale"], status=status)
         return Evaluation(data=data, status=status, status_meanings=dict(STATUS_MEANINGS),
                           attrs=attrs, extra=extra)
+
+
+def _repeat_instants(ev: Any, where: np.ndarray, dims: dict[str, tuple[str, ...]]) -> Any:
+    """``ev`` computed at distinct instants, expanded to the requested ones (``where``: the
+    distinct instant of each requested one) along every ``time`` axis."""
+
+    def expand(d: Any, values: Any) -> Any:
+        d = (d,) if isinstance(d, str) else tuple(d)
+        return np.take(values, where, axis=d.index("time")) if "time" in d else values
+
+    ev.data = {k: expand(dims.get(k, ()), v) for k, v in ev.data.items()}
+    ev.extra = {k: (d, expand(d, v), a) for k, (d, v, a) in ev.extra.items()}
+    ev.coords = {k: (d, expand(d, v), a) for k, (d, v, a) in ev.coords.items()}
+    return ev
