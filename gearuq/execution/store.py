@@ -39,7 +39,14 @@ import xarray as xr
 
 from gearuq._version import __version__
 from gearuq.execution.lifeline import check_parent
-from gearuq.io import CHECKSUMMED, netcdf_lock, write_error, write_text_atomic
+from gearuq.io import (
+    CHECKSUMMED,
+    IntegrityError,
+    limit_chunk_cache,
+    netcdf_lock,
+    write_error,
+    write_text_atomic,
+)
 
 __all__ = ["ChunkStore", "StoreMismatchError", "StoreLockedError", "IntegrityError",
            "write_chunk", "file_sha256", "jsonable"]
@@ -56,10 +63,6 @@ class StoreMismatchError(ValueError):
 
 class StoreLockedError(RuntimeError):
     """Another run holds the store's lock (and the caller asked not to wait)."""
-
-
-class IntegrityError(ValueError):
-    """A stored file does not match its checksum."""
 
 
 def jsonable(obj: Any) -> Any:
@@ -421,26 +424,6 @@ class ChunkStore:
         ds.attrs.pop("checksum", None)
         ds.attrs.pop(CHECKSUMMED, None)
         return ds
-
-
-#: HDF5 chunk cache per variable of files opened lazily (netCDF-C's default is 64 MB).
-CHUNK_CACHE_BYTES = 4 * 2**20
-
-
-def limit_chunk_cache() -> None:
-    """Shrink netCDF-C's per-variable chunk cache for files opened from now on.
-
-    A lazily loaded result keeps every chunk file open; with the default 64 MB cache per
-    variable each file keeps the last data read from it, and a streamed pass over a stored
-    result ends up holding most of it in memory (measured: 100 000 x 400 values, +360 MB
-    with the default, +70 MB with 4 MB). Whole-variable reads do not benefit from the cache.
-    """
-    import netCDF4
-
-    with netcdf_lock():
-        size, nelems, preemption = netCDF4.get_chunk_cache()
-        if size > CHUNK_CACHE_BYTES:
-            netCDF4.set_chunk_cache(CHUNK_CACHE_BYTES, nelems, preemption)
 
 
 def _short(v: Any, limit: int = 120) -> str:
