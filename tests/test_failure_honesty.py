@@ -65,14 +65,23 @@ def _check_invalid_report(rep) -> None:
     assert _holds(rep, NAN_TRUTH), _summary(rep, NAN_TRUTH)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_nan_outputs_mc_flagged_and_interval_covers_truth(seed):
+def test_nan_outputs_mc_flagged_and_interval_covers_truth():
+    """Ten seeds. Every report is flagged; the truth is the mean of the reading that counts
+    the invalid runs as failed, so the interval's upper end (a 97.5 % one-sided Wilson bound
+    of that reading) holds it in each seed with probability 0.975: at least 8 of 10 must
+    hold (binomial 0.2 % quantile). Seed 0 is such a miss: 229 failures-or-invalid against
+    270 expected, 2.5 standard deviations low."""
     model = gearuq.FunctionModel(_g_nan, ["x1", "x2"], ["g"])
-    rep = gearuq.failure_probability(model, _normals("x1", "x2"), "g", method="mc",
-                                     n_samples=200_000, rng=seed, executor="serial")
-    # premise: NaN read as safe puts pf about half the truth (CoV about 5 % with 200 000)
-    assert float(rep["pf"]) < 0.7 * NAN_TRUTH
-    _check_invalid_report(rep)
+    held = 0
+    for seed in range(10):
+        rep = gearuq.failure_probability(model, _normals("x1", "x2"), "g", method="mc",
+                                         n_samples=200_000, rng=seed, executor="serial")
+        # premise: NaN read as safe puts pf about half the truth (CoV about 5 % with 200 000)
+        assert float(rep["pf"]) < 0.7 * NAN_TRUTH
+        assert int(rep["n_invalid"]) > 0 and int(rep["status"]) != 0, _summary(rep, NAN_TRUTH)
+        assert "invalid_samples" in _reasons(rep), _summary(rep, NAN_TRUTH)
+        held += _holds(rep, NAN_TRUTH)
+    assert held >= 8
 
 
 @pytest.mark.parametrize("n_per_level", [1000, 4000])

@@ -228,12 +228,17 @@ def _limit_state_mode(
     """Failure indicator ``g <= 0`` of a LimitState or System over the block's valid samples."""
     g = mode.values(blk)
     if "time" in g.dims:
-        if time is not None and g.sizes["time"] != len(time):
-            # a window: instants outside it cannot fail
-            g = g.reindex(time=time, fill_value=np.inf)
         g = g.transpose("sample", "time")
-    values = np.asarray(g.values, dtype=float)[valid]
-    _check_finite(values, mode.name, blk, valid, first_sample)
+        # a valid sample must give a finite g inside the window (checked before the instants
+        # outside it are filled with +inf: they cannot fail)
+        _check_finite(np.asarray(g.values, dtype=float)[valid], mode.name, blk, valid,
+                      first_sample)
+        if time is not None and g.sizes["time"] != len(time):
+            g = g.reindex(time=time, fill_value=np.inf)
+        values = np.asarray(g.values, dtype=float)[valid]
+    else:
+        values = np.asarray(g.values, dtype=float)[valid]
+        _check_finite(values, mode.name, blk, valid, first_sample)
     f = values <= 0.0
     f = f if f.ndim == 2 else np.repeat(f[:, None], n_t, axis=1)
     units = ""
