@@ -33,13 +33,21 @@ def test_offset_form_and_sorm_exact():
 def test_linear_100d_form_exact():
     """g = 3.5 sqrt(100) - sum(x): beta = 3.5, u* = 0.35 in every direction."""
     rep = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
-                              method="form", rng=0, executor="serial")
+                              method="form", rng=0, executor="serial", n_starts=1)
     assert float(rep["beta"]) == pytest.approx(3.5, abs=1e-7)
     assert float(rep["pf"]) == pytest.approx(rp.LINEAR_100D_PF, rel=1e-6)
     np.testing.assert_allclose(rep["design_point_u"][0], 0.35, atol=1e-7)
     np.testing.assert_allclose(rep["importance_factor"][0], 0.01, atol=1e-9)
     # one gradient at the origin (101 runs), one step, one gradient (100): 202 runs
     assert int(rep["n_model_runs"]) == 202
+    # one start cannot tell whether other design points exist, and says so
+    assert int(rep["status"]) == 8 and "one FORM start" in rep.attrs["message"]
+    # the default search (origin and ten random directions) finds the one design point
+    # from every start and vouches for it
+    auto = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
+                               method="form", rng=0, executor="serial")
+    assert int(auto["status"]) == 0 and auto.sizes["design_point"] == 1
+    assert float(auto["pf"]) == pytest.approx(rp.LINEAR_100D_PF, rel=1e-6)
 
 
 @pytest.mark.parametrize("rho", [0.0, 0.3])
@@ -106,9 +114,11 @@ def test_two_design_points_are_found_and_reported():
                               method="form", n_starts=6, rng=2, executor="serial")
     assert rep.sizes["design_point"] == 2
     assert "2 different design points" in rep.attrs["message"]
-    err_single = abs(float(rep["pf"]) / rp.PARABOLA_PF - 1)
+    err_single = abs(float(rep["pf_form"]) / rp.PARABOLA_PF - 1)
     err_multi = abs(float(rep["pf_multi_design_points"]) / rp.PARABOLA_PF - 1)
     assert err_single > 0.3 and err_multi < 0.1
+    # the reported pf is the series FORM over both design points, not the nearest alone
+    assert float(rep["pf"]) == float(rep["pf_multi_design_points"])
     np.testing.assert_allclose(np.sort(rep["beta_design_point"]), [2.906, 3.094], atol=2e-3)
 
 

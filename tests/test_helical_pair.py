@@ -358,7 +358,9 @@ def test_length_scale_b5_is_the_seed_scaling(model):
                                    rtol=1e-13)
     np.testing.assert_allclose(seed["length_unit"][:2], [2e-5, 5e-6], rtol=1e-15)
     # b5 = 0 cannot be a unit: that sample is flagged, its SI outputs are still there
-    assert seed["status"].values.tolist() == [0, 0, 6]
+    from gearuq_plugins.helical_pair.outputs import STATUS_LENGTH_SCALE_ZERO
+
+    assert seed["status"].values.tolist() == [0, 0, STATUS_LENGTH_SCALE_ZERO]
     assert np.isnan(seed["p1"][2]).all()
     np.testing.assert_array_equal(seed["x_p"], ref["x_p"])
     si_only = model.response(params, t, outputs=["x_p"], length_scale="b5")

@@ -34,15 +34,26 @@ import xarray as xr
 from scipy import linalg, stats
 
 from gearuq.failure.evaluator import LimitStateEvaluator
-from gearuq.failure.report import failure_report
+from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
 __all__ = ["FORM_SETTINGS", "SORM_SETTINGS", "run_form", "design_point_search",
-           "sorm_probabilities"]
+           "sorm_probabilities", "resolve_starts", "search_reasons", "check_starts"]
+
+def check_starts(value: Any) -> Any:
+    if isinstance(value, str) and value == "auto":
+        return value
+    if isinstance(value, (bool, np.bool_)) or not float(value).is_integer() or int(value) < 1:
+        raise ValueError(f"n_starts must be 'auto' or an integer >= 1, got {value!r}")
+    return int(value)
+
 
 FORM_SETTINGS = (
-    Option("n_starts", 1, "starting points: the origin, then points at start_radius on the "
-           "+- coordinate axes (u1+, u1-, u2+, ...), then in random directions", lower=1),
+    Option("n_starts", "auto", "starting points of the design-point search: 'auto' = the "
+           "origin and 12 (d = 2) or 20 (d = 3) evenly spread directions, the +- axes and 4 "
+           "random directions (d = 4, 5), else 10 random directions; an integer n: the "
+           "origin, then the +- axes when n > 2d, else random directions", kind="any",
+           check=check_starts),
     Option("start_radius", 3.0, "radius of the extra starting points (standard normal space)",
            lower=0.0),
     Option("fd_step", 1e-4, "finite-difference step in the standard normal space (raise it "
@@ -327,6 +338,7 @@ def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
              *, second_order: bool = False) -> xr.Dataset:
     """FORM (or SORM) with multiple starting points; the report of the nearest design point."""
     t0 = time.perf_counter()
+    s = resolve_starts(ev, s)
     found, starts = form_design_points(ev, s, seed)
     method = "sorm" if second_order else "form"
     common = {"interval_kind": _NOT_STATISTICAL, "confidence": confidence, "settings": s,
@@ -361,19 +373,24 @@ def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
                            {"units": "per parameter unit", "long_name": "d pf_FORM / d mean_i"}),
              "dpf_dstd": (("parameter",), -stats.norm.pdf(beta) * d_std,
                           {"units": "per parameter unit", "long_name": "d pf_FORM / d std_i"})}
-    message, attrs = "", {}
+    message, attrs, pf_multi = "", {}, math.nan
     if len(found) > 1:
         pf_multi = _series_form(found)
         extra["pf_multi_design_points"] = ((), pf_multi, {"units": "1", "long_name": (
             "series-system FORM over all design points found, 1 - Phi_k(beta; R), "
             "R_ij = alpha_i . alpha_j")})
         message = (f"the starting points found {len(found)} different design points (beta = "
-                   f"{', '.join(format(p['beta'], '.4g') for p in found)}); pf is that of the "
-                   "nearest; "
-                   f"over all of them (series FORM) pf = {pf_multi:.4g}")
+                   f"{', '.join(format(p['beta'], '.4g') for p in found)}); pf is the "
+                   f"series FORM over all of them, {pf_multi:.4g} (the nearest alone: "
+                   f"{pf_form:.4g})")
         attrs["multiple_design_points"] = len(found)
-    status, pf = (0 if best["converged"] else 1), pf_form
+    reasons: list[Reason] = search_reasons(starts, len(found))
+    status = 0 if best["converged"] else 1
+    pf = pf_multi if len(found) > 1 and math.isfinite(pf_multi) else pf_form
     if second_order:
+        if len(found) > 1:
+            reasons.append((8, f"SORM corrects the nearest of {len(found)} design points only; "
+                            f"the series FORM over all of them is {pf_multi:.4g}"))
         try:
             pf, sorm_vars, sorm_status, sorm_msg = _sorm(ev, best, s)
         except _ModelFailure as exc:
@@ -383,9 +400,42 @@ def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
         extra.update(sorm_vars)
         status = max(status, sorm_status)
         message = "; ".join(m for m in (message, sorm_msg) if m)
-    return failure_report(ev, method, pf=pf, status=status, message=message,
+    return failure_report(ev, method, pf=pf, status=status, message=message, reasons=reasons,
                           wall_time=time.perf_counter() - t0, design_points=found, extra=extra,
                           extra_attrs=attrs, **common)
+
+
+def resolve_starts(ev: LimitStateEvaluator, s: Mapping[str, Any]) -> dict[str, Any]:
+    """Settings with ``n_starts`` resolved ('auto': by the dimension)."""
+    n = s["n_starts"]
+    if n == "auto":
+        n = 13 if ev.dim == 2 else 21 if ev.dim == 3 else 2 * ev.dim + 5 if ev.dim <= 5 else 11
+    return {**s, "n_starts": n}
+
+
+def search_reasons(starts: list[dict[str, Any]], n_found: int) -> list[Reason]:
+    """Status 8 when the multi-start search may have missed design points (Good-Turing:
+    a design point reached by one start only, or a start that did not converge)."""
+    reached = [r["design_point"] for r in starts if r["converged"]]
+    counts = np.bincount(np.asarray(reached, dtype=int), minlength=n_found) if reached else \
+        np.zeros(n_found, dtype=int)
+    singles = int(np.sum(counts == 1))
+    lost = sum(1 for r in starts if not r["converged"])
+    if len(starts) == 1:
+        return [(8, "one FORM start: other design points, if any, were not looked for "
+                 "(n_starts='auto' or more)")]
+    if singles == 0 and lost == 0:
+        return []
+    parts = []
+    if singles:
+        parts.append(f"{singles} of {n_found} design point(s) were reached by one start only "
+                     f"(Good-Turing: a further start finds a new one with probability about "
+                     f"{singles / max(len(reached), 1):.2f})")
+    if lost:
+        parts.append(f"{lost} of {len(starts)} start(s) did not converge and may lead to "
+                     "a design point not found")
+    return [(8, "the design-point search may have missed failure regions: " + "; ".join(parts)
+             + "; raise n_starts or check with subset simulation")]
 
 
 def form_design_points(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int

@@ -44,20 +44,17 @@ import xarray as xr
 from scipy import special, stats
 
 from gearuq.failure.evaluator import LimitStateEvaluator
-from gearuq.failure.methods.form import FORM_SETTINGS, form_design_points
+from gearuq.failure.methods.form import (
+    FORM_SETTINGS,
+    form_design_points,
+    resolve_starts,
+    search_reasons,
+)
 from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape",
            "weighted_estimate", "PARETO_LIMIT"]
-
-
-def _check_starts(value: Any) -> Any:
-    if isinstance(value, str) and value == "auto":
-        return value
-    if isinstance(value, (bool, np.bool_)) or not float(value).is_integer() or int(value) < 1:
-        raise ValueError(f"n_starts must be 'auto' or an integer >= 1, got {value!r}")
-    return int(value)
 
 
 SETTINGS = (
@@ -73,11 +70,8 @@ SETTINGS = (
            "and no weight bound holds)", lower=0.0, upper=0.9),
     Option("adapt", 1, "cross-entropy adaptation steps of the mixture (each a pilot of "
            "n_samples runs, not used in the estimate)", lower=0, upper=10),
-    Option("n_starts", "auto", "FORM starting points: 'auto' = the origin and 12 (d = 2) "
-           "or 20 (d = 3) evenly spread directions, the +- axes and 4 random directions "
-           "(d = 4, 5), else 10 random directions", kind="any",
-           check=_check_starts),
-) + tuple(o for o in FORM_SETTINGS if o.name in ("start_radius", "fd_step", "fd_scheme",
+) + tuple(o for o in FORM_SETTINGS if o.name in ("n_starts", "start_radius", "fd_step",
+                                                  "fd_scheme",
                                                   "tol_u", "tol_g", "max_iter",
                                                   "max_line_search", "distinct"))
 
@@ -200,18 +194,11 @@ def pareto_shape(values: np.ndarray) -> float:
     return float(k)
 
 
-def _starts(ev: LimitStateEvaluator, s: Mapping[str, Any]) -> dict[str, Any]:
-    n = s["n_starts"]
-    if n == "auto":
-        n = 13 if ev.dim == 2 else 21 if ev.dim == 3 else 2 * ev.dim + 5 if ev.dim <= 5 else 11
-    return {**s, "n_starts": n}
-
-
 def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float
                    ) -> xr.Dataset:
     """Importance sampling centred on the design points, defensive and adapted."""
     t0 = time.perf_counter()
-    fs = _starts(ev, s)
+    fs = resolve_starts(ev, s)
     found, starts = form_design_points(ev, fs, seed)
     form_runs = ev.n_runs
     if not found:
@@ -288,30 +275,6 @@ def weighted_estimate(batches: list[dict[str, np.ndarray]], z: float) -> dict[st
             "pareto_k": pareto_shape(c), "grid_gap": float(np.where(gap, w, 0.0).mean())}
 
 
-def _search_reasons(starts: list[dict[str, Any]], n_found: int) -> list[Reason]:
-    """Status 8 when the multi-start search may have missed design points."""
-    reached = [r["design_point"] for r in starts if r["converged"]]
-    counts = np.bincount(np.asarray(reached, dtype=int), minlength=n_found) if reached else \
-        np.zeros(n_found, dtype=int)
-    singles = int(np.sum(counts == 1))
-    lost = sum(1 for r in starts if not r["converged"])
-    if len(starts) == 1:
-        return [(8, "one FORM start: other design points, if any, were not looked for "
-                 "(n_starts='auto' or more)")]
-    if singles == 0 and lost == 0:
-        return []
-    parts = []
-    if singles:
-        parts.append(f"{singles} of {n_found} design point(s) were reached by one start only "
-                     f"(Good-Turing: a further start finds a new one with probability about "
-                     f"{singles / max(len(reached), 1):.2f})")
-    if lost:
-        parts.append(f"{lost} of {len(starts)} start(s) did not converge and may lead to "
-                     "a design point not found")
-    return [(8, "the design-point search may have missed failure regions: " + "; ".join(parts)
-             + "; raise n_starts or check with subset simulation")]
-
-
 def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
             est: dict[str, float], found: list[dict[str, Any]], starts: list[dict[str, Any]],
             mix: Mixture, runs: tuple[int, int], t0: float) -> xr.Dataset:
@@ -337,7 +300,7 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
     elif est["cov"] > s["target_cov"]:
         status = 1
         message = f"max_samples reached with CoV {est['cov']:.3f} > target {s['target_cov']}"
-    reasons += _search_reasons(starts, len(found))
+    reasons += search_reasons(starts, len(found))
     if est["n_invalid"]:
         reasons.append((6, f"{est['n_invalid']} of {est['n']} importance samples were invalid: "
                         f"pf reads them as safe, as failed it would be "
