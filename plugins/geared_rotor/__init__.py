@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from gearuq.gears.deviations import pitch_germ_names
 from gearuq.model import Model, Option, Output, Parameter
 
 __all__ = ["GearedRotor"]
@@ -32,21 +33,28 @@ _PARAMETERS = (
     _P("speed", "rpm", 4000.0, 1.0, 20000.0,
        "pinion speed (seed 002: 4000 rpm in Figs. 11-16, 25-8000 rpm in Fig. 17)"),
     _P("pitch_amplitude", "um", 15.0, 0.0, 200.0,
-       "sine amplitude of the random cumulative pitch deviations (seed 002: 15 um); unused "
-       "when iso_grade > 0"),
+       "sine amplitude of the random cumulative pitch deviations (seed 002: 15 um); with "
+       "the germ, the once-per-revolution coefficients have standard deviation "
+       "amplitude / sqrt(2); unused when iso_grade > 0"),
     _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
        "standard deviation of the pitch scatter (seed 002: 3 um); unused when iso_grade > 0"),
     _P("iso_grade", "1", 0, 0, 12,
        "ISO 1328-1 flank tolerance class 1-12 setting amplitude F_pT/2 and sigma "
        "f_pT/(3 sqrt 2) per gear; 0: use pitch_amplitude and pitch_sigma", integer=True),
     _P("pitch_seed", "1", 2020.0, 0.0, 2.0**32 - 1.0,
-       "realisation of the random pitch deviations: its integer part seeds "
-       "numpy.random.default_rng (as in mesh_excitation)"),
+       "realisation of the random pitch deviations with pitch_model='seeded': its integer "
+       "part seeds numpy.random.default_rng (as in mesh_excitation)"),
     _P("pitch_phase_pinion", "rad", 0.0, 0.0, 2.0 * math.pi,
-       "phase of the pinion's once-per-revolution sine; used only with the option "
-       "pitch_phases='parameters' (default: drawn from pitch_seed)"),
+       "phase of the pinion's once-per-revolution sine; used only with pitch_model='seeded' "
+       "and pitch_phases='parameters' (default: drawn from pitch_seed)"),
     _P("pitch_phase_wheel", "rad", 0.0, 0.0, 2.0 * math.pi,
-       "phase of the wheel's sine; used only with pitch_phases='parameters'"),
+       "phase of the wheel's sine; used only with pitch_model='seeded' and "
+       "pitch_phases='parameters'"),
+    *(_P(name, "1", 0.0, -math.inf, math.inf,
+         f"{'pinion' if g == 1 else 'wheel'} pitch-deviation germ, standard normal: "
+         f"{'cosine' if i % 2 == 0 else 'sine'} coefficient of tooth-index harmonic "
+         f"{i // 2 + 1} (pitch_model='germ'; docs/theory/mesh_excitation.md)")
+      for g in (1, 2) for i, name in enumerate(pitch_germ_names(30, g))),
     _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
        "parabolic tip relief e_max on pinion and wheel (seed Eq. 12); 0: unmodified"),
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
@@ -105,6 +113,13 @@ _OPTIONS = (
     _O("n_pts", 20, "LTCA points per line of contact", kind=int, lower=2, upper=200),
     _O("n_sidebands", 3, "sidebands +-i f_s labelled around each mesh harmonic", kind=int,
        lower=0, upper=14),
+    _O("pitch_model", "germ", "random pitch deviations: 'germ' (smooth in the standard "
+       "normals pitch_xi_p_*, pitch_xi_g_*: every engine can explore them) or 'seeded' "
+       "(the realisation of pitch_seed, as in the seed's figures)",
+       choices=("germ", "seeded")),
+    _O("pitch_harmonics", None, "tooth-index harmonics kept in each gear's germ (1-15; "
+       "None: all 15, the exact germ of 29 normals per gear)", kind=int, lower=1, upper=15,
+       allow_none=True),
     _O("pitch_phases", "seed", "sine phases of the pitch deviations: drawn with the scatter "
        "from pitch_seed, or taken from pitch_phase_pinion / pitch_phase_wheel (smooth inputs "
        "for surrogates; the scatter still comes from pitch_seed)",
@@ -153,24 +168,30 @@ class GearedRotor(Model):
         return {"cache_size": self.cache_size}
 
     @staticmethod
-    def default_space() -> Any:
-        """Random inputs: torque, bearing stiffness, damping, relief and pitch deviations.
+    def default_space(pitch_harmonics: int | None = None) -> Any:
+        """Random inputs: torque, bearing stiffness, damping and the pitch-deviation germ.
 
         ``torque`` uniform on 800-1200 N m; ``bearing_stiffness`` lognormal (median 5e8 N/m,
         20 % scatter); ``damping_ratio`` uniform on 0.03-0.08; ``pitch_amplitude`` uniform on
-        5-15 um and ``pitch_sigma`` on 1-3 um; ``pitch_seed`` uniform on [0, 2^32) (the
-        realisation). Speed is a study variable, not a random input.
+        5-15 um and ``pitch_sigma`` on 1-3 um; the germ ``pitch_xi_p_*``, ``pitch_xi_g_*``
+        independent standard normals (all 29 per gear, or those of ``pitch_harmonics``
+        harmonics; pass the same value as the option). Every input is continuous, so FORM,
+        subset simulation, surrogates and Sobol' indices see the pitch deviations. Speed is a
+        study variable (or the range of ``dte_rms_max``), not a random input.
         """
+        from gearuq.gears.deviations import pitch_germ_dimension
         from gearuq.space import ParameterSpace
 
+        n = pitch_germ_dimension(30, pitch_harmonics)
+        germ = {name: {"dist": "normal", "mean": 0.0, "std": 1.0}
+                for g in (1, 2) for name in pitch_germ_names(30, g)[:n]}
         return ParameterSpace({
             "torque": {"dist": "uniform", "lower": 800.0, "upper": 1200.0},
             "bearing_stiffness": {"dist": "lognormal", "mu": math.log(5.0e8), "sigma": 0.2},
             "damping_ratio": {"dist": "uniform", "lower": 0.03, "upper": 0.08},
             "pitch_amplitude": {"dist": "uniform", "lower": 5.0, "upper": 15.0},
             "pitch_sigma": {"dist": "uniform", "lower": 1.0, "upper": 3.0},
-            "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 2.0**32 - 1.0},
-        })
+        } | germ)
 
     def rotor_problem(self, params: dict[str, float] | None = None, **options: Any) -> Any:
         """The :class:`gearuq.rotor.geared.GearedRotorProblem` of one parameter set.

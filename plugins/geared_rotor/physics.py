@@ -47,34 +47,65 @@ def compliance_model(pair: Any) -> Any:
     return ComplianceModel(pair, bore_ratio=_SEAT_DIAMETER / pair.df1)
 
 
-def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed") -> Any:
-    """Flank deviations of one sample: pitch realisation (or ISO grade) and tip relief.
+def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int
+                          ) -> tuple[float, float]:
+    """Sine amplitude and scatter sigma [m] of one gear: ISO grade or the parameters."""
+    from gearuq.gears.deviations import iso1328_pitch_tolerances
 
-    ``phases="parameters"`` replaces the germ's two sine phases by the sample's
-    ``pitch_phase_pinion`` and ``pitch_phase_wheel`` (the scatter stays the germ's).
+    grade = int(values["iso_grade"])
+    if grade > 0:
+        f_pT, F_pT = iso1328_pitch_tolerances(pair.d1 if gear == 1 else pair.d2, pair.mn,
+                                              grade)
+        return 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
+    return values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
+
+
+def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
+                      pitch_model: str = "germ", pitch_harmonics: int | None = None) -> Any:
+    """Flank deviations of one sample: pitch deviations (germ or seeded) and tip relief.
+
+    ``pitch_model="germ"``: each gear's cumulative deviations are the smooth expansion
+    :func:`gearuq.gears.deviations.cumulative_pitch_from_normals` of its standard normals
+    ``pitch_xi_p_*`` / ``pitch_xi_g_*``. ``"seeded"``: the realisation of ``pitch_seed``;
+    ``phases="parameters"`` then replaces its two sine phases by ``pitch_phase_pinion`` and
+    ``pitch_phase_wheel`` (the scatter stays the seed's).
     """
     from gearuq.gears.deviations import (
         FlankDeviations,
         cumulative_pitch_from_germ,
-        iso1328_pitch_tolerances,
+        cumulative_pitch_from_normals,
         pitch_deviation_germ,
+        pitch_germ_from_values,
     )
 
-    germ = list(pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"])))
-    if phases == "parameters":
-        germ[0], germ[2] = values["pitch_phase_pinion"], values["pitch_phase_wheel"]
-    grade = int(values["iso_grade"])
     fp = []
-    for phase, normals, d in ((germ[0], germ[1], pair.d1), (germ[2], germ[3], pair.d2)):
-        if grade > 0:
-            f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
-            amp, sigma = 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
-        else:
-            amp, sigma = values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
-        fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
+    if pitch_model == "germ":
+        for gear, z in ((1, pair.z1), (2, pair.z2)):
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            xi = pitch_germ_from_values(values, z, gear, pitch_harmonics)
+            fp.append(cumulative_pitch_from_normals(xi, z, amplitude=amp, sigma=sigma))
+    else:
+        germ = list(pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"])))
+        if phases == "parameters":
+            germ[0], germ[2] = values["pitch_phase_pinion"], values["pitch_phase_wheel"]
+        for gear, phase, normals in ((1, germ[0], germ[1]), (2, germ[2], germ[3])):
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
     amount, length = values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3
     tip = (amount, length) if amount > 0 else None
     return FlankDeviations(Fp1=fp[0], Fp2=fp[1], tip_relief1=tip, tip_relief2=tip)
+
+
+def check_germ(params: dict[str, np.ndarray], pair: Any, options: dict[str, Any]) -> None:
+    """Refuse, before anything runs, germ values the kept germ cannot represent."""
+    from gearuq.gears.deviations import pitch_germ_from_values
+
+    if options["pitch_model"] != "germ":
+        return
+    for gear, z in ((1, pair.z1), (2, pair.z2)):
+        worst = {k: float(v[np.argmax(v != 0)].item()) for k, v in params.items()
+                 if k.startswith(("pitch_xi_p_", "pitch_xi_g_")) and np.any(v != 0)}
+        pitch_germ_from_values(worst, z, gear, options["pitch_harmonics"])
 
 
 def _cached(model: Any, key: tuple, build: Any) -> Any:
@@ -94,6 +125,7 @@ def _cached(model: Any, key: tuple, build: Any) -> Any:
 _LTCA_KEYS = ("torque", "pitch_amplitude", "pitch_sigma", "iso_grade", "pitch_seed",
               "pitch_phase_pinion", "pitch_phase_wheel", "tip_relief_amount",
               "tip_relief_length")
+_GERM_KEYS = tuple(f"{p}{i}" for p in ("pitch_xi_p_", "pitch_xi_g_") for i in range(1, 30))
 _ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping",
                "damping_ratio", "backlash")
 
@@ -110,11 +142,13 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -
     setup = _cached(model, ("setup", ppc, n_pts),
                     lambda: ltca_setup(pair, compliance=compliance_model(pair),
                                        positions_per_cycle=ppc, n_pts=n_pts))
-    lkey = ("ltca", ppc, n_pts, options["pitch_phases"]) + tuple(
-        values[k] for k in _LTCA_KEYS)
+    lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
+            options["pitch_harmonics"]) + tuple(values[k] for k in _LTCA_KEYS) + tuple(
+        values.get(k, 0.0) for k in _GERM_KEYS)
     excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
         setup, values["torque"],
-        deviations=sample_deviations(pair, values, options["pitch_phases"])))
+        deviations=sample_deviations(pair, values, options["pitch_phases"],
+                                     options["pitch_model"], options["pitch_harmonics"])))
     H = options["n_mesh_harmonics"] * excitation.n_cycles
     rkey = ("rotor", H, options["cutoff_factor"], options["moment_arm"]) + lkey + tuple(
         values[k] for k in _ROTOR_KEYS)
@@ -222,6 +256,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             f"n_mesh_harmonics={options['n_mesh_harmonics']} needs positions_per_cycle > "
             f"{2 * options['n_mesh_harmonics']} (got {options['positions_per_cycle']}): the "
             "LTCA samples must resolve the harmonics kept")
+    check_germ(params, pair, options)
     n = next(iter(params.values())).shape[0]
     shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
                                     for d in o.dims[1:]) for o in model.outputs}
