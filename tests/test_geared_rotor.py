@@ -124,3 +124,48 @@ def test_model_pickles_without_its_cache(model):
     assert model._cache
     clone = pickle.loads(pickle.dumps(model))
     assert clone._cache == {} and clone.cache_size == model.cache_size
+
+
+def test_dte_rms_max_is_the_largest_rms_of_the_per_speed_steady_states(model):
+    """The range outputs equal the max over the same speeds solved one by one (same H)."""
+    opts = {**COARSE, "speed_min": 500.0, "speed_max": 6000.0, "n_speeds": 12,
+            "range_mesh_harmonics": 2, "range_cutoff_factor": 1.0}
+    germ = {"pitch_xi_p_1": [1.2], "pitch_xi_g_2": [-0.7], "pitch_xi_p_5": [0.4]}
+    ds = model.response(germ, None, outputs=["dte_rms_max", "speed_at_dte_rms_max"], **opts)
+    speeds = np.linspace(500.0, 6000.0, 12)
+    each = model.response({k: v * 12 for k, v in germ.items()} | {"speed": speeds}, None,
+                          outputs=["dte_rms"], **COARSE)  # n_mesh_harmonics 2, cut-off 1.5
+    one_by_one = model.response({k: v * 12 for k, v in germ.items()} | {"speed": speeds},
+                                None, outputs=["dte_rms"],
+                                **{**COARSE, "cutoff_factor": 1.0})["dte_rms"].values
+    assert ds["dte_rms_max"].values[0] == pytest.approx(one_by_one.max(), rel=1e-9)
+    assert ds["speed_at_dte_rms_max"].values[0] == speeds[one_by_one.argmax()]
+    # the cut-off of the range changes the largest RMS by far less than 1 %
+    assert each["dte_rms"].values.max() == pytest.approx(one_by_one.max(), rel=1e-2)
+    assert ds["status"].values[0] == 0
+
+
+def test_continuation_along_speed_gives_the_same_contact_loss_states_with_fewer_iterations(
+        model):
+    from gearuq.rotor.geared import single_threaded_blas
+    from gearuq_plugins.geared_rotor.physics import problem_for
+
+    values = {p.name: p.nominal for p in model.parameters} | {
+        "torque": 100.0, "pitch_amplitude": 40.0}
+    options = model.validate_options({**COARSE, "pitch_model": "seeded"})
+    prob = problem_for(model, values, options, speed_range=True)
+    speeds = np.linspace(3000.0, 5000.0, 9)
+    with single_threaded_blas():
+        cont = prob.rms_over_speeds(speeds, continuation=True)
+        cold = prob.rms_over_speeds(speeds, continuation=False)
+    assert np.all(cont.contact_loss_fraction > 0.0) and np.all(cont.status == 0)
+    np.testing.assert_allclose(cont.rms, cold.rms, rtol=1e-7)
+    assert cont.iterations.sum() < cold.iterations.sum()
+
+
+def test_speed_range_bad_input(model):
+    with pytest.raises(ValueError, match=r"speed_min=8000\.0 rpm must be below speed_max="
+                                         r"8000\.0 rpm"):
+        model.response({}, None, outputs=["dte_rms_max"], speed_min=8000.0)
+    with pytest.raises(ValueError, match=r"n_speeds.*got 1.*\[2, "):
+        model.response({}, None, outputs=["dte_rms_max"], n_speeds=1)

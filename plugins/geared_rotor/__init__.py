@@ -93,6 +93,10 @@ _OUTPUTS = (
     Output("bearing1_acceleration_y_rms", "m s-2", _S,
            "RMS acceleration at bearing 1 along y (seed Figs. 12, 16)"),
     Output("contact_loss_fraction", "1", _S, "share of the long period with the teeth apart"),
+    Output("dte_rms_max", "m", _S, "largest RMS DTE over the speed range speed_min..speed_max "
+           "(n_speeds equally spaced speeds; the parameter speed is not used)"),
+    Output("speed_at_dte_rms_max", "rpm", _S, "speed of the range at which dte_rms_max is "
+           "reached"),
     Output("ste_ptp", "m", _S, "peak-to-peak LTCA STE of the excitation"),
     Output("mesh_frequency", "Hz", _S, "mesh frequency z1 n / 60"),
     Output("shaft_frequency", "Hz", _S, "pinion shaft frequency n / 60"),
@@ -124,6 +128,17 @@ _OPTIONS = (
        "from pitch_seed, or taken from pitch_phase_pinion / pitch_phase_wheel (smooth inputs "
        "for surrogates; the scatter still comes from pitch_seed)",
        choices=("seed", "parameters")),
+    _O("speed_min", 25.0, "lowest speed of the range of dte_rms_max (seed Fig. 17: 25 rpm)",
+       lower=1.0, upper=20000.0),
+    _O("speed_max", 8000.0, "highest speed of the range (seed Fig. 17: 8000 rpm); > speed_min",
+       lower=1.0, upper=20000.0),
+    _O("n_speeds", 160, "equally spaced speeds of the range (both ends included)", kind=int,
+       lower=2, upper=100000),
+    _O("range_mesh_harmonics", 3, "mesh harmonics of the steady states of the range (the "
+       "RMS converges faster than dte_ptp: docs/theory/geared_rotor.md Sec. 9)", kind=int,
+       lower=1, upper=20),
+    _O("range_cutoff_factor", 1.0, "modal cut-off factor of the range", lower=1.0,
+       upper=50.0),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),

@@ -29,6 +29,7 @@ STATUS_MEANINGS = {
     STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
 }
 _FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
+_RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max")
 _BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
 _SEAT_DIAMETER = 0.110  # gear seat of both shafts (seed Sec. 2.2): the gear-blank bore
 
@@ -130,8 +131,14 @@ _ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping"
                "damping_ratio", "backlash")
 
 
-def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -> Any:
-    """The :class:`GearedRotorProblem` of one sample (LTCA and reduction cached)."""
+def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *,
+                speed_range: bool = False) -> Any:
+    """The :class:`GearedRotorProblem` of one sample (LTCA and reduction cached).
+
+    ``speed_range=True``: the problem of the range outputs, with ``range_mesh_harmonics``
+    and ``range_cutoff_factor`` instead of ``n_mesh_harmonics`` and ``cutoff_factor`` (the
+    same LTCA excitation).
+    """
     from gearuq.gears.ltca import ltca_setup
     from gearuq.rotor.examples import seed002_rotor
     from gearuq.rotor.excitation import MeshExcitation
@@ -149,8 +156,11 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -
         setup, values["torque"],
         deviations=sample_deviations(pair, values, options["pitch_phases"],
                                      options["pitch_model"], options["pitch_harmonics"])))
-    H = options["n_mesh_harmonics"] * excitation.n_cycles
-    rkey = ("rotor", H, options["cutoff_factor"], options["moment_arm"]) + lkey + tuple(
+    harmonics, cutoff_factor = ((options["range_mesh_harmonics"], options["range_cutoff_factor"])
+                                if speed_range else (options["n_mesh_harmonics"],
+                                                     options["cutoff_factor"]))
+    H = harmonics * excitation.n_cycles
+    rkey = ("rotor", H, cutoff_factor, options["moment_arm"]) + lkey + tuple(
         values[k] for k in _ROTOR_KEYS)
 
     def build() -> Any:
@@ -162,7 +172,7 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -
 
         return GearedRotorProblem(factory, excitation, pair.z1,
                                   damping_ratio=values["damping_ratio"], n_harmonics=H,
-                                  cutoff_factor=options["cutoff_factor"],
+                                  cutoff_factor=cutoff_factor,
                                   backlash=values["backlash"] * 1e-6)
 
     return _cached(model, rkey, build)
@@ -257,34 +267,58 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             f"{2 * options['n_mesh_harmonics']} (got {options['positions_per_cycle']}): the "
             "LTCA samples must resolve the harmonics kept")
     check_germ(params, pair, options)
+    if not options["speed_min"] < options["speed_max"]:
+        raise ValueError(
+            f"speed_min={options['speed_min']!r} rpm must be below speed_max="
+            f"{options['speed_max']!r} rpm (the range of dte_rms_max; valid: 1 <= speed_min < "
+            "speed_max <= 20000)")
+    if 2 * options["range_mesh_harmonics"] >= options["positions_per_cycle"]:
+        raise ValueError(
+            f"range_mesh_harmonics={options['range_mesh_harmonics']} needs positions_per_cycle "
+            f"> {2 * options['range_mesh_harmonics']} (got {options['positions_per_cycle']})")
+    speeds = np.linspace(options["speed_min"], options["speed_max"], options["n_speeds"])
+    ranged = [o for o in outputs if o in _RANGE_OUTPUTS]
+    single = [o for o in outputs if o not in _RANGE_OUTPUTS]
     n = next(iter(params.values())).shape[0]
     shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
                                     for d in o.dims[1:]) for o in model.outputs}
     data = {name: np.full(shapes[name], np.nan) for name in outputs}
     status = np.zeros(n, dtype=np.int8)
     extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
-                                              "drift")}
+                                              "drift", "range_newton_iterations")}
     branch = np.full(n, -1, dtype=np.int8)
     with single_threaded_blas():
         for i in range(n):
             values = {k: float(v[i]) for k, v in params.items()}
             try:
-                prob = problem_for(model, values, options)
+                prob = problem_for(model, values, options) if single else None
+                rng_prob = (problem_for(model, values, options, speed_range=True) if ranged
+                            else None)
             except ValueError:
                 status[i] = STATUS_LTCA_FAILED
+                continue
+            if rng_prob is not None:
+                res = rng_prob.rms_over_speeds(speeds, tol=options["tol"])
+                peak, at, code = res.maximum()
+                status[i] = _FROM_SOLVER[code]
+                for name, value in (("dte_rms_max", peak), ("speed_at_dte_rms_max", at)):
+                    if name in data and np.isfinite(peak):
+                        data[name][i] = value
+                extra["range_newton_iterations"][i] = float(res.iterations.sum())
+            if prob is None:
                 continue
             sol = prob.steady_state(values["speed"], tol=options["tol"])
             if options["verify"] and sol.branch != "full_contact" and sol.status in (0, 1):
                 sol = prob.verify(sol, values["speed"])
-            status[i] = _FROM_SOLVER[sol.status]
+            status[i] = max(int(status[i]), _FROM_SOLVER[sol.status])
             extra["n_modes"][i] = prob.reduced(values["speed"]).n_modes
             extra["hb_iterations"][i] = sol.iterations
             extra["hb_residual"][i] = sol.residual
             extra["drift"][i] = sol.drift
             branch[i] = {"full_contact": 0, "contact_loss": 1, "back_flank_contact": 2}[
                 sol.branch]
-            if status[i] in (0, STATUS_NO_PERIODIC):
-                _fill_sample(data, i, sol, prob, t, outputs, values["speed"])
+            if sol.status in (0, 3):
+                _fill_sample(data, i, sol, prob, t, single, values["speed"])
     coords = {"bearing": ("bearing", np.array(_BEARINGS), {})}
     coords.update(order_coordinates(H, n_cycles, pair.z1, options["n_sidebands"]))
     return Evaluation(
@@ -294,6 +328,9 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                         "long_name": "modes kept by the reduction"}),
             "hb_iterations": ("sample", extra["hb_iterations"], {"units": "1"}),
             "hb_residual": ("sample", extra["hb_residual"], {"units": "1"}),
+            "range_newton_iterations": ("sample", extra["range_newton_iterations"], {
+                "units": "1", "long_name": "Newton iterations over the speed range (0: full "
+                "contact everywhere; NaN: range not computed)"}),
             "stability_drift": ("sample", extra["drift"], {"units": "1", "long_name":
                                 "time-integration check (NaN: not checked)"}),
             "branch": ("sample", branch, {"flag_values": np.array([-1, 0, 1, 2], np.int8),
@@ -301,5 +338,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                        "back_flank_contact", "units": "1"}),
         },
         attrs={"n_harmonics": H, "long_period_mesh_cycles": n_cycles,
+               "speed_range_rpm": f"{options['speed_min']:g}..{options['speed_max']:g} in "
+                                  f"{options['n_speeds']} speeds",
                "solver": "harmonic balance on the mesh approach (AFT for contact loss)"},
     )
