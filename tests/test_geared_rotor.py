@@ -152,7 +152,7 @@ def test_continuation_along_speed_gives_the_same_contact_loss_states_with_fewer_
 
     values = {p.name: p.nominal for p in model.parameters} | {
         "torque": 100.0, "pitch_amplitude": 40.0}
-    options = model.validate_options({**COARSE, "pitch_model": "seeded"})
+    options = model.validate_options({**COARSE, "pitch_model": "seeded", "end_inertias": "none"})
     prob = problem_for(model, values, options, speed_range=True)
     speeds = np.linspace(3000.0, 5000.0, 9)
     with single_threaded_blas():
@@ -169,3 +169,41 @@ def test_speed_range_bad_input(model):
         model.response({}, None, outputs=["dte_rms_max"], speed_min=8000.0)
     with pytest.raises(ValueError, match=r"n_speeds.*got 1.*\[2, "):
         model.response({}, None, outputs=["dte_rms_max"], n_speeds=1)
+
+
+def test_harmonics_from_speed_reach_the_converged_dte_ptp(model):
+    """``n_mesh_harmonics=None`` keeps every mesh harmonic below 10.5 kHz (4..11).
+
+    At 875 rpm (4 harmonics drop the 5th, next to a mode) the chosen count gives the
+    peak-to-peak DTE of all 11 harmonics the LTCA resolves; 4 harmonics are off by > 2 %.
+    """
+    from gearuq_plugins.geared_rotor.physics import mesh_harmonics
+
+    opts = model.validate_options({})
+    assert [mesh_harmonics(opts, s) for s in (100.0, 1400.0, 2000.0, 3000.0, 8000.0)] == [
+        11, 11, 11, 7, 4]
+    p = {"speed": [875.0], "pitch_amplitude": [15.0], "pitch_sigma": [3.0]}
+    kw = {"outputs": ["dte_ptp"], "pitch_model": "seeded", "end_inertias": "none"}
+    auto = model.response(p, None, **kw)
+    full = model.response(p, None, n_mesh_harmonics=11, **kw)
+    four = model.response(p, None, n_mesh_harmonics=4, **kw)
+    assert auto["n_mesh_harmonics"].values[0] == 11
+    ref = full["dte_ptp"].values[0]
+    assert auto["dte_ptp"].values[0] == pytest.approx(ref, rel=1e-12)
+    assert abs(four["dte_ptp"].values[0] / ref - 1.0) > 0.02
+
+
+def test_end_inertias_lower_the_rolling_mode(model):
+    """The lowest mode (shafts rolling on their bearings with the gear bodies) drops with
+    the drive and load inertias; the hub carries exactly the inertia asked for."""
+    from gearuq.rotor.examples import seed002_rotor, shaft_end_hub
+    from gearuq.rotor.modal import undamped_modes
+
+    assert shaft_end_hub(0, 0.03, 0.07).polar_inertia == pytest.approx(0.03, rel=1e-12)
+    f = [undamped_modes(seed002_rotor(8.0e8, drive_inertia=J, load_inertia=J)).elastic.omega[0]
+         / (2 * np.pi) for J in (None, 0.03, 0.5)]
+    assert 440.0 < f[0] < 455.0 and f[0] > f[1] > f[2] and f[2] < 200.0
+    with pytest.raises(ValueError, match=r"drive_inertia.*value 0 .*outside valid range"):
+        model.response({"drive_inertia": [0.0]}, None, outputs=["dte_rms"], **COARSE)
+    with pytest.raises(ValueError, match=r"load_inertia=-1\.0 is outside its valid range"):
+        seed002_rotor(8.0e8, load_inertia=-1.0)

@@ -65,6 +65,11 @@ _PARAMETERS = (
        "axial stiffness of each bearing (ours)"),
     _P("bearing_damping", "N s m-1", 0.0, 0.0, 1.0e6,
        "radial and axial viscous damping of each bearing"),
+    _P("drive_inertia", "kg m2", 0.03, 1e-4, 100.0,
+       "polar inertia turning with the free end of shaft 1 (drive side: a coupling hub of "
+       "twice the 70 mm shaft-end diameter, 108 mm long; ours, the seed prints none)"),
+    _P("load_inertia", "kg m2", 0.03, 1e-4, 100.0,
+       "polar inertia turning with the free end of shaft 2 (load side; as drive_inertia)"),
     _P("damping_ratio", "1", 0.05, 0.0, 0.5,
        "modal damping ratio of every elastic mode (mesh and structure)"),
     _P("backlash", "um", 100.0, 0.0, 2000.0,
@@ -108,8 +113,13 @@ _OUTPUTS = (
 
 _O = Option
 _OPTIONS = (
-    _O("n_mesh_harmonics", 4, "mesh harmonics kept in the steady state (H = n x lcm(z1, z2))",
-       kind=int, lower=1, upper=20),
+    _O("n_mesh_harmonics", None, "mesh harmonics kept in the steady state (H = n x lcm(z1, "
+       "z2)); None: from the speed, every harmonic below harmonic_band, at least 4 and at "
+       "most what the LTCA resolves ((positions_per_cycle - 1) // 2)", kind=int, lower=1,
+       upper=199, allow_none=True),
+    _O("harmonic_band", 10500.0, "with n_mesh_harmonics=None: mesh harmonics up to this "
+       "frequency [Hz] (1.5 x the 7.0 kHz mode, the highest that loads the mesh by > 1 %)",
+       lower=100.0, upper=1e6),
     _O("cutoff_factor", 1.5, "modes kept up to this factor times the highest harmonic",
        lower=1.0, upper=50.0),
     _O("positions_per_cycle", 24, "LTCA positions per mesh cycle (> 2 n_mesh_harmonics)",
@@ -139,6 +149,9 @@ _OPTIONS = (
        lower=1, upper=20),
     _O("range_cutoff_factor", 1.0, "modal cut-off factor of the range", lower=1.0,
        upper=50.0),
+    _O("end_inertias", "parameters", "drive and load inertias on the shaft ends: the "
+       "parameters drive_inertia / load_inertia, or 'none' (the seed's rotor as printed, "
+       "whose 448 Hz mode has no inertia at the shaft ends)", choices=("parameters", "none")),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),

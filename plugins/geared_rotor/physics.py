@@ -128,7 +128,7 @@ _LTCA_KEYS = ("torque", "pitch_amplitude", "pitch_sigma", "iso_grade", "pitch_se
               "tip_relief_length")
 _GERM_KEYS = tuple(f"{p}{i}" for p in ("pitch_xi_p_", "pitch_xi_g_") for i in range(1, 30))
 _ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping",
-               "damping_ratio", "backlash")
+               "damping_ratio", "backlash", "drive_inertia", "load_inertia")
 
 
 def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *,
@@ -157,18 +157,23 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
         deviations=sample_deviations(pair, values, options["pitch_phases"],
                                      options["pitch_model"], options["pitch_harmonics"])))
     harmonics, cutoff_factor = ((options["range_mesh_harmonics"], options["range_cutoff_factor"])
-                                if speed_range else (options["n_mesh_harmonics"],
+                                if speed_range else (mesh_harmonics(options, values["speed"]),
                                                      options["cutoff_factor"]))
     H = harmonics * excitation.n_cycles
-    rkey = ("rotor", H, cutoff_factor, options["moment_arm"]) + lkey + tuple(
+    rkey = ("rotor", H, cutoff_factor, options["moment_arm"],
+            options["end_inertias"]) + lkey + tuple(
         values[k] for k in _ROTOR_KEYS)
+
+    ends = options["end_inertias"] == "parameters"
 
     def build() -> Any:
         def factory(k: float) -> Any:
             return seed002_rotor(
                 k, pair=pair, bearing_radial_stiffness=values["bearing_stiffness"],
                 bearing_axial_stiffness=values["bearing_axial_stiffness"],
-                bearing_damping=values["bearing_damping"], moment_arm=options["moment_arm"])
+                bearing_damping=values["bearing_damping"], moment_arm=options["moment_arm"],
+                drive_inertia=values["drive_inertia"] if ends else None,
+                load_inertia=values["load_inertia"] if ends else None)
 
         return GearedRotorProblem(factory, excitation, pair.z1,
                                   damping_ratio=values["damping_ratio"], n_harmonics=H,
@@ -176,6 +181,20 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
                                   backlash=values["backlash"] * 1e-6)
 
     return _cached(model, rkey, build)
+
+
+def mesh_harmonics(options: dict[str, Any], speed: float) -> int:
+    """Mesh harmonics of a steady state: the option, or chosen from the speed.
+
+    ``n_mesh_harmonics=None``: every mesh harmonic up to ``harmonic_band`` Hz, at least 4,
+    at most the ``(positions_per_cycle - 1) // 2`` the LTCA samples resolve (measured
+    accuracy: docs/theory/geared_rotor.md Sec. 9.1).
+    """
+    if options["n_mesh_harmonics"] is not None:
+        return int(options["n_mesh_harmonics"])
+    top = (options["positions_per_cycle"] - 1) // 2
+    f_mesh = 30 * speed / 60.0  # z1 = 30 (the seed pair)
+    return int(min(top, max(4, math.ceil(options["harmonic_band"] / f_mesh - 1e-9))))
 
 
 def order_coordinates(H: int, n_cycles: int, z1: int, n_sidebands: int) -> dict[str, tuple]:
@@ -209,6 +228,24 @@ def _amplitudes(c: np.ndarray) -> np.ndarray:
     return amp
 
 
+def _put_spectrum(out: np.ndarray, i: int, c: np.ndarray) -> None:
+    """Amplitudes of one sample; orders above its own H are zero (its steady state is
+    band-limited to H; with ``n_mesh_harmonics=None`` H depends on the sample's speed)."""
+    amp = _amplitudes(c)
+    out[i] = 0.0
+    out[i, :amp.size] = amp
+
+
+def _ptp(c: np.ndarray, n_time: int) -> float:
+    """Peak-to-peak of a band-limited signal on 8 times the AFT grid (>= 32 instants per
+    period of its highest harmonic: the sampled peak is within 0.5 % of that harmonic's
+    amplitude of the true one)."""
+    n = 8 * n_time
+    full = np.zeros(n // 2 + 1, dtype=complex)
+    full[:c.size] = c
+    return float(np.ptp(np.fft.irfft(full * n, n=n)))
+
+
 def _rms(c: np.ndarray) -> float:
     return float(math.sqrt(2.0 * np.sum(np.abs(c[1:]) ** 2)))
 
@@ -219,12 +256,11 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
 
     T = sol.period
     ch = sol.channels
-    grid = np.arange(prob.prep.n_time) * T / prob.prep.n_time
     scalars = {
         "dte_rms": _rms(ch["dte"]), "dte_mean": float(ch["dte"][0].real),
         "dte_mesh_band_rms": float(math.sqrt(2.0 * np.sum(
             np.abs(ch["dte"][prob.excitation.n_cycles // 2:]) ** 2))),
-        "dte_ptp": float(np.ptp(synthesize(ch["dte"], grid, T))),
+        "dte_ptp": _ptp(ch["dte"], prob.prep.n_time),
         "mesh_force_rms": _rms(sol.force), "mesh_force_min": sol.min_force,
         "bearing1_acceleration_y_rms": _rms(ch["bearing 1 acceleration y"]),
         "contact_loss_fraction": sol.contact_loss_fraction,
@@ -245,11 +281,11 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
             for b, label in enumerate(_BEARINGS):
                 data[name][i, b] = synthesize(ch[f"{label} {kind} {axis}"], t, T)
         elif name == "dte_spectrum":
-            data[name][i] = _amplitudes(ch["dte"])
+            _put_spectrum(data[name], i, ch["dte"])
         elif name == "mesh_force_spectrum":
-            data[name][i] = _amplitudes(sol.force)
+            _put_spectrum(data[name], i, sol.force)
         elif name == "bearing1_acceleration_y_spectrum":
-            data[name][i] = _amplitudes(ch["bearing 1 acceleration y"])
+            _put_spectrum(data[name], i, ch["bearing 1 acceleration y"])
 
 
 def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str],
@@ -260,8 +296,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
 
     pair = seed_pair()
     n_cycles = long_period_cycles(pair)
-    H = options["n_mesh_harmonics"] * n_cycles
-    if 2 * options["n_mesh_harmonics"] >= options["positions_per_cycle"]:
+    chosen = options["n_mesh_harmonics"]
+    if chosen is not None and 2 * chosen >= options["positions_per_cycle"]:
         raise ValueError(
             f"n_mesh_harmonics={options['n_mesh_harmonics']} needs positions_per_cycle > "
             f"{2 * options['n_mesh_harmonics']} (got {options['positions_per_cycle']}): the "
@@ -280,12 +316,16 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     ranged = [o for o in outputs if o in _RANGE_OUTPUTS]
     single = [o for o in outputs if o not in _RANGE_OUTPUTS]
     n = next(iter(params.values())).shape[0]
+    speed_values = params.get("speed", np.full(n, model.parameter("speed").nominal))
+    per_sample = [mesh_harmonics(options, float(v)) for v in speed_values]
+    H = max(per_sample, default=mesh_harmonics(options, 4000.0)) * n_cycles
     shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
                                     for d in o.dims[1:]) for o in model.outputs}
     data = {name: np.full(shapes[name], np.nan) for name in outputs}
     status = np.zeros(n, dtype=np.int8)
     extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
-                                              "drift", "range_newton_iterations")}
+                                              "drift", "range_newton_iterations",
+                                              "n_mesh_harmonics")}
     branch = np.full(n, -1, dtype=np.int8)
     with single_threaded_blas():
         for i in range(n):
@@ -312,6 +352,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                 sol = prob.verify(sol, values["speed"])
             status[i] = max(int(status[i]), _FROM_SOLVER[sol.status])
             extra["n_modes"][i] = prob.reduced(values["speed"]).n_modes
+            extra["n_mesh_harmonics"][i] = prob.n_harmonics / n_cycles
             extra["hb_iterations"][i] = sol.iterations
             extra["hb_residual"][i] = sol.residual
             extra["drift"][i] = sol.drift
@@ -327,6 +368,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             "n_modes": ("sample", extra["n_modes"], {"units": "1",
                         "long_name": "modes kept by the reduction"}),
             "hb_iterations": ("sample", extra["hb_iterations"], {"units": "1"}),
+            "n_mesh_harmonics": ("sample", extra["n_mesh_harmonics"], {"units": "1",
+                                 "long_name": "mesh harmonics of the steady state"}),
             "hb_residual": ("sample", extra["hb_residual"], {"units": "1"}),
             "range_newton_iterations": ("sample", extra["range_newton_iterations"], {
                 "units": "1", "long_name": "Newton iterations over the speed range (0: full "
