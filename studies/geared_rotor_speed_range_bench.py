@@ -156,8 +156,25 @@ def form_check(limit: float) -> None:
     for name in ("design_point_u", "iterations"):
         if name in res:
             print(f"  {name}: {res[name].values}")
-    print("  attrs:", {k: v for k, v in res.attrs.items() if "form" in k.lower()
-                       or "converg" in k.lower()})
+    u = res["design_point_u"].values.ravel() if "design_point_u" in res else None
+    if u is not None:
+        names = list(space.names)
+        order = np.argsort(-np.abs(u))[:6]
+        print("  largest design-point coordinates:",
+              ", ".join(f"{names[j]} {u[j]:+.3f}" for j in order))
+
+
+def mc_check(limit: float, n: int) -> None:
+    """Crude Monte Carlo on the same limit state (an independent estimator)."""
+    model = _model()
+    start = _clock()
+    res = gearuq.failure_probability(model, model.default_space(),
+                                     gearuq.LimitState.upper("dte_rms_max", limit), None,
+                                     method="mc", rng=7, n_samples=n)
+    cpu, wall = _since(start)
+    print(f"\nMonte Carlo, dte_rms_max > {limit * 1e6:g} um, {n} samples: pf "
+          f"{float(res['pf']):.3e} [{float(res['pf_lower']):.3e}, {float(res['pf_upper']):.3e}]"
+          f", status {int(res['status'])}, CPU {cpu:.0f} s, wall {wall:.0f} s")
 
 
 def main() -> None:
@@ -166,12 +183,15 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=3)
     ap.add_argument("--form", action="store_true", help="also run FORM (minutes)")
     ap.add_argument("--limit", type=float, default=14e-6, help="X of dte_rms_max > X [m]")
+    ap.add_argument("--mc", type=int, default=0, help="also crude Monte Carlo with N samples")
     args = ap.parse_args()
     warnings.simplefilter("ignore", category=UserWarning)
     if args.samples > 0:
         bench(args.samples)
     if args.form:
         form_check(args.limit)
+    if args.mc:
+        mc_check(args.limit, args.mc)
 
 
 if __name__ == "__main__":

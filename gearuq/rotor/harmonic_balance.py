@@ -33,7 +33,8 @@ import scipy.linalg as sla
 from gearuq.rotor.excitation import MeshExcitation
 from gearuq.rotor.reduction import ModalModel
 
-__all__ = ["PeriodicSolution", "PreparedExcitation", "mesh_force_at", "prepare_excitation",
+__all__ = ["PeriodicSolution", "PreparedExcitation", "contact_loss_share", "mesh_force_at",
+           "prepare_excitation",
            "solve_periodic", "synthesize"]
 
 STATUS_CONVERGED = 0
@@ -479,6 +480,36 @@ def _smoothed_homotopy(x, max_iter, tol, model, prep, h, backlash):
         width *= 0.5
     x, ok, res, it = _newton(x, 0.0, max_iter, tol, model, prep, h, backlash)
     return x, ok, res, total + it
+
+
+def contact_loss_share(prep: PreparedExcitation, sol: PeriodicSolution,
+                       backlash: float = math.inf, oversample: int = 16) -> float:
+    """Share of the period with the flanks apart, on ``oversample`` times the AFT grid.
+
+    The AFT grid (``N > 4H`` instants) places the separation instants to ``T/N``; the share
+    of a few short separations is then off by several per cent (13.9 % against 14.7 % at
+    100 N m, 4600 rpm, 40 um pitch deviations, 4 mesh harmonics). The band-limited ``k``,
+    ``k e`` and ``delta`` are interpolated exactly (zero-padded FFT) on the finer grid.
+    """
+    n = int(oversample) * prep.n_time
+
+    def fine(x_grid: np.ndarray) -> np.ndarray:
+        c = np.fft.rfft(x_grid)
+        full = np.zeros(n // 2 + 1, dtype=complex)
+        m = min(c.size, full.size) - 1  # drop the coarse Nyquist term (band-limited below)
+        full[:m] = c[:m]
+        return np.fft.irfft(full, n=n) * (n / x_grid.size)
+
+    H = prep.n_harmonics
+    delta = np.zeros(n // 2 + 1, dtype=complex)
+    delta[:H + 1] = sol.delta
+    d = np.fft.irfft(delta * n, n=n)
+    k = fine(prep.k_grid)
+    F = k * d - fine(prep.ke_grid)
+    apart = F <= 0.0
+    if math.isfinite(backlash):
+        apart &= F + k * backlash >= 0.0
+    return float(np.mean(apart))
 
 
 def mesh_force_at(prep: PreparedExcitation, sol: PeriodicSolution, t: np.ndarray,

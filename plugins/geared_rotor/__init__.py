@@ -125,8 +125,9 @@ _OPTIONS = (
     _O("positions_per_cycle", 24, "LTCA positions per mesh cycle (> 2 n_mesh_harmonics)",
        kind=int, lower=4, upper=400),
     _O("n_pts", 20, "LTCA points per line of contact", kind=int, lower=2, upper=200),
-    _O("n_sidebands", 3, "sidebands +-i f_s labelled around each mesh harmonic", kind=int,
-       lower=0, upper=14),
+    _O("n_sidebands", 14, "sidebands +-i f_s labelled around each mesh harmonic (14: every "
+       "order nearer to a mesh harmonic than to the next, where the largest sidebands can "
+       "sit)", kind=int, lower=0, upper=14),
     _O("pitch_model", "germ", "random pitch deviations: 'germ' (smooth in the standard "
        "normals pitch_xi_p_*, pitch_xi_g_*: every engine can explore them) or 'seeded' "
        "(the realisation of pitch_seed, as in the seed's figures)",

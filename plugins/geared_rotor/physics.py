@@ -252,7 +252,7 @@ def _rms(c: np.ndarray) -> float:
 
 def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs: list[str],
                  speed: float) -> None:
-    from gearuq.rotor.harmonic_balance import mesh_force_at, synthesize
+    from gearuq.rotor.harmonic_balance import contact_loss_share, mesh_force_at, synthesize
 
     T = sol.period
     ch = sol.channels
@@ -263,7 +263,7 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
         "dte_ptp": _ptp(ch["dte"], prob.prep.n_time),
         "mesh_force_rms": _rms(sol.force), "mesh_force_min": sol.min_force,
         "bearing1_acceleration_y_rms": _rms(ch["bearing 1 acceleration y"]),
-        "contact_loss_fraction": sol.contact_loss_fraction,
+        "contact_loss_fraction": contact_loss_share(prob.prep, sol, prob.backlash),
         "ste_ptp": float(np.ptp(prob.excitation.ste)),
         "mesh_frequency": prob.pinion_teeth * speed / 60.0, "shaft_frequency": speed / 60.0,
     }
@@ -303,6 +303,10 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             f"{2 * options['n_mesh_harmonics']} (got {options['positions_per_cycle']}): the "
             "LTCA samples must resolve the harmonics kept")
     check_germ(params, pair, options)
+    if t.size and float(np.min(t)) < 0.0:
+        raise ValueError(
+            f"t contains negative instants (smallest {float(np.min(t))!r} s); valid range "
+            "[0, inf) s: the periodic steady state has no start, shift t by whole periods")
     if not options["speed_min"] < options["speed_max"]:
         raise ValueError(
             f"speed_min={options['speed_min']!r} rpm must be below speed_max="
