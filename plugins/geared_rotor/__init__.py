@@ -1,4 +1,7 @@
-"""``geared_rotor``: finite-element helical geared rotor with LTCA excitation (seed 002, part 2).
+"""``geared_rotor``: finite-element helical geared rotor with LTCA excitation.
+
+Yuan, Liu and Liu, "Quasi-static characteristics and vibration responses analysis of helical
+geared rotor system with random cumulative pitch deviations", Applied Sciences 10 (2020), part 2.
 
 The rotor of seed 002 (Sec. 2.2): two stepped Timoshenko shafts of 13 elements, the 30/30
 helical pair on rigid gear bodies, four rolling-element bearings and the 12-DOF mesh element
@@ -10,8 +13,12 @@ cut-off taken from the excitation band and solves the periodic steady state over
 period by harmonic balance on the mesh approach, with contact loss by alternating
 frequency-time Newton iterations. Outputs: dynamic transmission error, mesh force, bearing
 forces and accelerations (in time, as RMS values and as spectra at the shaft orders with
-the mesh harmonics and the sidebands ``f_m +- i f_s`` labelled). Theory, parameter sources
-and the deviations from the seed: docs/theory/geared_rotor.md.
+the mesh harmonics and the sidebands ``f_m +- i f_s`` labelled), and over a whole speed
+range per sample the largest RMS DTE ``dte_rms_max`` and its speed. The pitch deviations
+are, by default, a smooth function of declared standard normals (``pitch_xi_p_*``,
+``pitch_xi_g_*``), so every engine can explore them; the seed's realisation stays available
+as ``pitch_model="seeded"``. Theory, parameter sources and the deviations from the seed:
+docs/theory/geared_rotor.md.
 """
 
 from __future__ import annotations
@@ -139,9 +146,11 @@ _OPTIONS = (
        "from pitch_seed, or taken from pitch_phase_pinion / pitch_phase_wheel (smooth inputs "
        "for surrogates; the scatter still comes from pitch_seed)",
        choices=("seed", "parameters")),
-    _O("speed_min", 25.0, "lowest speed of the range of dte_rms_max (seed Fig. 17: 25 rpm)",
+    _O("speed_min", 25.0, "lowest speed of the range of dte_rms_max (25 rpm: Fig. 17 of "
+       "Yuan et al. 2020)",
        lower=1.0, upper=20000.0),
-    _O("speed_max", 8000.0, "highest speed of the range (seed Fig. 17: 8000 rpm); > speed_min",
+    _O("speed_max", 8000.0, "highest speed of the range (8000 rpm as Yuan et al. 2020); > "
+       "speed_min",
        lower=1.0, upper=20000.0),
     _O("n_speeds", 160, "equally spaced speeds of the range (both ends included)", kind=int,
        lower=2, upper=100000),

@@ -64,7 +64,8 @@ _OPTIONS = (
            choices=("sine", "largest")),
     Option("pitch_model", "germ",
            "random pitch deviations: 'germ' (smooth in the standard normals pitch_xi_p_*, "
-           "pitch_xi_g_*) or 'seeded' (the realisation of pitch_seed, seed 002's figures)",
+           "pitch_xi_g_*) or 'seeded' (the realisation of pitch_seed, for the published "
+           "figures)",
            choices=("germ", "seeded")),
     Option("pitch_harmonics", None, "tooth-index harmonics kept in each gear's germ "
            "(1..z//2; None: all, the exact germ of z-1 normals per gear)", kind=int,
