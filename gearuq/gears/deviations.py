@@ -172,11 +172,12 @@ def pitch_germ_scales(z: int, *, amplitude: float, sigma: float) -> np.ndarray:
 
     The model of Yuan, Liu and Liu (Applied Sciences 2020, Sec. 3) is a once-per-revolution
     sine of amplitude ``A`` plus independent normal tooth scatter of standard deviation
-    ``sigma``. Written as a Gaussian field over the teeth: the sine becomes a first harmonic
+    ``sigma``. Written as a Gaussian field over the teeth, the sine becomes a first harmonic
     with independent normal cosine and sine coefficients of standard deviation
-    ``A / sqrt(2)`` (the same mean square ``A^2 / 2`` as the sine of fixed amplitude and uniform phase); the scatter, white
-    over the ``z`` teeth with its mean removed, puts the variance ``2 sigma^2 / z`` on every
-    cosine and sine coefficient (``sigma^2 / z`` on the alternating harmonic ``z / 2``).
+    ``A / sqrt(2)`` (the mean square ``A^2 / 2`` of the sine of fixed amplitude and uniform
+    phase); the scatter, white over the ``z`` teeth with its mean removed, puts the variance
+    ``2 sigma^2 / z`` on every cosine and sine coefficient (``sigma^2 / z`` on the
+    alternating harmonic ``z / 2``).
     Order: ``cos 1, sin 1, cos 2, sin 2, ...``.
     """
     if not (math.isfinite(amplitude) and amplitude >= 0):
