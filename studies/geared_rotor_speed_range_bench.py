@@ -12,7 +12,8 @@ torque, bearings, damping) over 25-8000 rpm in 160 speeds:
 * the error of ``dte_rms_max`` against a converged reference (11 mesh harmonics, cut-off 3,
   tolerance 1e-12, the same speeds) and the error of the 160-speed grid against 1281 speeds;
 * what continuation along speed saves on a contact-loss sample (100 N m, 40 um);
-* with ``--form``: FORM on "dte_rms_max above X" in the continuous default space.
+* with ``--form``, ``--mc N``, ``--subset N``: FORM, crude Monte Carlo and subset simulation
+  on "dte_rms_max above X" in the continuous default space.
 
 Timings are process CPU seconds (one core; the BLAS is limited to one thread) and wall
 seconds; the machine is shared, so read the CPU column. Run:
@@ -178,6 +179,20 @@ def mc_check(limit: float, n: int) -> None:
           f", status {int(res['status'])}, CPU {cpu:.0f} s, wall {wall:.0f} s")
 
 
+def subset_check(limit: float, n_per_level: int) -> None:
+    """Subset simulation on the same limit state: its Markov chains need a continuous space."""
+    model = _model()
+    start = _clock()
+    res = gearuq.failure_probability(model, model.default_space(),
+                                     gearuq.LimitState.upper("dte_rms_max", limit), None,
+                                     method="subset", rng=3, n_per_level=n_per_level)
+    cpu, wall = _since(start)
+    print(f"\nsubset simulation, dte_rms_max > {limit * 1e6:g} um, {n_per_level} per level: pf "
+          f"{float(res['pf']):.3e} [{float(res['pf_lower']):.3e}, {float(res['pf_upper']):.3e}]"
+          f", status {int(res['status'])}, {int(res['n_model_runs'])} model runs, CPU {cpu:.0f}"
+          f" s, wall {wall:.0f} s")
+
+
 def main() -> None:
     """Command line."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -185,6 +200,8 @@ def main() -> None:
     ap.add_argument("--form", action="store_true", help="also run FORM (minutes)")
     ap.add_argument("--limit", type=float, default=14e-6, help="X of dte_rms_max > X [m]")
     ap.add_argument("--mc", type=int, default=0, help="also crude Monte Carlo with N samples")
+    ap.add_argument("--subset", type=int, default=0,
+                    help="also subset simulation with N samples per level")
     args = ap.parse_args()
     warnings.simplefilter("ignore", category=UserWarning)
     if args.samples > 0:
@@ -193,6 +210,8 @@ def main() -> None:
         form_check(args.limit)
     if args.mc:
         mc_check(args.limit, args.mc)
+    if args.subset:
+        subset_check(args.limit, args.subset)
 
 
 if __name__ == "__main__":
