@@ -47,7 +47,7 @@ from gearuq.plot import save_figure
 GRADES = (5, 6, 7)
 COLOURS = ("tab:green", "tab:blue", "tab:red")
 SPEEDS = np.arange(500.0, 8001.0, 500.0)
-OPTIONS = {"positions_per_cycle": 16, "n_pts": 12}
+OPTIONS = {"positions_per_cycle": 16, "n_pts": 12, "pitch_model": "seeded"}
 SOBOL_SPEED = 4000.0
 
 

@@ -56,7 +56,7 @@ def sweep(model: gearuq.Model, speeds: np.ndarray) -> xr.Dataset:
             params["tip_relief_amount"] += [relief] * speeds.size
             params["tip_relief_length"] += [RELIEF[1]] * speeds.size
             params["torque"] += [TORQUE] * speeds.size
-    ds = model.response(params, None, outputs=OUTPUTS)
+    ds = model.response(params, None, outputs=OUTPUTS, pitch_model="seeded")
     spec = ds["dte_spectrum"].values
     mesh_band = np.sqrt(0.5 * np.sum(spec[:, 15:] ** 2, axis=1))  # orders >= f_m / 2
     n = speeds.size

@@ -52,9 +52,10 @@ COLOURS = {"unmodified": "tab:red", "error-free optimum": "tab:blue",
 def settings(full: bool) -> dict:
     """Sample sizes and resolution of the default and the ``--full`` run."""
     if full:
-        return {"opts": {"positions_per_cycle": 24, "n_pts": 20}, "n_real": 400,
-                "grid": 13, "grid_real": 40, "n_base": 512}
-    return {"opts": {"positions_per_cycle": 24, "n_pts": 10}, "n_real": 100, "grid": 9,
+        return {"opts": {"positions_per_cycle": 24, "n_pts": 20, "pitch_model": "seeded"},
+                "n_real": 400, "grid": 13, "grid_real": 40, "n_base": 512}
+    return {"opts": {"positions_per_cycle": 24, "n_pts": 10, "pitch_model": "seeded"},
+            "n_real": 100, "grid": 9,
             "grid_real": 12, "n_base": 256}
 
 

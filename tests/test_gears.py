@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from gearuq.gears.geometry import (
@@ -313,3 +314,42 @@ def test_bad_input_raises_naming_parameter(change, name):
 def test_undercut_message():
     with pytest.raises(ValueError, match="undercut"):
         HelicalGearPair(**{**BASE, "z1": 10, "beta": 0.0})
+
+
+def test_pitch_germ_has_the_covariance_of_the_seed_model():
+    """Exact oracle: the full germ's covariance is the sine-plus-scatter covariance.
+
+    Sine ``A sin(2 pi k/z + phase)`` with uniform phase: ``A^2/2 cos(2 pi (k-l)/z)``; the
+    scatter with its tooth mean removed: ``sigma^2 (delta_kl - 1/z)``. Odd and even z.
+    """
+    from gearuq.gears.deviations import (
+        cumulative_pitch_from_normals,
+        pitch_germ_dimension,
+        pitch_germ_energy_fraction,
+    )
+
+    A, sigma = 15e-6, 3e-6
+    for z in (30, 31):
+        n = pitch_germ_dimension(z)
+        assert n == z - 1
+        B = np.stack([cumulative_pitch_from_normals(e, z, amplitude=A, sigma=sigma)
+                      for e in np.eye(n)], axis=1)
+        k = np.arange(z)
+        ref = (0.5 * A**2 * np.cos(2 * np.pi * np.subtract.outer(k, k) / z)
+               + sigma**2 * (np.eye(z) - 1.0 / z))
+        np.testing.assert_allclose(B @ B.T, ref, atol=1e-12 * A**2)
+    # energy kept by M harmonics: the first carries A^2/2 + 2 sigma^2/z, each further 2 sigma^2/z
+    total = 0.5 * A**2 + sigma**2 * 29 / 30
+    for M in (1, 4, 15):
+        kept = 0.5 * A**2 + 2 * sigma**2 / 30 * M - (sigma**2 / 30 if M == 15 else 0.0)
+        assert pitch_germ_energy_fraction(30, M, amplitude=A, sigma=sigma) == pytest.approx(
+            kept / total, rel=1e-12)
+
+
+def test_pitch_germ_bad_input():
+    from gearuq.gears.deviations import cumulative_pitch_from_normals, pitch_germ_dimension
+
+    with pytest.raises(ValueError, match=r"pitch_harmonics=0 .*valid range: integers 1\.\.15"):
+        pitch_germ_dimension(30, 0)
+    with pytest.raises(ValueError, match=r"germ dimension 30 is outside its valid range 1\.\.29"):
+        cumulative_pitch_from_normals(np.zeros(30), 30, amplitude=1e-6, sigma=1e-6)

@@ -61,7 +61,8 @@ def test_error_free_flank_gives_error_free_ste(model):
 
 def test_off_grid_instants_are_solved_exactly(model):
     tau = np.array([0.013, 7.5, 29.99, 31.2])  # 31.2 wraps to 1.2 (long period: 30 cycles)
-    r = model.response({"torque": [400.0]}, tau, outputs=["ste", "lpms"])
+    r = model.response({"torque": [400.0]}, tau, outputs=["ste", "lpms"],
+                       pitch_model="seeded")
     pair = seed002_pair()
     rng = np.random.default_rng(2020)
     dev = FlankDeviations(Fp1=random_cumulative_pitch_deviations(30, seed=rng),
@@ -76,22 +77,22 @@ def test_pitch_seed_reproduces_the_realisation(model):
     values = {"pitch_seed": 2020.7, "iso_grade": 0, "pitch_amplitude": 15.0,
               "pitch_sigma": 3.0, "tip_relief_amount": 0.0, "tip_relief_length": 0.0,
               "root_relief_amount": 0.0, "root_relief_length": 0.0, "crowning": 0.0}
-    dev = sample_deviations(pair, values, "sine")
+    dev = sample_deviations(pair, values, "sine", "seeded")
     rng = np.random.default_rng(2020)  # the integer part selects the realisation
     np.testing.assert_array_equal(dev.Fp1, random_cumulative_pitch_deviations(30, seed=rng))
     np.testing.assert_array_equal(dev.Fp2, random_cumulative_pitch_deviations(30, seed=rng))
     # the scatter only scales the germ: sigma 6 um doubles the scatter part
-    doubled = sample_deviations(pair, {**values, "pitch_sigma": 6.0}, "sine")
+    doubled = sample_deviations(pair, {**values, "pitch_sigma": 6.0}, "sine", "seeded")
     ph1, n1, _, _ = pitch_deviation_germ(30, 30, 2020)
     wave = 15e-6 * np.sin(2 * np.pi * np.arange(30) / 30 + ph1)
     np.testing.assert_allclose(doubled.Fp1 - wave, 2 * (dev.Fp1 - wave), rtol=1e-12,
                                atol=1e-20)
     # "largest" reading: the largest cumulative deviation is the amplitude
-    largest = sample_deviations(pair, values, "largest")
+    largest = sample_deviations(pair, values, "largest", "seeded")
     assert np.abs(largest.Fp1).max() == pytest.approx(15e-6, rel=1e-12)
     assert np.abs(dev.Fp1).max() > 15e-6  # the sine reading exceeds it
     # ISO 1328 grade 5 on the seed-002 pair: sine amplitude F_pT / 2
-    iso = sample_deviations(pair, {**values, "iso_grade": 5, "pitch_sigma": 0.0}, "sine")
+    iso = sample_deviations(pair, {**values, "iso_grade": 5, "pitch_sigma": 0.0}, "sine", "seeded")
     d_mm = pair.d1 * 1e3
     F_pT = (0.002 * d_mm + 0.55 * math.sqrt(d_mm) + 0.7 * 6.0 + 12.0) * 1e-6
     f_pT = (0.001 * d_mm + 0.4 * 6.0 + 5.0) * 1e-6
@@ -105,14 +106,15 @@ def test_same_realisation_on_any_executor(model):
         "torque": {"dist": "uniform", "lower": 200.0, "upper": 1000.0},
         "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 1e6},
     })
-    kw = dict(n_samples=4, rng=11, outputs=["ste_ptp", "cms_ptp"], chunk_size=2, **COARSE)
+    kw = dict(n_samples=4, rng=11, outputs=["ste_ptp", "cms_ptp"], chunk_size=2, **COARSE,
+              pitch_model="seeded")
     serial = gearuq.monte_carlo(model, space, executor="serial", **kw)
     spawned = gearuq.monte_carlo(model, space, executor="processes", **kw)
     np.testing.assert_array_equal(serial["ste_ptp"].values, spawned["ste_ptp"].values)
     np.testing.assert_array_equal(serial["cms_ptp"].values, spawned["cms_ptp"].values)
     # and one sample alone, in another order, gives the same numbers
     alone = model.response({k: serial[k].values[::-1] for k in ("torque", "pitch_seed")},
-                           outputs=["ste_ptp"], **COARSE)
+                           outputs=["ste_ptp"], **COARSE, pitch_model="seeded")
     np.testing.assert_array_equal(alone["ste_ptp"].values[::-1], serial["ste_ptp"].values)
 
 
@@ -127,7 +129,7 @@ def test_shaft_order_of_a_sine_pitch_error(model):
     pair = seed002_pair()
     A = 10.0
     r = model.response({"torque": [1000.0], "pitch_amplitude": [A], "pitch_sigma": [0.0],
-                        "pitch_seed": [7.0]}, outputs=["ste_spectrum"])
+                        "pitch_seed": [7.0]}, outputs=["ste_spectrum"], pitch_model="seeded")
     ph1, _, ph2, _ = pitch_deviation_germ(30, 30, 7)
     expect = A * abs(np.exp(1j * ph1) + np.exp(1j * ph2)) * math.cos(pair.alpha_t) * math.cos(
         pair.beta_b)
@@ -135,6 +137,40 @@ def test_shaft_order_of_a_sine_pitch_error(model):
     assert str(r["order_label"].values[0]) == "1fs"
     assert amp == pytest.approx(expect, rel=0.025)
     assert amp < expect  # smoothing can only lower it
+
+
+def test_germ_first_harmonic_is_the_kinematic_shaft_order(model):
+    """The germ's ``pitch_xi_p_1`` is a once-per-revolution cosine of amplitude ``A/sqrt 2``.
+
+    Alone (no scatter) it puts ``A/sqrt(2) cos(alpha_t) cos(beta_b)`` on 1 fs of the STE, up
+    to the smoothing over one tooth pitch (as the seeded sine above); the response moves
+    continuously with the normal (halving it halves the shaft order within 1 %).
+    """
+    pair = seed002_pair()
+    A = 10.0
+    base = {"torque": [1000.0], "pitch_amplitude": [A], "pitch_sigma": [0.0]}
+    one = model.response({**base, "pitch_xi_p_1": [1.0]}, outputs=["ste_spectrum"])
+    half = model.response({**base, "pitch_xi_p_1": [0.5]}, outputs=["ste_spectrum"])
+    expect = A / math.sqrt(2.0) * math.cos(pair.alpha_t) * math.cos(pair.beta_b)
+    amp = float(one["ste_spectrum"].values[0, 0])
+    assert amp == pytest.approx(expect, rel=0.025) and amp < expect
+    assert float(half["ste_spectrum"].values[0, 0]) == pytest.approx(amp / 2, rel=0.01)
+    # the nominal germ is the error-free flank
+    nominal = model.response({"torque": [1000.0]}, outputs=["ste_spectrum"])
+    assert float(nominal["ste_spectrum"].values[0, 0]) < 1e-9
+
+
+def test_germ_bad_input(model):
+    with pytest.raises(ValueError, match=r"pitch_harmonics=16.*valid range: integers 1\.\.15"):
+        model.response({}, outputs=["ste_ptp"], pitch_harmonics=16)
+    with pytest.raises(ValueError, match=r"pitch_xi_g_9=1\.0 is outside the germ kept by "
+                                         r"pitch_harmonics=4 \(valid: pitch_xi_g_1\.\."
+                                         r"pitch_xi_g_8"):
+        model.response({"pitch_xi_g_9": [0.0, 1.0]}, outputs=["ste_ptp"], pitch_harmonics=4)
+    # the default space is continuous: torque and 2 x 29 standard normals
+    space = model.default_space()
+    assert space.dim == 59 and "pitch_seed" not in space.names
+    assert model.default_space(pitch_harmonics=2).dim == 1 + 2 * 4
 
 
 def test_spectrum_oracle():
@@ -169,7 +205,8 @@ def test_design_relief_is_not_contact_loss(model):
     assert float(geo["geometric_loss_fraction"].max()) > 0.05
     assert float(geo["contact_loss_fraction"].max()) == 0.0
     # with the seed's pitch scatter at light load, contact is lost in some positions
-    light = model.response({**relief, "torque": [200.0]}, outputs=["contact_loss_fraction"])
+    light = model.response({**relief, "torque": [200.0]}, outputs=["contact_loss_fraction"],
+                           pitch_model="seeded")
     assert float(light["contact_loss_fraction"][0]) > 0.05
 
 

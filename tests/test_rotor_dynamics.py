@@ -299,3 +299,23 @@ def test_ltca_tangent_equals_an_independent_finite_difference():
     # the linearised law passes through the static state: k (STE - e) = P
     np.testing.assert_allclose(analytic.stiffness * (analytic.ste - analytic.error),
                                analytic.normal_force, rtol=1e-12)
+
+
+def test_real_form_solve_equals_the_complex_harmonic_balance_system():
+    """The (2H+1) real equations of a real signal give the complex system's solution."""
+    import scipy.linalg as sla
+
+    from gearuq.rotor.harmonic_balance import _real_blocks, _solve_real, _two_sided
+
+    rng = np.random.default_rng(4)
+    H = 17
+    dk = rng.normal(size=2 * H + 1) + 1j * rng.normal(size=2 * H + 1)
+    dk[0] = dk[0].real
+    h1 = rng.normal(size=H + 1) + 1j * rng.normal(size=H + 1)
+    b1 = rng.normal(size=H + 1) + 1j * rng.normal(size=H + 1)
+    h1[0], b1[0] = h1[0].real, b1[0].real
+    T = sla.toeplitz(dk, np.conj(dk))
+    x = sla.solve(np.eye(2 * H + 1) + _two_sided(h1, H)[:, None] * T, _two_sided(b1, H))
+    y = _solve_real(h1, _real_blocks(dk, H), b1)
+    np.testing.assert_allclose(y, x, rtol=0, atol=1e-12 * np.abs(x).max())
+    np.testing.assert_allclose(y[:H], np.conj(y[H + 1:][::-1]))  # a real signal

@@ -30,6 +30,13 @@ __all__ = [
     "AMPLITUDE_READINGS",
     "FlankDeviations",
     "cumulative_pitch_from_germ",
+    "cumulative_pitch_from_normals",
+    "PITCH_GERM_PREFIXES",
+    "pitch_germ_dimension",
+    "pitch_germ_from_values",
+    "pitch_germ_names",
+    "pitch_germ_energy_fraction",
+    "pitch_germ_scales",
     "pitch_deviation_germ",
     "iso1328_pitch_tolerances",
     "pitch_deviations_from_cumulative",
@@ -132,6 +139,145 @@ def cumulative_pitch_from_germ(
     hi = amplitude / max(float(np.max(np.abs(wave))), 1e-300) + float(np.max(np.abs(scatter)))
     a = brentq(largest, 0.0, hi, xtol=1e-15 * max(amplitude, 1e-300), rtol=4 * np.finfo(float).eps)
     return a * wave + scatter
+
+
+def pitch_germ_dimension(z: int, n_harmonics: int | None = None) -> int:
+    """Number of standard normals of one gear's pitch-deviation germ.
+
+    Harmonics ``m = 1..M`` of the tooth index carry a cosine and a sine coefficient, except
+    ``m = z/2`` (even ``z``), whose sine vanishes on the teeth: ``M = z // 2`` (the full
+    germ) gives ``z - 1`` normals, exactly the degrees of freedom of ``z`` cumulative
+    deviations with their mean removed.
+
+    Parameters
+    ----------
+    z : int
+        Number of teeth (>= 5).
+    n_harmonics : int or None
+        Harmonics kept ``M`` in ``1..z // 2``; ``None``: all (``z // 2``).
+    """
+    if int(z) != z or z < 5:
+        raise ValueError(f"z={z!r} is outside its valid range: integers >= 5")
+    top = int(z) // 2
+    M = top if n_harmonics is None else n_harmonics
+    if int(M) != M or not 1 <= M <= top:
+        raise ValueError(f"pitch_harmonics={n_harmonics!r} (germ harmonics of a gear with "
+                         f"z={z} teeth) is outside its valid range: integers 1..{top}")
+    M = int(M)
+    return 2 * M - (1 if 2 * M == z else 0)
+
+
+def pitch_germ_scales(z: int, *, amplitude: float, sigma: float) -> np.ndarray:
+    """Standard deviations of the ``z - 1`` Fourier coefficients of the full germ [m].
+
+    The model of Yuan, Liu and Liu (Applied Sciences 2020, Sec. 3) is a once-per-revolution
+    sine of amplitude ``A`` plus independent normal tooth scatter of standard deviation
+    ``sigma``. Written as a Gaussian field over the teeth, the sine becomes a first harmonic
+    with independent normal cosine and sine coefficients of standard deviation
+    ``A / sqrt(2)`` (the mean square ``A^2 / 2`` of the sine of fixed amplitude and uniform
+    phase); the scatter, white over the ``z`` teeth with its mean removed, puts the variance
+    ``2 sigma^2 / z`` on every cosine and sine coefficient (``sigma^2 / z`` on the
+    alternating harmonic ``z / 2``).
+    Order: ``cos 1, sin 1, cos 2, sin 2, ...``.
+    """
+    if not (math.isfinite(amplitude) and amplitude >= 0):
+        raise ValueError(f"amplitude={amplitude!r} is outside its valid range [0, inf) m")
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma={sigma!r} is outside its valid range [0, inf) m")
+    n = pitch_germ_dimension(z)
+    var = np.full(n, 2.0 * sigma**2 / z)
+    if z % 2 == 0:
+        var[-1] = sigma**2 / z
+    var[:2] += 0.5 * amplitude**2
+    return np.sqrt(var)
+
+
+def pitch_germ_energy_fraction(z: int, n_harmonics: int, *, amplitude: float,
+                               sigma: float) -> float:
+    """Share of the mean-square cumulative pitch deviation kept by ``n_harmonics``.
+
+    ``1 -`` this is the relative mean-square truncation error of the germ (the dropped
+    coefficients are independent of the kept ones).
+    """
+    # mean square over the teeth: cos^2 and sin^2 average 1/2, (-1)^k squared is 1
+    s2 = 0.5 * pitch_germ_scales(z, amplitude=amplitude, sigma=sigma) ** 2
+    if z % 2 == 0:
+        s2[-1] *= 2.0
+    total = float(s2.sum())
+    if total == 0.0:
+        return 1.0
+    return float(s2[:pitch_germ_dimension(z, n_harmonics)].sum() / total)
+
+
+def cumulative_pitch_from_normals(
+    xi: np.ndarray, z: int, *, amplitude: float, sigma: float
+) -> np.ndarray:
+    """Cumulative pitch deviations of one gear as a smooth function of standard normals [m].
+
+    ``F_p,k = sum_c s_c xi_c phi_c(k)`` with ``phi = cos(2 pi m k / z), sin(2 pi m k / z)``
+    for ``m = 1, 2, ...`` (:func:`pitch_germ_scales` gives ``s_c``). With ``xi`` independent
+    standard normals and all ``z - 1`` of them, ``F_p`` has the covariance of the seed's
+    sine-plus-scatter model with the sine phase randomised and the tooth mean removed (a
+    common shift of all teeth of one gear turns it rigidly and changes no mesh quantity but
+    the mean transmission error). Fewer normals truncate the expansion after the harmonic
+    they complete (:func:`pitch_germ_energy_fraction`). ``xi = 0``: no deviation.
+
+    Parameters
+    ----------
+    xi : array_like, (n,)
+        Germ, ``1 <= n <= z - 1`` (``n`` from :func:`pitch_germ_dimension`).
+    z : int
+        Number of teeth.
+    amplitude, sigma : float
+        Sine amplitude and scatter standard deviation of the seed's model [m].
+    """
+    xi = np.asarray(xi, dtype=float).ravel()
+    full = pitch_germ_dimension(z)
+    if not 1 <= xi.size <= full:
+        raise ValueError(f"pitch germ dimension {xi.size} is outside its valid range "
+                         f"1..{full} for a gear with z={z} teeth")
+    if not np.all(np.isfinite(xi)):
+        raise ValueError("pitch germ contains non-finite values; valid range (-inf, inf)")
+    s = pitch_germ_scales(z, amplitude=amplitude, sigma=sigma)[:xi.size]
+    k = np.arange(int(z))
+    c = np.arange(xi.size)
+    m = c // 2 + 1
+    arg = 2.0 * math.pi * np.outer(k, m) / z
+    basis = np.where(c % 2 == 0, np.cos(arg), np.sin(arg))
+    return basis @ (s * xi)
+
+
+#: Parameter-name prefixes of the pinion and wheel germs: ``pitch_xi_p_1``, ``pitch_xi_g_1``.
+PITCH_GERM_PREFIXES = ("pitch_xi_p_", "pitch_xi_g_")
+
+
+def pitch_germ_names(z: int, gear: int) -> list[str]:
+    """Parameter names of the full germ of the pinion (``gear=1``) or the wheel (``gear=2``).
+
+    ``pitch_xi_p_1 .. pitch_xi_p_{z-1}`` in the order of :func:`pitch_germ_scales`
+    (``_1``, ``_2``: cosine and sine of the once-per-revolution harmonic, and so on).
+    """
+    prefix = PITCH_GERM_PREFIXES[int(gear) - 1]
+    return [f"{prefix}{i}" for i in range(1, pitch_germ_dimension(z) + 1)]
+
+
+def pitch_germ_from_values(values: dict[str, float], z: int, gear: int,
+                           n_harmonics: int | None = None) -> np.ndarray:
+    """The kept germ of one gear from a parameter dict (missing names count as 0).
+
+    Raises ValueError when ``n_harmonics`` is out of range or when a dropped coefficient is
+    non-zero (a truncated germ cannot represent it; sample only the kept names).
+    """
+    n = pitch_germ_dimension(z, n_harmonics)
+    names = pitch_germ_names(z, gear)
+    xi = np.array([float(values.get(k, 0.0)) for k in names])
+    dropped = np.flatnonzero(xi[n:] != 0.0)
+    if dropped.size:
+        k = names[n + dropped[0]]
+        raise ValueError(
+            f"{k}={float(xi[n + dropped[0]])!r} is outside the germ kept by pitch_harmonics="
+            f"{n_harmonics} (valid: {names[0]}..{names[n - 1]}; the others must be 0)")
+    return xi[:n]
 
 
 def pitch_deviation_germ(

@@ -14,7 +14,7 @@ from gearuq.rotor.element import Material, check_positive, steel
 from gearuq.rotor.mesh import HelicalMeshElement
 from gearuq.rotor.shaft import ShaftLine
 
-__all__ = ["friswell_example", "gear_steel", "seed002_rotor"]
+__all__ = ["friswell_example", "gear_steel", "seed002_rotor", "shaft_end_hub"]
 
 
 def friswell_example(n_elements: int = 6, *, bearing_stiffness: float = 1e6,
@@ -63,6 +63,20 @@ def _section_diameters(node_z: tuple[float, ...], sections) -> list[float]:
     return [sections[int(np.searchsorted(ends, m))][1] for m in mids]
 
 
+def shaft_end_hub(node: int, inertia: float, bore: float, material: Material = gear_steel,
+                  *, width: float = 0.100, spin_ratio: float = 1.0,
+                  name: str = "inertia") -> DiskElement:
+    """A steel hub of polar inertia ``inertia`` on a shaft end of diameter ``bore``.
+
+    An annulus of width ``width`` (100 mm) whose outer diameter gives ``inertia``:
+    ``D = (32 J / (rho pi w) + d^4)^(1/4)``; its mass and diametral inertia follow, so a
+    larger drive or load inertia also loads the shaft end laterally, as a real hub does.
+    """
+    J = check_positive(name, inertia, "kg m^2")
+    D = (32.0 * J / (material.rho * math.pi * width) + bore**4) ** 0.25
+    return DiskElement.from_geometry(node, width, bore, D, material, spin_ratio=spin_ratio)
+
+
 def seed002_rotor(
     mesh_stiffness: float,
     *,
@@ -73,6 +87,8 @@ def seed002_rotor(
     mesh_damping: float = 0.0,
     material: Material = gear_steel,
     moment_arm: str = "pitch_point",
+    drive_inertia: float | None = None,
+    load_inertia: float | None = None,
 ) -> Rotor:
     """The helical geared rotor of seed 002 (Sec. 2.2, Table 1, Fig. 5).
 
@@ -101,6 +117,10 @@ def seed002_rotor(
         Shaft and gear-body material.
     moment_arm : {"pitch_point", "base_circle"}
         Mesh element arms (``"base_circle"``: seed Eq. 8 as printed).
+    drive_inertia, load_inertia : float or None
+        Polar inertia [kg m^2] on the free ends of shaft 1 (input) and shaft 2 (output), the
+        part of the drive and of the load that turns with the shaft end (a coupling hub:
+        :func:`shaft_end_hub`); ``None``: none (the seed's rotor, Fig. 5); else > 0.
 
     Returns
     -------
@@ -130,6 +150,13 @@ def seed002_rotor(
         DiskElement.from_geometry(pinion, pair.b1, seat, body_d[0], material),
         DiskElement.from_geometry(gear, pair.b2, seat, body_d[1], material, spin_ratio=ratio),
     ]
+    end_d = SEED002_SECTIONS[0][1]
+    if drive_inertia is not None:
+        disks.append(shaft_end_hub(shaft1.first_node, drive_inertia, end_d, material,
+                                   name="drive_inertia"))
+    if load_inertia is not None:
+        disks.append(shaft_end_hub(shaft2.last_node, load_inertia, end_d, material,
+                                   spin_ratio=ratio, name="load_inertia"))
     kr, ka, cb = bearing_radial_stiffness, bearing_axial_stiffness, bearing_damping
     check_positive("bearing_radial_stiffness", kr, "N/m")
     check_positive("bearing_axial_stiffness", ka, "N/m")

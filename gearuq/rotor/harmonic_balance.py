@@ -33,7 +33,8 @@ import scipy.linalg as sla
 from gearuq.rotor.excitation import MeshExcitation
 from gearuq.rotor.reduction import ModalModel
 
-__all__ = ["PeriodicSolution", "PreparedExcitation", "mesh_force_at", "prepare_excitation",
+__all__ = ["PeriodicSolution", "PreparedExcitation", "contact_loss_share", "mesh_force_at",
+           "prepare_excitation",
            "solve_periodic", "synthesize"]
 
 STATUS_CONVERGED = 0
@@ -77,6 +78,7 @@ class PreparedExcitation:
     e_grid: np.ndarray
     mean_stiffness: float
     stiffness_harmonics: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    real_blocks: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 0)))
 
 
 def _two_sided(one_sided: np.ndarray, H: int) -> np.ndarray:
@@ -121,7 +123,8 @@ def prepare_excitation(excitation: MeshExcitation, n_harmonics: int) -> Prepared
         k_grid=_grid_values(four["stiffness"], limit, n_time),
         ke_grid=_grid_values(four["stiffness_error"], limit, n_time),
         e_grid=_grid_values(four["error"], limit, n_time),
-        mean_stiffness=kbar, stiffness_harmonics=four["stiffness"][:limit + 1])
+        mean_stiffness=kbar, stiffness_harmonics=four["stiffness"][:limit + 1],
+        real_blocks=_real_blocks(col[:limit + 1], H))
 
 
 @dataclass
@@ -241,11 +244,52 @@ def _one_sided(x_t: np.ndarray, H: int) -> np.ndarray:
     return np.fft.rfft(x_t)[:H + 1] / x_t.size
 
 
-def _toeplitz(one_sided: np.ndarray, H: int) -> np.ndarray:
-    col = np.zeros(2 * H + 1, dtype=complex)
-    m = min(2 * H, one_sided.size - 1)
-    col[:m + 1] = one_sided[:m + 1]
-    return sla.toeplitz(col, np.conj(col))
+def _real_blocks(dk: np.ndarray, H: int) -> np.ndarray:
+    """``C`` with ``(T[dk] x)_j = C @ [Re x_0, Re x_1..x_H, Im x_1..x_H]``, ``j = 0..H``.
+
+    ``dk``: one-sided harmonics ``dk_0..dk_2H`` of a real signal; ``x`` is the two-sided
+    vector of a real signal (``x_-l = conj(x_l)``), so ``sum_l dk_{j-l} x_l = dk_j x_0 +
+    sum_{l>0} (dk_{j-l} + dk_{j+l}) Re x_l + i (dk_{j-l} - dk_{j+l}) Im x_l``.
+    """
+    d = np.zeros(4 * H + 1, dtype=complex)  # d[k + 2H] = dk_k, k = -2H..2H
+    m = min(2 * H, dk.size - 1)
+    d[2 * H:2 * H + m + 1] = dk[:m + 1]
+    d[2 * H - m:2 * H] = np.conj(dk[1:m + 1][::-1])
+    j = np.arange(H + 1)[:, None]
+    l = np.arange(1, H + 1)[None, :]
+    P, Q = d[j - l + 2 * H], d[j + l + 2 * H]
+    return np.concatenate([d[2 * H:3 * H + 1, None], P + Q, 1j * (P - Q)], axis=1)
+
+
+#: Solve the harmonic-balance systems in real form (False: the complex (2H+1) system, kept
+#: only so that a benchmark can measure what the real form saves).
+REAL_FORM = True
+
+
+def _solve_real(h1: np.ndarray, blocks: np.ndarray, rhs1: np.ndarray) -> np.ndarray:
+    """Solve ``(I + diag(h) T) x = b`` for the two-sided ``x`` of a real signal.
+
+    The ``2H+1`` complex equations of a real signal are ``2H+1`` real ones (the imaginary
+    part of ``j = 0`` vanishes identically): the real LU costs a quarter of the complex one.
+    ``h1``, ``rhs1``: one-sided ``j = 0..H``; ``blocks`` from :func:`_real_blocks`.
+    """
+    H = h1.size - 1
+    if not REAL_FORM:
+        h, b = _two_sided(h1, H), _two_sided(rhs1, H)
+        col = np.zeros(2 * H + 1, dtype=complex)
+        col[:H + 1] = blocks[:, 0]
+        # dk_{H+1..2H} are not in column 0 of the blocks: read them from Q (l = H)
+        col[H + 1:] = 0.5 * (blocks[1:, H] + 1j * blocks[1:, 2 * H])
+        T = sla.toeplitz(col, np.conj(col))
+        return _hermitian(sla.solve(np.eye(2 * H + 1) + h[:, None] * T, b))
+    M = h1[:, None] * blocks
+    A = np.concatenate([M.real, M.imag[1:]])
+    idx = np.arange(2 * H + 1)
+    A[idx, idx] += 1.0
+    y = sla.solve(A, np.concatenate([rhs1.real, rhs1.imag[1:]]), check_finite=True)
+    x1 = y[:H + 1].astype(complex)
+    x1[1:] += 1j * y[H + 1:]
+    return _two_sided(x1, H)
 
 
 def solve_periodic(
@@ -299,11 +343,10 @@ def solve_periodic(
     h = _two_sided(receptance["mesh"], H)
     rhs = h * prep.stiffness_error
     rhs[H] += model.mesh_static
-    A = np.eye(2 * H + 1) + h[:, None] * prep.stiffness_toeplitz
     status, start = STATUS_CONVERGED, "linear" if initial is None else "given"
     try:
-        x = sla.solve(A, rhs, check_finite=True) if initial is None else np.asarray(
-            initial, dtype=complex).copy()
+        x = _solve_real(h[H:], prep.real_blocks, rhs[H:]) if initial is None else (
+            np.asarray(initial, dtype=complex).copy())
     except (sla.LinAlgError, ValueError):
         x, status = np.zeros(2 * H + 1, dtype=complex), STATUS_SINGULAR
     iterations = 0
@@ -370,10 +413,9 @@ def _newton(x, smoothing, max_iter, tol, model, prep, h, backlash):
             return x, True, res, it
         dk = _one_sided(slope, 2 * H)
         dk[0] -= prep.mean_stiffness
-        J = np.eye(2 * H + 1) + h[:, None] * _toeplitz(dk, H)
         try:
-            step = _hermitian(sla.solve(J, -R))
-        except sla.LinAlgError:
+            step = _solve_real(h[H:], _real_blocks(dk, H), -R[H:])
+        except (sla.LinAlgError, ValueError):
             return x, False, res, it
         lam = 1.0
         for _ in range(12):
@@ -438,6 +480,36 @@ def _smoothed_homotopy(x, max_iter, tol, model, prep, h, backlash):
         width *= 0.5
     x, ok, res, it = _newton(x, 0.0, max_iter, tol, model, prep, h, backlash)
     return x, ok, res, total + it
+
+
+def contact_loss_share(prep: PreparedExcitation, sol: PeriodicSolution,
+                       backlash: float = math.inf, oversample: int = 16) -> float:
+    """Share of the period with the flanks apart, on ``oversample`` times the AFT grid.
+
+    The AFT grid (``N > 4H`` instants) places the separation instants to ``T/N``; the share
+    of a few short separations is then off by several per cent (13.9 % against 14.7 % at
+    100 N m, 4600 rpm, 40 um pitch deviations, 4 mesh harmonics). The band-limited ``k``,
+    ``k e`` and ``delta`` are interpolated exactly (zero-padded FFT) on the finer grid.
+    """
+    n = int(oversample) * prep.n_time
+
+    def fine(x_grid: np.ndarray) -> np.ndarray:
+        c = np.fft.rfft(x_grid)
+        full = np.zeros(n // 2 + 1, dtype=complex)
+        m = min(c.size, full.size) - 1  # drop the coarse Nyquist term (band-limited below)
+        full[:m] = c[:m]
+        return np.fft.irfft(full, n=n) * (n / x_grid.size)
+
+    H = prep.n_harmonics
+    delta = np.zeros(n // 2 + 1, dtype=complex)
+    delta[:H + 1] = sol.delta
+    d = np.fft.irfft(delta * n, n=n)
+    k = fine(prep.k_grid)
+    F = k * d - fine(prep.ke_grid)
+    apart = F <= 0.0
+    if math.isfinite(backlash):
+        apart &= F + k * backlash >= 0.0
+    return float(np.mean(apart))
 
 
 def mesh_force_at(prep: PreparedExcitation, sol: PeriodicSolution, t: np.ndarray,

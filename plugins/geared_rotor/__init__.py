@@ -1,4 +1,7 @@
-"""``geared_rotor``: finite-element helical geared rotor with LTCA excitation (seed 002, part 2).
+"""``geared_rotor``: finite-element helical geared rotor with LTCA excitation.
+
+Yuan, Liu and Liu, "Quasi-static characteristics and vibration responses analysis of helical
+geared rotor system with random cumulative pitch deviations", Applied Sciences 10 (2020), part 2.
 
 The rotor of seed 002 (Sec. 2.2): two stepped Timoshenko shafts of 13 elements, the 30/30
 helical pair on rigid gear bodies, four rolling-element bearings and the 12-DOF mesh element
@@ -10,8 +13,12 @@ cut-off taken from the excitation band and solves the periodic steady state over
 period by harmonic balance on the mesh approach, with contact loss by alternating
 frequency-time Newton iterations. Outputs: dynamic transmission error, mesh force, bearing
 forces and accelerations (in time, as RMS values and as spectra at the shaft orders with
-the mesh harmonics and the sidebands ``f_m +- i f_s`` labelled). Theory, parameter sources
-and the deviations from the seed: docs/theory/geared_rotor.md.
+the mesh harmonics and the sidebands ``f_m +- i f_s`` labelled), and over a whole speed
+range per sample the largest RMS DTE ``dte_rms_max`` and its speed. The pitch deviations
+are, by default, a smooth function of declared standard normals (``pitch_xi_p_*``,
+``pitch_xi_g_*``), so every engine can explore them; the seed's realisation stays available
+as ``pitch_model="seeded"``. Theory, parameter sources and the deviations from the seed:
+docs/theory/geared_rotor.md.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from gearuq.gears.deviations import pitch_germ_names
 from gearuq.model import Model, Option, Output, Parameter
 
 __all__ = ["GearedRotor"]
@@ -32,21 +40,28 @@ _PARAMETERS = (
     _P("speed", "rpm", 4000.0, 1.0, 20000.0,
        "pinion speed (seed 002: 4000 rpm in Figs. 11-16, 25-8000 rpm in Fig. 17)"),
     _P("pitch_amplitude", "um", 15.0, 0.0, 200.0,
-       "sine amplitude of the random cumulative pitch deviations (seed 002: 15 um); unused "
-       "when iso_grade > 0"),
+       "sine amplitude of the random cumulative pitch deviations (seed 002: 15 um); with "
+       "the germ, the once-per-revolution coefficients have standard deviation "
+       "amplitude / sqrt(2); unused when iso_grade > 0"),
     _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
        "standard deviation of the pitch scatter (seed 002: 3 um); unused when iso_grade > 0"),
     _P("iso_grade", "1", 0, 0, 12,
        "ISO 1328-1 flank tolerance class 1-12 setting amplitude F_pT/2 and sigma "
        "f_pT/(3 sqrt 2) per gear; 0: use pitch_amplitude and pitch_sigma", integer=True),
     _P("pitch_seed", "1", 2020.0, 0.0, 2.0**32 - 1.0,
-       "realisation of the random pitch deviations: its integer part seeds "
-       "numpy.random.default_rng (as in mesh_excitation)"),
+       "realisation of the random pitch deviations with pitch_model='seeded': its integer "
+       "part seeds numpy.random.default_rng (as in mesh_excitation)"),
     _P("pitch_phase_pinion", "rad", 0.0, 0.0, 2.0 * math.pi,
-       "phase of the pinion's once-per-revolution sine; used only with the option "
-       "pitch_phases='parameters' (default: drawn from pitch_seed)"),
+       "phase of the pinion's once-per-revolution sine; used only with pitch_model='seeded' "
+       "and pitch_phases='parameters' (default: drawn from pitch_seed)"),
     _P("pitch_phase_wheel", "rad", 0.0, 0.0, 2.0 * math.pi,
-       "phase of the wheel's sine; used only with pitch_phases='parameters'"),
+       "phase of the wheel's sine; used only with pitch_model='seeded' and "
+       "pitch_phases='parameters'"),
+    *(_P(name, "1", 0.0, -math.inf, math.inf,
+         f"{'pinion' if g == 1 else 'wheel'} pitch-deviation germ, standard normal: "
+         f"{'cosine' if i % 2 == 0 else 'sine'} coefficient of tooth-index harmonic "
+         f"{i // 2 + 1} (pitch_model='germ'; docs/theory/mesh_excitation.md)")
+      for g in (1, 2) for i, name in enumerate(pitch_germ_names(30, g))),
     _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
        "parabolic tip relief e_max on pinion and wheel (seed Eq. 12); 0: unmodified"),
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
@@ -57,6 +72,11 @@ _PARAMETERS = (
        "axial stiffness of each bearing (ours)"),
     _P("bearing_damping", "N s m-1", 0.0, 0.0, 1.0e6,
        "radial and axial viscous damping of each bearing"),
+    _P("drive_inertia", "kg m2", 0.03, 1e-4, 100.0,
+       "polar inertia turning with the free end of shaft 1 (drive side: a coupling hub of "
+       "twice the 70 mm shaft-end diameter, 108 mm long; ours, the seed prints none)"),
+    _P("load_inertia", "kg m2", 0.03, 1e-4, 100.0,
+       "polar inertia turning with the free end of shaft 2 (load side; as drive_inertia)"),
     _P("damping_ratio", "1", 0.05, 0.0, 0.5,
        "modal damping ratio of every elastic mode (mesh and structure)"),
     _P("backlash", "um", 100.0, 0.0, 2000.0,
@@ -85,6 +105,10 @@ _OUTPUTS = (
     Output("bearing1_acceleration_y_rms", "m s-2", _S,
            "RMS acceleration at bearing 1 along y (seed Figs. 12, 16)"),
     Output("contact_loss_fraction", "1", _S, "share of the long period with the teeth apart"),
+    Output("dte_rms_max", "m", _S, "largest RMS DTE over the speed range speed_min..speed_max "
+           "(n_speeds equally spaced speeds; the parameter speed is not used)"),
+    Output("speed_at_dte_rms_max", "rpm", _S, "speed of the range at which dte_rms_max is "
+           "reached"),
     Output("ste_ptp", "m", _S, "peak-to-peak LTCA STE of the excitation"),
     Output("mesh_frequency", "Hz", _S, "mesh frequency z1 n / 60"),
     Output("shaft_frequency", "Hz", _S, "pinion shaft frequency n / 60"),
@@ -96,19 +120,48 @@ _OUTPUTS = (
 
 _O = Option
 _OPTIONS = (
-    _O("n_mesh_harmonics", 4, "mesh harmonics kept in the steady state (H = n x lcm(z1, z2))",
-       kind=int, lower=1, upper=20),
+    _O("n_mesh_harmonics", None, "mesh harmonics kept in the steady state (H = n x lcm(z1, "
+       "z2)); None: from the speed, every harmonic below harmonic_band, at least 4 and at "
+       "most what the LTCA resolves ((positions_per_cycle - 1) // 2)", kind=int, lower=1,
+       upper=199, allow_none=True),
+    _O("harmonic_band", 10500.0, "with n_mesh_harmonics=None: mesh harmonics up to this "
+       "frequency [Hz] (1.5 x the 7.0 kHz mode, the highest that loads the mesh by > 1 %)",
+       lower=100.0, upper=1e6),
     _O("cutoff_factor", 1.5, "modes kept up to this factor times the highest harmonic",
        lower=1.0, upper=50.0),
     _O("positions_per_cycle", 24, "LTCA positions per mesh cycle (> 2 n_mesh_harmonics)",
        kind=int, lower=4, upper=400),
     _O("n_pts", 20, "LTCA points per line of contact", kind=int, lower=2, upper=200),
-    _O("n_sidebands", 3, "sidebands +-i f_s labelled around each mesh harmonic", kind=int,
-       lower=0, upper=14),
+    _O("n_sidebands", 14, "sidebands +-i f_s labelled around each mesh harmonic (14: every "
+       "order nearer to a mesh harmonic than to the next, where the largest sidebands can "
+       "sit)", kind=int, lower=0, upper=14),
+    _O("pitch_model", "germ", "random pitch deviations: 'germ' (smooth in the standard "
+       "normals pitch_xi_p_*, pitch_xi_g_*: every engine can explore them) or 'seeded' "
+       "(the realisation of pitch_seed, as in the seed's figures)",
+       choices=("germ", "seeded")),
+    _O("pitch_harmonics", None, "tooth-index harmonics kept in each gear's germ (1-15; "
+       "None: all 15, the exact germ of 29 normals per gear)", kind=int, lower=1, upper=15,
+       allow_none=True),
     _O("pitch_phases", "seed", "sine phases of the pitch deviations: drawn with the scatter "
        "from pitch_seed, or taken from pitch_phase_pinion / pitch_phase_wheel (smooth inputs "
        "for surrogates; the scatter still comes from pitch_seed)",
        choices=("seed", "parameters")),
+    _O("speed_min", 25.0, "lowest speed of the range of dte_rms_max (25 rpm: Fig. 17 of "
+       "Yuan et al. 2020)",
+       lower=1.0, upper=20000.0),
+    _O("speed_max", 8000.0, "highest speed of the range (8000 rpm as Yuan et al. 2020); > "
+       "speed_min",
+       lower=1.0, upper=20000.0),
+    _O("n_speeds", 160, "equally spaced speeds of the range (both ends included)", kind=int,
+       lower=2, upper=100000),
+    _O("range_mesh_harmonics", 3, "mesh harmonics of the steady states of the range (the "
+       "RMS converges faster than dte_ptp: docs/theory/geared_rotor.md Sec. 9)", kind=int,
+       lower=1, upper=20),
+    _O("range_cutoff_factor", 1.0, "modal cut-off factor of the range", lower=1.0,
+       upper=50.0),
+    _O("end_inertias", "parameters", "drive and load inertias on the shaft ends: the "
+       "parameters drive_inertia / load_inertia, or 'none' (the seed's rotor as printed, "
+       "whose 448 Hz mode has no inertia at the shaft ends)", choices=("parameters", "none")),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),
@@ -153,24 +206,30 @@ class GearedRotor(Model):
         return {"cache_size": self.cache_size}
 
     @staticmethod
-    def default_space() -> Any:
-        """Random inputs: torque, bearing stiffness, damping, relief and pitch deviations.
+    def default_space(pitch_harmonics: int | None = None) -> Any:
+        """Random inputs: torque, bearing stiffness, damping and the pitch-deviation germ.
 
         ``torque`` uniform on 800-1200 N m; ``bearing_stiffness`` lognormal (median 5e8 N/m,
         20 % scatter); ``damping_ratio`` uniform on 0.03-0.08; ``pitch_amplitude`` uniform on
-        5-15 um and ``pitch_sigma`` on 1-3 um; ``pitch_seed`` uniform on [0, 2^32) (the
-        realisation). Speed is a study variable, not a random input.
+        5-15 um and ``pitch_sigma`` on 1-3 um; the germ ``pitch_xi_p_*``, ``pitch_xi_g_*``
+        independent standard normals (all 29 per gear, or those of ``pitch_harmonics``
+        harmonics; pass the same value as the option). Every input is continuous, so FORM,
+        subset simulation, surrogates and Sobol' indices see the pitch deviations. Speed is a
+        study variable (or the range of ``dte_rms_max``), not a random input.
         """
+        from gearuq.gears.deviations import pitch_germ_dimension
         from gearuq.space import ParameterSpace
 
+        n = pitch_germ_dimension(30, pitch_harmonics)
+        germ = {name: {"dist": "normal", "mean": 0.0, "std": 1.0}
+                for g in (1, 2) for name in pitch_germ_names(30, g)[:n]}
         return ParameterSpace({
             "torque": {"dist": "uniform", "lower": 800.0, "upper": 1200.0},
             "bearing_stiffness": {"dist": "lognormal", "mu": math.log(5.0e8), "sigma": 0.2},
             "damping_ratio": {"dist": "uniform", "lower": 0.03, "upper": 0.08},
             "pitch_amplitude": {"dist": "uniform", "lower": 5.0, "upper": 15.0},
             "pitch_sigma": {"dist": "uniform", "lower": 1.0, "upper": 3.0},
-            "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 2.0**32 - 1.0},
-        })
+        } | germ)
 
     def rotor_problem(self, params: dict[str, float] | None = None, **options: Any) -> Any:
         """The :class:`gearuq.rotor.geared.GearedRotorProblem` of one parameter set.

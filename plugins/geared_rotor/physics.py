@@ -29,6 +29,7 @@ STATUS_MEANINGS = {
     STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
 }
 _FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
+_RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max")
 _BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
 _SEAT_DIAMETER = 0.110  # gear seat of both shafts (seed Sec. 2.2): the gear-blank bore
 
@@ -47,34 +48,65 @@ def compliance_model(pair: Any) -> Any:
     return ComplianceModel(pair, bore_ratio=_SEAT_DIAMETER / pair.df1)
 
 
-def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed") -> Any:
-    """Flank deviations of one sample: pitch realisation (or ISO grade) and tip relief.
+def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int
+                          ) -> tuple[float, float]:
+    """Sine amplitude and scatter sigma [m] of one gear: ISO grade or the parameters."""
+    from gearuq.gears.deviations import iso1328_pitch_tolerances
 
-    ``phases="parameters"`` replaces the germ's two sine phases by the sample's
-    ``pitch_phase_pinion`` and ``pitch_phase_wheel`` (the scatter stays the germ's).
+    grade = int(values["iso_grade"])
+    if grade > 0:
+        f_pT, F_pT = iso1328_pitch_tolerances(pair.d1 if gear == 1 else pair.d2, pair.mn,
+                                              grade)
+        return 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
+    return values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
+
+
+def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
+                      pitch_model: str = "germ", pitch_harmonics: int | None = None) -> Any:
+    """Flank deviations of one sample: pitch deviations (germ or seeded) and tip relief.
+
+    ``pitch_model="germ"``: each gear's cumulative deviations are the smooth expansion
+    :func:`gearuq.gears.deviations.cumulative_pitch_from_normals` of its standard normals
+    ``pitch_xi_p_*`` / ``pitch_xi_g_*``. ``"seeded"``: the realisation of ``pitch_seed``;
+    ``phases="parameters"`` then replaces its two sine phases by ``pitch_phase_pinion`` and
+    ``pitch_phase_wheel`` (the scatter stays the seed's).
     """
     from gearuq.gears.deviations import (
         FlankDeviations,
         cumulative_pitch_from_germ,
-        iso1328_pitch_tolerances,
+        cumulative_pitch_from_normals,
         pitch_deviation_germ,
+        pitch_germ_from_values,
     )
 
-    germ = list(pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"])))
-    if phases == "parameters":
-        germ[0], germ[2] = values["pitch_phase_pinion"], values["pitch_phase_wheel"]
-    grade = int(values["iso_grade"])
     fp = []
-    for phase, normals, d in ((germ[0], germ[1], pair.d1), (germ[2], germ[3], pair.d2)):
-        if grade > 0:
-            f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
-            amp, sigma = 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
-        else:
-            amp, sigma = values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
-        fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
+    if pitch_model == "germ":
+        for gear, z in ((1, pair.z1), (2, pair.z2)):
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            xi = pitch_germ_from_values(values, z, gear, pitch_harmonics)
+            fp.append(cumulative_pitch_from_normals(xi, z, amplitude=amp, sigma=sigma))
+    else:
+        germ = list(pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"])))
+        if phases == "parameters":
+            germ[0], germ[2] = values["pitch_phase_pinion"], values["pitch_phase_wheel"]
+        for gear, phase, normals in ((1, germ[0], germ[1]), (2, germ[2], germ[3])):
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
     amount, length = values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3
     tip = (amount, length) if amount > 0 else None
     return FlankDeviations(Fp1=fp[0], Fp2=fp[1], tip_relief1=tip, tip_relief2=tip)
+
+
+def check_germ(params: dict[str, np.ndarray], pair: Any, options: dict[str, Any]) -> None:
+    """Refuse, before anything runs, germ values the kept germ cannot represent."""
+    from gearuq.gears.deviations import pitch_germ_from_values
+
+    if options["pitch_model"] != "germ":
+        return
+    for gear, z in ((1, pair.z1), (2, pair.z2)):
+        worst = {k: float(v[np.argmax(v != 0)].item()) for k, v in params.items()
+                 if k.startswith(("pitch_xi_p_", "pitch_xi_g_")) and np.any(v != 0)}
+        pitch_germ_from_values(worst, z, gear, options["pitch_harmonics"])
 
 
 def _cached(model: Any, key: tuple, build: Any) -> Any:
@@ -94,12 +126,19 @@ def _cached(model: Any, key: tuple, build: Any) -> Any:
 _LTCA_KEYS = ("torque", "pitch_amplitude", "pitch_sigma", "iso_grade", "pitch_seed",
               "pitch_phase_pinion", "pitch_phase_wheel", "tip_relief_amount",
               "tip_relief_length")
+_GERM_KEYS = tuple(f"{p}{i}" for p in ("pitch_xi_p_", "pitch_xi_g_") for i in range(1, 30))
 _ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping",
-               "damping_ratio", "backlash")
+               "damping_ratio", "backlash", "drive_inertia", "load_inertia")
 
 
-def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -> Any:
-    """The :class:`GearedRotorProblem` of one sample (LTCA and reduction cached)."""
+def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *,
+                speed_range: bool = False) -> Any:
+    """The :class:`GearedRotorProblem` of one sample (LTCA and reduction cached).
+
+    ``speed_range=True``: the problem of the range outputs, with ``range_mesh_harmonics``
+    and ``range_cutoff_factor`` instead of ``n_mesh_harmonics`` and ``cutoff_factor`` (the
+    same LTCA excitation).
+    """
     from gearuq.gears.ltca import ltca_setup
     from gearuq.rotor.examples import seed002_rotor
     from gearuq.rotor.excitation import MeshExcitation
@@ -110,28 +149,52 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any]) -
     setup = _cached(model, ("setup", ppc, n_pts),
                     lambda: ltca_setup(pair, compliance=compliance_model(pair),
                                        positions_per_cycle=ppc, n_pts=n_pts))
-    lkey = ("ltca", ppc, n_pts, options["pitch_phases"]) + tuple(
-        values[k] for k in _LTCA_KEYS)
+    lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
+            options["pitch_harmonics"]) + tuple(values[k] for k in _LTCA_KEYS) + tuple(
+        values.get(k, 0.0) for k in _GERM_KEYS)
     excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
         setup, values["torque"],
-        deviations=sample_deviations(pair, values, options["pitch_phases"])))
-    H = options["n_mesh_harmonics"] * excitation.n_cycles
-    rkey = ("rotor", H, options["cutoff_factor"], options["moment_arm"]) + lkey + tuple(
+        deviations=sample_deviations(pair, values, options["pitch_phases"],
+                                     options["pitch_model"], options["pitch_harmonics"])))
+    harmonics, cutoff_factor = ((options["range_mesh_harmonics"], options["range_cutoff_factor"])
+                                if speed_range else (mesh_harmonics(options, values["speed"]),
+                                                     options["cutoff_factor"]))
+    H = harmonics * excitation.n_cycles
+    rkey = ("rotor", H, cutoff_factor, options["moment_arm"],
+            options["end_inertias"]) + lkey + tuple(
         values[k] for k in _ROTOR_KEYS)
+
+    ends = options["end_inertias"] == "parameters"
 
     def build() -> Any:
         def factory(k: float) -> Any:
             return seed002_rotor(
                 k, pair=pair, bearing_radial_stiffness=values["bearing_stiffness"],
                 bearing_axial_stiffness=values["bearing_axial_stiffness"],
-                bearing_damping=values["bearing_damping"], moment_arm=options["moment_arm"])
+                bearing_damping=values["bearing_damping"], moment_arm=options["moment_arm"],
+                drive_inertia=values["drive_inertia"] if ends else None,
+                load_inertia=values["load_inertia"] if ends else None)
 
         return GearedRotorProblem(factory, excitation, pair.z1,
                                   damping_ratio=values["damping_ratio"], n_harmonics=H,
-                                  cutoff_factor=options["cutoff_factor"],
+                                  cutoff_factor=cutoff_factor,
                                   backlash=values["backlash"] * 1e-6)
 
     return _cached(model, rkey, build)
+
+
+def mesh_harmonics(options: dict[str, Any], speed: float) -> int:
+    """Mesh harmonics of a steady state: the option, or chosen from the speed.
+
+    ``n_mesh_harmonics=None``: every mesh harmonic up to ``harmonic_band`` Hz, at least 4,
+    at most the ``(positions_per_cycle - 1) // 2`` the LTCA samples resolve (measured
+    accuracy: docs/theory/geared_rotor.md Sec. 9.1).
+    """
+    if options["n_mesh_harmonics"] is not None:
+        return int(options["n_mesh_harmonics"])
+    top = (options["positions_per_cycle"] - 1) // 2
+    f_mesh = 30 * speed / 60.0  # z1 = 30 (the seed pair)
+    return int(min(top, max(4, math.ceil(options["harmonic_band"] / f_mesh - 1e-9))))
 
 
 def order_coordinates(H: int, n_cycles: int, z1: int, n_sidebands: int) -> dict[str, tuple]:
@@ -165,31 +228,49 @@ def _amplitudes(c: np.ndarray) -> np.ndarray:
     return amp
 
 
+def _put_spectrum(out: np.ndarray, i: int, c: np.ndarray) -> None:
+    """Amplitudes of one sample; orders above its own H are zero (its steady state is
+    band-limited to H; with ``n_mesh_harmonics=None`` H depends on the sample's speed)."""
+    amp = _amplitudes(c)
+    out[i] = 0.0
+    out[i, :amp.size] = amp
+
+
+def _ptp(c: np.ndarray, n_time: int) -> float:
+    """Peak-to-peak of a band-limited signal on 8 times the AFT grid (>= 32 instants per
+    period of its highest harmonic: the sampled peak is within 0.5 % of that harmonic's
+    amplitude of the true one)."""
+    n = 8 * n_time
+    full = np.zeros(n // 2 + 1, dtype=complex)
+    full[:c.size] = c
+    return float(np.ptp(np.fft.irfft(full * n, n=n)))
+
+
 def _rms(c: np.ndarray) -> float:
     return float(math.sqrt(2.0 * np.sum(np.abs(c[1:]) ** 2)))
 
 
 def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs: list[str],
                  speed: float) -> None:
-    from gearuq.rotor.harmonic_balance import mesh_force_at, synthesize
+    from gearuq.rotor.harmonic_balance import contact_loss_share, mesh_force_at, synthesize
 
     T = sol.period
     ch = sol.channels
-    grid = np.arange(prob.prep.n_time) * T / prob.prep.n_time
-    scalars = {
-        "dte_rms": _rms(ch["dte"]), "dte_mean": float(ch["dte"][0].real),
-        "dte_mesh_band_rms": float(math.sqrt(2.0 * np.sum(
+    scalars = {  # evaluated only when asked for (the fine-grid ones cost FFTs)
+        "dte_rms": lambda: _rms(ch["dte"]), "dte_mean": lambda: float(ch["dte"][0].real),
+        "dte_mesh_band_rms": lambda: float(math.sqrt(2.0 * np.sum(
             np.abs(ch["dte"][prob.excitation.n_cycles // 2:]) ** 2))),
-        "dte_ptp": float(np.ptp(synthesize(ch["dte"], grid, T))),
-        "mesh_force_rms": _rms(sol.force), "mesh_force_min": sol.min_force,
-        "bearing1_acceleration_y_rms": _rms(ch["bearing 1 acceleration y"]),
-        "contact_loss_fraction": sol.contact_loss_fraction,
-        "ste_ptp": float(np.ptp(prob.excitation.ste)),
-        "mesh_frequency": prob.pinion_teeth * speed / 60.0, "shaft_frequency": speed / 60.0,
+        "dte_ptp": lambda: _ptp(ch["dte"], prob.prep.n_time),
+        "mesh_force_rms": lambda: _rms(sol.force), "mesh_force_min": lambda: sol.min_force,
+        "bearing1_acceleration_y_rms": lambda: _rms(ch["bearing 1 acceleration y"]),
+        "contact_loss_fraction": lambda: contact_loss_share(prob.prep, sol, prob.backlash),
+        "ste_ptp": lambda: float(np.ptp(prob.excitation.ste)),
+        "mesh_frequency": lambda: prob.pinion_teeth * speed / 60.0,
+        "shaft_frequency": lambda: speed / 60.0,
     }
     for name in outputs:
         if name in scalars:
-            data[name][i] = scalars[name]
+            data[name][i] = scalars[name]()
         elif name == "dte":
             data[name][i] = synthesize(ch["dte"], t, T)
         elif name == "mesh_approach":
@@ -201,11 +282,11 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
             for b, label in enumerate(_BEARINGS):
                 data[name][i, b] = synthesize(ch[f"{label} {kind} {axis}"], t, T)
         elif name == "dte_spectrum":
-            data[name][i] = _amplitudes(ch["dte"])
+            _put_spectrum(data[name], i, ch["dte"])
         elif name == "mesh_force_spectrum":
-            data[name][i] = _amplitudes(sol.force)
+            _put_spectrum(data[name], i, sol.force)
         elif name == "bearing1_acceleration_y_spectrum":
-            data[name][i] = _amplitudes(ch["bearing 1 acceleration y"])
+            _put_spectrum(data[name], i, ch["bearing 1 acceleration y"])
 
 
 def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str],
@@ -216,40 +297,74 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
 
     pair = seed_pair()
     n_cycles = long_period_cycles(pair)
-    H = options["n_mesh_harmonics"] * n_cycles
-    if 2 * options["n_mesh_harmonics"] >= options["positions_per_cycle"]:
+    chosen = options["n_mesh_harmonics"]
+    if chosen is not None and 2 * chosen >= options["positions_per_cycle"]:
         raise ValueError(
             f"n_mesh_harmonics={options['n_mesh_harmonics']} needs positions_per_cycle > "
             f"{2 * options['n_mesh_harmonics']} (got {options['positions_per_cycle']}): the "
             "LTCA samples must resolve the harmonics kept")
+    check_germ(params, pair, options)
+    if t.size and float(np.min(t)) < 0.0:
+        raise ValueError(
+            f"t contains negative instants (smallest {float(np.min(t))!r} s); valid range "
+            "[0, inf) s: the periodic steady state has no start, shift t by whole periods")
+    if not options["speed_min"] < options["speed_max"]:
+        raise ValueError(
+            f"speed_min={options['speed_min']!r} rpm must be below speed_max="
+            f"{options['speed_max']!r} rpm (the range of dte_rms_max; valid: 1 <= speed_min < "
+            "speed_max <= 20000)")
+    if 2 * options["range_mesh_harmonics"] >= options["positions_per_cycle"]:
+        raise ValueError(
+            f"range_mesh_harmonics={options['range_mesh_harmonics']} needs positions_per_cycle "
+            f"> {2 * options['range_mesh_harmonics']} (got {options['positions_per_cycle']})")
+    speeds = np.linspace(options["speed_min"], options["speed_max"], options["n_speeds"])
+    ranged = [o for o in outputs if o in _RANGE_OUTPUTS]
+    single = [o for o in outputs if o not in _RANGE_OUTPUTS]
     n = next(iter(params.values())).shape[0]
+    speed_values = params.get("speed", np.full(n, model.parameter("speed").nominal))
+    per_sample = [mesh_harmonics(options, float(v)) for v in speed_values]
+    H = max(per_sample, default=mesh_harmonics(options, 4000.0)) * n_cycles
     shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
                                     for d in o.dims[1:]) for o in model.outputs}
     data = {name: np.full(shapes[name], np.nan) for name in outputs}
     status = np.zeros(n, dtype=np.int8)
     extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
-                                              "drift")}
+                                              "drift", "range_newton_iterations",
+                                              "n_mesh_harmonics")}
     branch = np.full(n, -1, dtype=np.int8)
     with single_threaded_blas():
         for i in range(n):
             values = {k: float(v[i]) for k, v in params.items()}
             try:
-                prob = problem_for(model, values, options)
+                prob = problem_for(model, values, options) if single else None
+                rng_prob = (problem_for(model, values, options, speed_range=True) if ranged
+                            else None)
             except ValueError:
                 status[i] = STATUS_LTCA_FAILED
+                continue
+            if rng_prob is not None:
+                res = rng_prob.rms_over_speeds(speeds, tol=options["tol"])
+                peak, at, code = res.maximum()
+                status[i] = _FROM_SOLVER[code]
+                for name, value in (("dte_rms_max", peak), ("speed_at_dte_rms_max", at)):
+                    if name in data and np.isfinite(peak):
+                        data[name][i] = value
+                extra["range_newton_iterations"][i] = float(res.iterations.sum())
+            if prob is None:
                 continue
             sol = prob.steady_state(values["speed"], tol=options["tol"])
             if options["verify"] and sol.branch != "full_contact" and sol.status in (0, 1):
                 sol = prob.verify(sol, values["speed"])
-            status[i] = _FROM_SOLVER[sol.status]
+            status[i] = max(int(status[i]), _FROM_SOLVER[sol.status])
             extra["n_modes"][i] = prob.reduced(values["speed"]).n_modes
+            extra["n_mesh_harmonics"][i] = prob.n_harmonics / n_cycles
             extra["hb_iterations"][i] = sol.iterations
             extra["hb_residual"][i] = sol.residual
             extra["drift"][i] = sol.drift
             branch[i] = {"full_contact": 0, "contact_loss": 1, "back_flank_contact": 2}[
                 sol.branch]
-            if status[i] in (0, STATUS_NO_PERIODIC):
-                _fill_sample(data, i, sol, prob, t, outputs, values["speed"])
+            if sol.status in (0, 3):
+                _fill_sample(data, i, sol, prob, t, single, values["speed"])
     coords = {"bearing": ("bearing", np.array(_BEARINGS), {})}
     coords.update(order_coordinates(H, n_cycles, pair.z1, options["n_sidebands"]))
     return Evaluation(
@@ -258,7 +373,12 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             "n_modes": ("sample", extra["n_modes"], {"units": "1",
                         "long_name": "modes kept by the reduction"}),
             "hb_iterations": ("sample", extra["hb_iterations"], {"units": "1"}),
+            "n_mesh_harmonics": ("sample", extra["n_mesh_harmonics"], {"units": "1",
+                                 "long_name": "mesh harmonics of the steady state"}),
             "hb_residual": ("sample", extra["hb_residual"], {"units": "1"}),
+            "range_newton_iterations": ("sample", extra["range_newton_iterations"], {
+                "units": "1", "long_name": "Newton iterations over the speed range (0: full "
+                "contact everywhere; NaN: range not computed)"}),
             "stability_drift": ("sample", extra["drift"], {"units": "1", "long_name":
                                 "time-integration check (NaN: not checked)"}),
             "branch": ("sample", branch, {"flag_values": np.array([-1, 0, 1, 2], np.int8),
@@ -266,5 +386,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                        "back_flank_contact", "units": "1"}),
         },
         attrs={"n_harmonics": H, "long_period_mesh_cycles": n_cycles,
+               "speed_range_rpm": f"{options['speed_min']:g}..{options['speed_max']:g} in "
+                                  f"{options['n_speeds']} speeds",
                "solver": "harmonic balance on the mesh approach (AFT for contact loss)"},
     )

@@ -59,8 +59,17 @@ _OPTIONS = (
     Option("sideband_shaft", "pinion", "shaft whose orders label the sidebands",
            choices=("pinion", "wheel")),
     Option("amplitude_reading", "sine",
-           "seed 002's '15 um amplitude': sine amplitude or largest cumulative deviation",
+           "seed 002's '15 um amplitude': sine amplitude or largest cumulative deviation "
+           "(pitch_model='seeded' only)",
            choices=("sine", "largest")),
+    Option("pitch_model", "germ",
+           "random pitch deviations: 'germ' (smooth in the standard normals pitch_xi_p_*, "
+           "pitch_xi_g_*) or 'seeded' (the realisation of pitch_seed, for the published "
+           "figures)",
+           choices=("germ", "seeded")),
+    Option("pitch_harmonics", None, "tooth-index harmonics kept in each gear's germ "
+           "(1..z//2; None: all, the exact germ of z-1 normals per gear)", kind=int,
+           lower=1, upper=500, allow_none=True),
     Option("threads", None, "threads over samples (None: all cores of this process)",
            kind=int, lower=1, upper=1024, allow_none=True),
 )
@@ -130,19 +139,24 @@ class MeshExcitation(Model):
             "hertz": bool(self.compliance.hertz),
         }
 
-    def default_space(self) -> Any:
-        """Seed 002's random input: torque 200-1000 N m and the pitch-deviation realisation.
+    def default_space(self, pitch_harmonics: int | None = None) -> Any:
+        """Seed 002's random input: torque 200-1000 N m and the pitch-deviation germ.
 
-        ``torque`` uniform on the seed's load range; ``pitch_seed`` uniform on [0, 2^32)
-        (its integer part selects the realisation of the random cumulative pitch deviations,
-        amplitude 15 um and sigma 3 um at their nominal values).
+        ``torque`` uniform on the seed's load range; the germ ``pitch_xi_p_*`` and
+        ``pitch_xi_g_*`` independent standard normals (all ``z - 1`` per gear, or those of
+        ``pitch_harmonics`` harmonics; pass the same value as the option), amplitude 15 um
+        and sigma 3 um at their nominal values. Continuous: every engine can explore the
+        scatter (the seeded realisation is the option ``pitch_model="seeded"``).
         """
+        from gearuq.gears.deviations import pitch_germ_dimension, pitch_germ_names
         from gearuq.space import ParameterSpace
 
-        return ParameterSpace({
-            "torque": {"dist": "uniform", "lower": 200.0, "upper": 1000.0},
-            "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 2.0**32 - 1.0},
-        })
+        spec = {"torque": {"dist": "uniform", "lower": 200.0, "upper": 1000.0}}
+        for gear, z in ((1, self.pair.z1), (2, self.pair.z2)):
+            n = pitch_germ_dimension(z, pitch_harmonics)
+            spec |= {k: {"dist": "normal", "mean": 0.0, "std": 1.0}
+                     for k in pitch_germ_names(z, gear)[:n]}
+        return ParameterSpace(spec)
 
     def _evaluate(self, params, t, outputs, **options):
         from gearuq_plugins.mesh_excitation.physics import evaluate
@@ -155,6 +169,8 @@ class MeshExcitation(Model):
 
 def _parameters(pair: Any) -> tuple[Parameter, ...]:
     """Parameters whose relief-length range is the pair's path of contact."""
+    from gearuq.gears.deviations import pitch_germ_names
+
     g_alpha_mm = pair.g_alpha * 1e3
     length = math.floor(g_alpha_mm * 1000.0) / 1000.0  # path of contact, rounded down
     _P = Parameter
@@ -172,8 +188,10 @@ def _parameters(pair: Any) -> tuple[Parameter, ...]:
            "root relief length along the path of contact (at most the active profile)"),
         _P("crowning", "um", 0.0, 0.0, 100.0, "lead crowning C_b (sum of both gears)"),
         _P("pitch_amplitude", "um", 15.0, 0.0, 200.0,
-           "amplitude of the random cumulative pitch deviations (seed 002: 15 um; read as "
-           "the option amplitude_reading says); unused when iso_grade > 0"),
+           "amplitude of the random cumulative pitch deviations (seed 002: 15 um; seeded: "
+           "read as the option amplitude_reading says; germ: the once-per-revolution "
+           "coefficients have standard deviation amplitude / sqrt(2)); unused when "
+           "iso_grade > 0"),
         _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
            "standard deviation of the pitch scatter (seed 002: 3 um); unused when "
            "iso_grade > 0"),
@@ -181,6 +199,13 @@ def _parameters(pair: Any) -> tuple[Parameter, ...]:
            "ISO 1328-1 flank tolerance class 1-12 setting amplitude F_pT/2 and sigma "
            "f_pT/(3 sqrt 2) per gear; 0: use pitch_amplitude and pitch_sigma", integer=True),
         _P("pitch_seed", "1", 2020.0, 0.0, 2.0**32 - 1.0,
-           "realisation of the random pitch deviations: its integer part seeds "
-           "numpy.random.default_rng (2020: the realisation of the LTCA study)"),
+           "realisation of the random pitch deviations with pitch_model='seeded': its "
+           "integer part seeds numpy.random.default_rng (2020: the realisation of the LTCA "
+           "study)"),
+        *(_P(name, "1", 0.0, -math.inf, math.inf,
+             f"{'pinion' if gear == 1 else 'wheel'} pitch-deviation germ, standard normal: "
+             f"{'cosine' if i % 2 == 0 else 'sine'} coefficient of tooth-index harmonic "
+             f"{i // 2 + 1} (pitch_model='germ'; docs/theory/mesh_excitation.md)")
+          for gear, z in ((1, pair.z1), (2, pair.z2))
+          for i, name in enumerate(pitch_germ_names(z, gear))),
     )

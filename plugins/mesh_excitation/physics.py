@@ -115,19 +115,27 @@ def _prepared(model: Any, options: dict[str, Any], t: np.ndarray) -> dict[str, A
             "orders": orders, "labels": labels, "bins": bins}
 
 
-def sample_deviations(pair: Any, values: dict[str, float], amplitude_reading: str) -> Any:
-    """The :class:`FlankDeviations` of one sample (SI units inside)."""
+def sample_deviations(pair: Any, values: dict[str, float], amplitude_reading: str,
+                      pitch_model: str = "germ", pitch_harmonics: int | None = None) -> Any:
+    """The :class:`FlankDeviations` of one sample (SI units inside).
+
+    ``pitch_model="germ"``: the smooth expansion of the standard normals ``pitch_xi_p_*``,
+    ``pitch_xi_g_*``; ``"seeded"``: the realisation of ``pitch_seed``.
+    """
     from gearuq.gears.deviations import (
         FlankDeviations,
         cumulative_pitch_from_germ,
+        cumulative_pitch_from_normals,
         iso1328_pitch_tolerances,
         pitch_deviation_germ,
+        pitch_germ_from_values,
     )
 
-    phase1, n1, phase2, n2 = pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"]))
     grade = int(values["iso_grade"])
     fp = []
-    for phase, normals, d in ((phase1, n1, pair.d1), (phase2, n2, pair.d2)):
+    germ = (None if pitch_model == "germ" else
+            pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"])))
+    for gear, z, d in ((1, pair.z1, pair.d1), (2, pair.z2, pair.d2)):
         if grade > 0:
             f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
             amp, sigma, reading = 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0)), "sine"
@@ -135,8 +143,13 @@ def sample_deviations(pair: Any, values: dict[str, float], amplitude_reading: st
             # um -> m by division: 15 / 1e6 is the double nearest 15e-6 (15 * 1e-6 is not)
             amp, sigma = values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
             reading = amplitude_reading
-        fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma,
-                                             amplitude_reading=reading))
+        if germ is None:
+            xi = pitch_germ_from_values(values, z, gear, pitch_harmonics)
+            fp.append(cumulative_pitch_from_normals(xi, z, amplitude=amp, sigma=sigma))
+        else:
+            phase, normals = germ[2 * gear - 2], germ[2 * gear - 1]
+            fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma,
+                                                 amplitude_reading=reading))
     tip = (values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3)
     root = (values["root_relief_amount"] / 1e6, values["root_relief_length"] / 1e3)
     return FlankDeviations(Fp1=fp[0], Fp2=fp[1], tip_relief1=tip, tip_relief2=tip,
@@ -144,13 +157,26 @@ def sample_deviations(pair: Any, values: dict[str, float], amplitude_reading: st
                            crowning=values["crowning"] / 1e6)
 
 
+def _check_germ(pair: Any, params: dict[str, np.ndarray], options: dict[str, Any]) -> None:
+    """Refuse, before anything runs, a germ the kept harmonics cannot represent."""
+    from gearuq.gears.deviations import pitch_germ_dimension, pitch_germ_from_values
+
+    for gear, z in ((1, pair.z1), (2, pair.z2)):
+        pitch_germ_dimension(z, options["pitch_harmonics"])  # range of the option
+        if options["pitch_model"] == "germ":
+            first = {k: float(v[np.argmax(v != 0)].item()) for k, v in params.items()
+                     if k.startswith(("pitch_xi_p_", "pitch_xi_g_")) and np.any(v != 0)}
+            pitch_germ_from_values(first, z, gear, options["pitch_harmonics"])
+
+
 def _one_sample(prep: dict[str, Any], pair: Any, values: dict[str, float],
-                reading: str) -> tuple[dict[str, np.ndarray], int]:
+                reading: str, pitch_model: str = "germ", pitch_harmonics: int | None = None
+                ) -> tuple[dict[str, np.ndarray], int]:
     """Long-period LTCA of one sample: per-position series, scalars, spectra, status."""
     from gearuq.gears.ltca import ltca_solve, mesh_summaries, normal_force_from_torque
 
     main, reference = prep["main"], prep["reference"]
-    dev = sample_deviations(pair, values, reading)
+    dev = sample_deviations(pair, values, reading, pitch_model, pitch_harmonics)
     P = normal_force_from_torque(pair, values["torque"])
     sol = ltca_solve(main, P, main.clearance(dev))
     ref = ltca_solve(reference, P, reference.clearance(dev.design_only()))
@@ -187,6 +213,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
              **options: Any) -> Evaluation:
     """Evaluate ``outputs`` for every sample (threads over samples)."""
     prep = _prepared(model, options, t)
+    _check_germ(model.pair, params, options)
     n = next(iter(params.values())).shape[0]
     shapes = {o.name: (n, t.size) if o.time_dependent else
               (n, len(prep["labels"])) if "order" in o.dims else (n,) for o in model.outputs}
@@ -197,7 +224,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     def run(i: int) -> None:
         values = {k: float(v[i]) for k, v in params.items()}
         try:
-            res, code = _one_sample(prep, model.pair, values, options["amplitude_reading"])
+            res, code = _one_sample(prep, model.pair, values, options["amplitude_reading"],
+                                    options["pitch_model"], options["pitch_harmonics"])
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             status[i] = STATUS_MODEL_ERROR  # flagged, outputs stay NaN
             errors[i] = f"{type(exc).__name__}: {exc}"
