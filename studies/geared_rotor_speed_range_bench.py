@@ -51,8 +51,6 @@ def bench(n_samples: int) -> None:
     """Print the timing and accuracy table."""
     import gearuq.rotor.harmonic_balance as hb
     from gearuq.rotor.geared import single_threaded_blas
-    from gearuq_plugins.geared_rotor.physics import problem_for
-
     model = _model()
     speeds = np.linspace(25.0, 8000.0, 160)
     samples = model.default_space().sample(n_samples + 1, rng=2026)
@@ -83,7 +81,7 @@ def bench(n_samples: int) -> None:
                                            "range_cutoff_factor": cutoff})
             start = _clock()
             with single_threaded_blas():
-                prob = problem_for(model, values, opts, speed_range=True)
+                prob = model.rotor_problem(values, speed_range=True, **opts)
                 res = prob.rms_over_speeds(speeds)
             timings[step] = _since(start)
             result[step] = res.maximum()[0]
@@ -98,10 +96,9 @@ def bench(n_samples: int) -> None:
         ref_opts = model.validate_options({"range_mesh_harmonics": 11,
                                            "range_cutoff_factor": 3.0, "tol": 1e-12})
         with single_threaded_blas():
-            ref = problem_for(model, values, ref_opts, speed_range=True).rms_over_speeds(
+            ref = model.rotor_problem(values, speed_range=True, **ref_opts).rms_over_speeds(
                 speeds, tol=1e-12)
-            fine = problem_for(model, values, model.validate_options({}),
-                               speed_range=True).rms_over_speeds(
+            fine = model.rotor_problem(values, speed_range=True).rms_over_speeds(
                 np.linspace(25.0, 8000.0, 1281))
         reference = ref.maximum()[0]
         rows.append((i, values, timings, result, reference, ref.maximum()[1],
@@ -123,11 +120,9 @@ def bench(n_samples: int) -> None:
 
 def _continuation(model: gearuq.Model) -> None:
     from gearuq.rotor.geared import single_threaded_blas
-    from gearuq_plugins.geared_rotor.physics import problem_for
-
     values = {p.name: p.nominal for p in model.parameters} | {
         "torque": 100.0, "pitch_amplitude": 40.0, "pitch_xi_p_1": 1.0, "pitch_xi_g_2": 1.0}
-    prob = problem_for(model, values, model.validate_options({}), speed_range=True)
+    prob = model.rotor_problem(values, speed_range=True)
     speeds = np.linspace(25.0, 8000.0, 160)
     out = {}
     with single_threaded_blas():

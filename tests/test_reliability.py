@@ -627,7 +627,7 @@ def test_bench_rows_table_and_docs_section(tmp_path):
     assert all(m != "akmcs" for p, _, m, _ in rows if p == "linear_100d")
     p = reliability_problems()["offset"]
     form = bench._summarise("offset", "FORM", "form", OFFSET_PF,
-                            [bench._one(p, "form", {}, 1)])
+                            [bench._one(p, "form", {"n_starts": 1}, 1)])
     mc = bench._summarise("offset", "crude MC", "mc", OFFSET_PF,
                           [bench._one(p, "mc", {"n_samples": 2000}, 1)])
     assert form["error"] < 1e-6 and form["runs"] == 6

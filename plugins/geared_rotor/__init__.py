@@ -231,19 +231,22 @@ class GearedRotor(Model):
             "pitch_sigma": {"dist": "uniform", "lower": 1.0, "upper": 3.0},
         } | germ)
 
-    def rotor_problem(self, params: dict[str, float] | None = None, **options: Any) -> Any:
+    def rotor_problem(self, params: dict[str, float] | None = None, *,
+                      speed_range: bool = False, **options: Any) -> Any:
         """The :class:`gearuq.rotor.geared.GearedRotorProblem` of one parameter set.
 
         For analyses beyond the plugin's outputs (modal and Campbell data, sweeps along one
         branch): the seed rotor with the LTCA excitation of ``params`` (missing names take
-        their nominal values), built exactly as :meth:`response` builds it.
+        their nominal values), built exactly as :meth:`response` builds it;
+        ``speed_range=True`` gives the problem behind ``dte_rms_max`` (the range options
+        ``range_mesh_harmonics`` and ``range_cutoff_factor``).
         """
         from gearuq_plugins.geared_rotor.physics import problem_for
 
         values = {p.name: p.nominal for p in self.parameters} | dict(params or {})
         checked = self.validate_params({k: [v] for k, v in values.items()})
         return problem_for(self, {k: float(v[0]) for k, v in checked.items()},
-                           self.validate_options(options))
+                           self.validate_options(options), speed_range=speed_range)
 
     def _evaluate(self, params, t, outputs, **options):
         from gearuq_plugins.geared_rotor.physics import evaluate
