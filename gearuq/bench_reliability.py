@@ -97,7 +97,8 @@ def _one(problem: dict[str, Any], method: str, settings: dict[str, Any], seed: i
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         rep = failure_probability(problem["model"], problem["space"], problem["limit_state"],
-                                  method=method, rng=seed, executor="serial", **settings)
+                                  problem.get("t"), method=method, rng=seed,
+                                  executor="serial", **settings)
     wall = time.perf_counter() - t0
     ref = problem["pf"]
     pf = float(rep["pf"])
@@ -273,14 +274,21 @@ def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]
         if problem not in ("linear_100d", "offset", "exponential_sum") and not quick:
             rows.append((problem, "akmcs", {"max_runs": 150, "n_mc": 50_000,
                                             "max_mc": 400_000}))
+    if not quick:  # the gear model at Pf ~ 1e-4 against 10^6 crude MC runs
+        rows.append(("helical_pair", "subset", {}))
+        rows.append(("helical_pair", "subset", {"replicates": 10, "n_per_level": 500}))
     return rows
 
 
-def _coverage_task(args: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
-    from gearuq.testing.reliability_problems import reliability_problems
+def _problems() -> dict[str, dict[str, Any]]:
+    from gearuq.testing.reliability_problems import helical_pair_problem, reliability_problems
 
+    return {**reliability_problems(), "helical_pair": helical_pair_problem()}
+
+
+def _coverage_task(args: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
     name, method, settings, seed = args
-    return _one(reliability_problems()[name], method, settings, seed)
+    return _one(_problems()[name], method, settings, seed)
 
 
 def coverage_row(name: str, method: str, ref: float, runs: list[dict[str, Any]]
@@ -318,12 +326,10 @@ def coverage(out: str | Path = "gearuq_bench_reliability", quick: bool = False,
     """
     import concurrent.futures as cf
 
-    from gearuq.testing.reliability_problems import reliability_problems
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     n_seeds = seeds if seeds is not None else (5 if quick else 20)
-    problems = reliability_problems()
+    problems = _problems()
     todo = cases_ if cases_ is not None else coverage_cases(quick)
     tasks = [(name, method, settings, 1000 + k) for name, method, settings in todo
              for k in range(n_seeds)]
@@ -333,8 +339,10 @@ def coverage(out: str | Path = "gearuq_bench_reliability", quick: bool = False,
     else:
         results = [_coverage_task(t) for t in tasks]
     rows = []
-    for i, (name, method, _) in enumerate(todo):
-        row = coverage_row(name, method, problems[name]["pf"],
+    for i, (name, method, settings) in enumerate(todo):
+        label = method + (f" (replicates {settings['replicates']})"
+                          if settings.get("replicates", 1) > 1 else "")
+        row = coverage_row(name, label, problems[name]["pf"],
                            results[i * n_seeds:(i + 1) * n_seeds])
         rows.append(row)
         print(f"  {name:<16} {method:<10} status0 {row['n_status0']:>2}/{n_seeds} coverage "

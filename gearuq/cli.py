@@ -161,7 +161,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "reliability":
         from gearuq.bench_reliability import main as run_reliability
 
-        return int(run_reliability(quick=args.quick, out=args.out) or 0)
+        return int(run_reliability(quick=args.quick, out=args.out, with_coverage=args.coverage,
+                                   seeds=args.seeds, workers=args.workers) or 0)
     if args.what == "memory":
         from gearuq.bench_memory import run as run_memory
 
@@ -240,10 +241,18 @@ def build_parser() -> argparse.ArgumentParser:
                         "startup: first-call times from an empty and a filled compile cache; "
                         "surrogate: PCE / Sobol-MC speed against error on analytic benchmarks; "
                         "memory: peak RSS and wall time of Monte Carlo against sample count; "
-                        "reliability: every failure-probability method side by side; or a "
+                        "reliability: every failure-probability method side by side (with "
+                        "--coverage: interval coverage over many seeds); or a "
                         "benchmark a plugin registers (`gearuq bench list`)")
     p.add_argument("--out", default="gearuq_bench", help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer samples and tolerances")
+    p.add_argument("--coverage", action="store_true",
+                   help="reliability only: mean, bias, empirical against reported CoV and "
+                        "interval coverage of every method over many seeds (20 by default), "
+                        "the helical pair included")
+    p.add_argument("--seeds", type=int, default=None, help="seeds per row (--coverage)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="parallel processes over the seeds (--coverage)")
     p.set_defaults(func=_cmd_bench)
     return parser
 

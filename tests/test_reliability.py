@@ -653,3 +653,20 @@ def test_bench_reliability_quick(tmp_path):
     assert by[("offset", "IS")]["saving"] > 100
     assert by[("offset", "subset")]["saving"] > 100
     assert by[("linear_100d", "FORM")]["error"] < 1e-6
+
+
+def test_coverage_benchmark_rows_and_docs_section(tmp_path):
+    """The coverage table on a tiny case: counts, coverage of status-0 runs, the docs block."""
+    from gearuq import bench_reliability as bench
+
+    doc = tmp_path / "benchmarks.md"
+    doc.write_text("# Benchmarks\n")
+    out = bench.coverage(tmp_path, seeds=3, docs=doc,
+                         cases_=[("offset", "mc", {"n_samples": 2000}),
+                                 ("resistance_load", "subset", {"n_per_level": 500})])
+    by = {r["problem"]: r for r in out["rows"]}
+    assert by["offset"]["n_status0"] == 0  # no failure in 2000 runs: a bound, status 4
+    assert by["offset"]["statuses"] == [4] and by["offset"]["held_or_flagged"] == 1.0
+    assert by["resistance_load"]["seeds"] == 3 and by["resistance_load"]["runs"] > 1000
+    text = doc.read_text()
+    assert "reliability-coverage:start" in text and "| resistance_load |" in text

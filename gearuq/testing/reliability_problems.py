@@ -55,6 +55,7 @@ __all__ = [
     "four_branch_components", "four_branch_components_model", "FOUR_BRANCH_PF",
     "jump", "jump_model", "JUMP_PF",
     "exponential_sum_model", "exponential_sum_space", "EXPONENTIAL_SUM_LEVEL",
+    "helical_pair_problem", "HELICAL_PAIR_LEVEL", "HELICAL_PAIR_PF", "HELICAL_PAIR_PF_INTERVAL",
     "EXPONENTIAL_SUM_PF", "nan_tail_model", "NAN_TAIL_PF",
     "random_phase", "random_phase_model", "random_phase_rate", "random_phase_first_passage",
     "gaussian_process", "gaussian_process_model", "gaussian_process_moments",
@@ -405,6 +406,34 @@ def nan_tail_model() -> FunctionModel:
 
     return FunctionModel(_nan_tail, ["x1", "x2"], ["g"], name="nan_tail",
                          description="g = 3 - x1, NaN where x1 > 3.2")
+
+
+# =========================================================================== the gear model
+#: Peak dynamic mesh force level [N] of the helical-pair rare-event case (README example).
+HELICAL_PAIR_LEVEL = 76_200.0
+#: P(max mesh_force over tau in [100, 200] >= 76 200 N) on tau = linspace(0, 200, 201), the
+#: model's default space and options: crude Monte Carlo through a store, 10^6 samples (seed
+#: 2002, 112 failures), with its Clopper-Pearson 95 % interval.
+HELICAL_PAIR_PF = 1.12e-4
+HELICAL_PAIR_PF_INTERVAL = (9.22e-5, 1.35e-4)
+
+
+def helical_pair_problem() -> dict[str, Any]:
+    """The helical pair's peak mesh force at Pf ~ 1e-4 with its crude-MC reference.
+
+    Not in :func:`reliability_problems` (it needs the plugin and ~0.5 ms per run); the
+    reference's own interval is ``HELICAL_PAIR_PF_INTERVAL`` (+-19 %): a method's interval
+    is judged against the point value, as for the 2e7-sample oscillator reference.
+    """
+    from gearuq.failure.modes import LimitState
+    from gearuq.registry import get_model
+
+    model = get_model("helical_pair")
+    return {"model": model, "space": model.default_space(),
+            "limit_state": LimitState.upper("mesh_force", HELICAL_PAIR_LEVEL,
+                                            window=(100.0, 200.0)),
+            "t": np.linspace(0.0, 200.0, 201), "pf": HELICAL_PAIR_PF,
+            "source": "10^6 crude Monte Carlo (112 failures), CP 95 % [9.22e-5, 1.35e-4]"}
 
 
 # =========================================================================== all of them
