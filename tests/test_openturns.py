@@ -29,6 +29,12 @@ from gearuq.testing.reliability_problems import (  # noqa: E402
     resistance_load_space,
 )
 
+#: ``ot.JointDistribution``, called ComposedDistribution before OpenTURNS 1.24.
+JOINT = getattr(ot, "JointDistribution", None) or ot.ComposedDistribution
+
+#: Block-diagonal copula (ComposedCopula before OpenTURNS 1.24).
+BLOCKS = getattr(ot, "BlockIndependentCopula", None) or ot.ComposedCopula
+
 #: Probabilities where quantiles are compared. Beyond 1 - 1e-3 OpenTURNS inverts a
 #: one-sided TruncatedDistribution numerically (~1e-9 relative at 1 - 1e-6).
 U = np.array([1e-6, 1e-2, 0.3, 0.5, 0.9, 0.999])
@@ -171,7 +177,7 @@ def test_round_trip_openturns_space_openturns():
     shape = np.eye(dim)
     shape[0, 1] = shape[1, 0] = 0.7
     shape[1, 6] = shape[6, 1] = -0.4
-    joint = ot.JointDistribution(marginals, ot.NormalCopula(ot.CorrelationMatrix(shape)))
+    joint = JOINT(marginals, ot.NormalCopula(ot.CorrelationMatrix(shape)))
     space = from_openturns_distribution(joint)
     assert space.names == [f"X{i}" for i in range(dim)]
     assert [space.marginal(n).kind for n in space.names] == [
@@ -206,10 +212,10 @@ def test_truncated_kind_quantiles_match_openturns():
 
 
 def test_block_independent_and_multivariate_normal():
-    block = ot.BlockIndependentCopula([
+    block = BLOCKS([
         ot.NormalCopula(ot.CorrelationMatrix([[1.0, 0.3], [0.3, 1.0]])),
         ot.IndependentCopula(1)])
-    joint = ot.JointDistribution([ot.Normal(), ot.Uniform(0.0, 1.0), ot.Gumbel(1.0, 0.0)], block)
+    joint = JOINT([ot.Normal(), ot.Uniform(0.0, 1.0), ot.Gumbel(1.0, 0.0)], block)
     space = from_openturns_distribution(joint, names=["p", "q", "r"])
     expected = np.eye(3)
     expected[0, 1] = expected[1, 0] = 0.3
@@ -308,17 +314,17 @@ def test_helical_pair_as_an_openturns_function_matches_response():
 def test_unsupported_openturns_objects_are_refused_by_name():
     with pytest.raises(ValueError, match=r"parameter 'X0': OpenTURNS marginal Beta .*"
                                          r"supported: Normal, LogNormal"):
-        from_openturns_distribution(ot.JointDistribution([ot.Beta(2.0, 3.0, 0.0, 1.0)]))
+        from_openturns_distribution(JOINT([ot.Beta(2.0, 3.0, 0.0, 1.0)]))
     with pytest.raises(ValueError, match=r"marginal WeibullMax"):
         from_openturns_distribution(ot.WeibullMax(1.0, 2.0), names=["w"])
     with pytest.raises(ValueError, match=r"copula ClaytonCopula .*supported: "
                                          r"IndependentCopula, NormalCopula"):
-        from_openturns_distribution(ot.JointDistribution([ot.Normal()] * 2,
+        from_openturns_distribution(JOINT([ot.Normal()] * 2,
                                                          ot.ClaytonCopula(2.0)))
-    with pytest.raises(ValueError, match=r"copula BlockIndependentCopula"):
-        from_openturns_distribution(ot.JointDistribution(
+    with pytest.raises(ValueError, match=r"copula (BlockIndependent|Composed)Copula"):
+        from_openturns_distribution(JOINT(
             [ot.Normal()] * 3,
-            ot.BlockIndependentCopula([ot.GumbelCopula(2.0), ot.IndependentCopula(1)])))
+            BLOCKS([ot.GumbelCopula(2.0), ot.IndependentCopula(1)])))
     with pytest.raises(ValueError, match=r"description \['x y'\] is not 1 distinct"):
         d = ot.Normal()
         d.setDescription(["x y"])

@@ -412,56 +412,51 @@ def to_openturns_distribution(space: ParameterSpace) -> Any:
 
 
 def _impl(ot: Any, d: Any) -> Any:
-    """The implementation object of an ``ot.Distribution`` wrapper (itself otherwise)."""
+    """The implementation of an ``ot.Distribution`` wrapper (itself otherwise): an object of
+    the concrete class (``ot.Normal``, ``ot.TruncatedDistribution``...), with its getters.
+
+    A cast such as ``ot.TruncatedDistribution(d)`` would be ambiguous (OpenTURNS < 1.24 reads
+    it as "truncate d to its own range")."""
     return d.getImplementation() if isinstance(d, ot.Distribution) else d
 
 
 def _marginal_spec(ot: Any, name: str, d: Any) -> dict[str, Any]:
     """A gearuq spec dict of a univariate OpenTURNS distribution, or a ValueError."""
-    impl = _impl(ot, d)
+    impl = _impl(ot, d)  # the concrete class: ot.Normal, ot.Gumbel...
     cls = impl.getClassName()
     if cls == "Normal":
-        n = ot.Normal(impl)
-        return {"dist": "normal", "mean": n.getMean()[0], "std": n.getStandardDeviation()[0]}
+        return {"dist": "normal", "mean": impl.getMean()[0],
+                "std": impl.getStandardDeviation()[0]}
     if cls == "LogNormal":
-        n = ot.LogNormal(impl)
-        return {"dist": "lognormal", "mu": n.getMuLog(), "sigma": n.getSigmaLog(),
-                "shift": n.getGamma()}
+        return {"dist": "lognormal", "mu": impl.getMuLog(), "sigma": impl.getSigmaLog(),
+                "shift": impl.getGamma()}
     if cls == "Uniform":
-        n = ot.Uniform(impl)
-        return {"dist": "uniform", "lower": n.getA(), "upper": n.getB()}
+        return {"dist": "uniform", "lower": impl.getA(), "upper": impl.getB()}
     if cls == "LogUniform":
-        n = ot.LogUniform(impl)
-        return {"dist": "loguniform", "lower": math.exp(n.getALog()),
-                "upper": math.exp(n.getBLog())}
+        return {"dist": "loguniform", "lower": math.exp(impl.getALog()),
+                "upper": math.exp(impl.getBLog())}
     if cls == "TruncatedNormal":
-        n = ot.TruncatedNormal(impl)
-        return {"dist": "truncnormal", "mean": n.getMu(), "std": n.getSigma(),
-                "lower": n.getA(), "upper": n.getB()}
+        return {"dist": "truncnormal", "mean": impl.getMu(), "std": impl.getSigma(),
+                "lower": impl.getA(), "upper": impl.getB()}
     if cls == "WeibullMin":
-        n = ot.WeibullMin(impl)
-        return {"dist": "weibull", "shape": n.getAlpha(), "scale": n.getBeta(),
-                "shift": n.getGamma()}
+        return {"dist": "weibull", "shape": impl.getAlpha(), "scale": impl.getBeta(),
+                "shift": impl.getGamma()}
     if cls == "Gumbel":
-        n = ot.Gumbel(impl)
-        return {"dist": "gumbel", "loc": n.getGamma(), "scale": n.getBeta()}
+        return {"dist": "gumbel", "loc": impl.getGamma(), "scale": impl.getBeta()}
     if cls == "Triangular":
-        n = ot.Triangular(impl)
-        return {"dist": "triangular", "lower": n.getA(), "mode": n.getM(), "upper": n.getB()}
+        return {"dist": "triangular", "lower": impl.getA(), "mode": impl.getM(),
+                "upper": impl.getB()}
     if cls == "Gamma":
-        n = ot.Gamma(impl)
-        return {"dist": "gamma", "shape": n.getK(), "scale": 1.0 / n.getLambda(),
-                "shift": n.getGamma()}
+        return {"dist": "gamma", "shape": impl.getK(), "scale": 1.0 / impl.getLambda(),
+                "shift": impl.getGamma()}
     if cls == "Exponential":
-        n = ot.Exponential(impl)
-        return {"dist": "gamma", "shape": 1.0, "scale": 1.0 / n.getLambda(),
-                "shift": n.getGamma()}
+        return {"dist": "gamma", "shape": 1.0, "scale": 1.0 / impl.getLambda(),
+                "shift": impl.getGamma()}
     if cls == "TruncatedDistribution":
-        n = ot.TruncatedDistribution(impl)
-        bounds = n.getBounds()
+        bounds = impl.getBounds()
         lower = bounds.getLowerBound()[0] if bounds.getFiniteLowerBound()[0] else -math.inf
         upper = bounds.getUpperBound()[0] if bounds.getFiniteUpperBound()[0] else math.inf
-        base = _marginal_spec(ot, name, n.getDistribution())
+        base = _marginal_spec(ot, name, impl.getDistribution())
         if base["dist"] == "normal":
             return {"dist": "truncnormal", "mean": base["mean"], "std": base["std"],
                     "lower": lower, "upper": upper}
@@ -480,7 +475,7 @@ def _normal_copula_matrix(ot: Any, copula: Any) -> np.ndarray | None:
     if cls == "IndependentCopula":
         return np.eye(dim)
     if cls == "NormalCopula":
-        return np.array(ot.NormalCopula(impl).getShapeMatrix(), dtype=float)
+        return np.array(impl.getShapeMatrix(), dtype=float)
     if cls in ("BlockIndependentCopula", "ComposedCopula"):
         r = np.eye(dim)
         start = 0
