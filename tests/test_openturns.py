@@ -255,6 +255,7 @@ def test_openturns_form_on_a_gearuq_model_agrees_with_gearuq_form(rho, solver):
     res_ot = _form(getattr(ot, solver)(), event, dist.getMean())
     res = gearuq.failure_probability(model, space, "g", method="form", rng=1, tol_u=1e-10,
                                      tol_g=1e-10, fd_scheme="central")
+    assert int(res.status) == 0
     assert res_ot.getHasoferReliabilityIndex() == pytest.approx(float(res.beta), abs=1e-4)
     assert res_ot.getEventProbability() == pytest.approx(float(res.pf), rel=1e-3)
     np.testing.assert_allclose(np.array(res_ot.getPhysicalSpaceDesignPoint()),
