@@ -52,7 +52,7 @@ _LAZY = {
 }
 
 _SUBMODULES = {
-    "model", "registry", "space", "ode", "engines", "failure",
+    "model", "registry", "space", "ode", "engines", "failure", "interop",
     "fitting", "signal", "execution", "io", "plot", "cli", "gears", "rotor", "testing",
 }
 
