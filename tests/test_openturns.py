@@ -198,9 +198,6 @@ def test_round_trip_openturns_space_openturns():
             _close(m.inv(U), _ot_quantiles(o), sd)
 
 
-@pytest.mark.xfail(strict=True, reason="gearuq's 'truncated' kind inverts with chaospy.Trunc, "
-                   "whose quantiles are off by percents (chaospy 4.3): e.g. Gumbel(loc 3, "
-                   "scale 2) on [2, 9] gives 9.0 at u = 0.999 where the exact value is 8.968")
 def test_truncated_kind_quantiles_match_openturns():
     g = stats.gumbel_r(3.0, 2.0)
     lo, hi = g.cdf(2.0), g.cdf(9.0)
