@@ -25,15 +25,17 @@ tau = np.linspace(0.0, 200.0, 201)  # nondimensional time
 ds = gearuq.monte_carlo(model, space, tau, n_samples=400, rule="lhs", rng=1,
                         outputs=["v1", "v6"], progress=False)
 
-# Allowed band on each vibration (1 = 10 um), judged over the steady window tau in [100, 200].
-band = 0.4
-rel = gearuq.reliability(ds, {"v1": (-band, band), "v6": (-band, band)}, time=(100.0, 200.0))
+# Allowed band on each vibration (1 = 10 um), judged over the steady window tau in [100, 200]:
+# the demo's band on v1 and a band on v6 that about a third of the samples leave.
+bands = {"v1": 0.506, "v6": 0.092}
+rel = gearuq.reliability(ds, {k: (-b, b) for k, b in bands.items()}, time=(100.0, 200.0))
 print(rel[["pf", "pf_first_passage"]].isel(time=-1).to_dataframe())
 
 # %%
-# Instantaneous reliability :math:`R(t) = P(|v(t)| \le 0.4)` and first-passage reliability
-# :math:`R_{fp}(t) = P(|v(s)| \le 0.4 \;\forall s \in [100, t])`; the shaded bands are the
-# 95 % intervals of each estimate.
+# First-passage reliability :math:`R_{fp}(t) = P(|v(s)| \le b \;\forall s \in [100, t])`
+# (thick, with its 95 % interval shaded) and instantaneous reliability
+# :math:`R(t) = P(|v(t)| \le b)` (thin): the instantaneous one dips once per vibration period
+# where the response peaks, the first-passage one only falls.
 
 fig, ax = plt.subplots(figsize=(7.5, 4.2), layout="constrained")
 t = rel["time"].values
@@ -41,13 +43,15 @@ for mode, colour in (("v1", "tab:blue"), ("v6", "tab:orange"), ("system", "tab:g
     r = rel.sel(mode=mode)
     label = {"v1": "pinion x (v1)", "v6": "gear x (v6)", "system": "both bands"}[mode]
     if mode != "system":
-        ax.plot(t, r["r"], color=colour, lw=1.0, ls=":", label=f"{label}, instantaneous")
-    ax.plot(t, r["r_first_passage"], color=colour, lw=1.8, label=f"{label}, first passage")
+        ax.plot(t, r["r"], color=colour, lw=0.6, alpha=0.6, label=f"{label}, instantaneous")
+    ax.plot(t, r["r_first_passage"], color=colour, lw=1.8, ls="--" if mode == "system" else "-",
+            label=f"{label}, first passage")
     ax.fill_between(t, r["r_first_passage_lower"], r["r_first_passage_upper"], color=colour,
                     alpha=0.2, lw=0)
 ax.set_xlabel("nondimensional time tau (1)")
 ax.set_ylabel("reliability (1)")
-ax.set_title(f"helical_pair: {ds.sizes['sample']} LHS samples, band |v| <= {band} (x 10 um)")
+ax.set_title(f"helical_pair, {ds.sizes['sample']} LHS samples: |v1| <= {bands['v1']}, "
+             f"|v6| <= {bands['v6']} (1 = 10 um)")
 ax.set_ylim(0.0, 1.02)
 ax.legend(fontsize=8, loc="lower left")
 plt.show()
