@@ -77,6 +77,7 @@ html_theme = "pydata_sphinx_theme"
 html_title = f"gearuq {release}"
 html_theme_options = {
     "navigation_depth": 2,
+    "header_links_before_dropdown": 5,
     "show_toc_level": 2,
     "secondary_sidebar_items": ["page-toc"],
 }
