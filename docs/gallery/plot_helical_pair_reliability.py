@@ -29,7 +29,12 @@ ds = gearuq.monte_carlo(model, space, tau, n_samples=400, rule="lhs", rng=1,
 # the demo's band on v1 and a band on v6 that about a third of the samples leave.
 bands = {"v1": 0.506, "v6": 0.092}
 rel = gearuq.reliability(ds, {k: (-b, b) for k, b in bands.items()}, time=(100.0, 200.0))
-print(rel[["pf", "pf_first_passage"]].isel(time=-1).to_dataframe())
+end = rel.isel(time=-1)
+for mode in rel["mode"].values:
+    e = end.sel(mode=mode)
+    print(f"{mode:>6}: first-passage Pf over tau in [100, 200] = {float(e['pf_first_passage']):.3f}"
+          f"  (95 % interval {float(e['pf_first_passage_lower']):.3f}"
+          f" - {float(e['pf_first_passage_upper']):.3f})")
 
 # %%
 # First-passage reliability :math:`R_{fp}(t) = P(|v(s)| \le b \;\forall s \in [100, t])`
