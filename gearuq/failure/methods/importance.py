@@ -54,7 +54,7 @@ from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape",
-           "weighted_estimate", "PARETO_LIMIT"]
+           "weighted_estimate", "sample_until", "weight_status", "PARETO_LIMIT"]
 
 
 SETTINGS = (
@@ -226,16 +226,25 @@ def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, con
             omega = np.where(fail, np.exp(mix.log_weights(u)), 0.0)
             mix = mix.adapted(u, omega)
     adapt_runs = ev.n_runs - form_runs
+    est = sample_until(ev, mix, s, confidence, np.random.SeedSequence([seed, 11]), "importance")
+    return _report(ev, fs, seed, confidence, est, found, starts, mix,
+                   (form_runs, adapt_runs), t0)
+
+
+def sample_until(ev: LimitStateEvaluator, mix: Mixture, s: Mapping[str, Any], confidence: float,
+                 stream: np.random.SeedSequence, tag: str) -> dict[str, float]:
+    """Batches of ``n_samples`` draws of ``mix`` until the CoV reaches ``target_cov`` or
+    ``max_samples``; the estimate of :func:`weighted_estimate`. Batch ``b`` draws from
+    ``SeedSequence(stream.entropy + [b])`` (a stored run resumes batch by batch)."""
     batches: list[dict[str, np.ndarray]] = []
     n_est, b = 0, 0
     z = stats.norm.isf((1 - confidence) / 2)
-    while True:
-        rng = np.random.default_rng(np.random.SeedSequence([seed, 11, b]))
+    est: dict[str, float] = {}
+    while n_est < s["max_samples"]:
+        rng = np.random.default_rng(np.random.SeedSequence([*stream.entropy, b]))
         m = min(s["n_samples"], s["max_samples"] - n_est)
-        if m <= 0:
-            break
         u = mix.sample(m, rng)
-        res = ev.evaluate(u, f"importance/batch{b}")
+        res = ev.evaluate(u, f"{tag}/batch{b}")
         w = np.exp(mix.log_weights(u))
         ok = res["status"] == 0
         batches.append({"w": w, "fail": ok & (res["g"] <= 0.0), "invalid": ~ok,
@@ -243,10 +252,35 @@ def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, con
         n_est += m
         b += 1
         est = weighted_estimate(batches, z)
-        if est["cov"] <= s["target_cov"] or n_est >= s["max_samples"]:
+        if est["cov"] <= s["target_cov"]:
             break
-    return _report(ev, fs, seed, confidence, est, found, starts, mix,
-                   (form_runs, adapt_runs), t0)
+    return est
+
+
+def weight_status(est: Mapping[str, float], target_cov: float, missed: str
+                  ) -> tuple[int, str, bool, float, float, float]:
+    """Status, message, bound flag and (pf, lower, upper) of an importance-sampling estimate.
+
+    ``missed`` completes the message when nothing failed (what may lead away from failure).
+    """
+    pf, lower, upper = est["pf"], est["lower"], est["upper"]
+    if est["n_fail"] == 0:
+        return (4, f"no importance sample failed: {missed}; pf_upper is a rough bound only",
+                True, math.nan, math.nan, max(upper, 3.0 / est["n"]))
+    if est["max_share"] > 0.5 or est["ess"] < 10:
+        return (3, f"weights degenerate: one sample carries {est['max_share']:.0%} of the "
+                f"estimate, effective sample size {est['ess']:.1f} of {est['n_fail']} failing "
+                "samples; the interval is not trustworthy (a failure region the density "
+                "misses, hit by the defensive component, or too narrow a density)",
+                False, pf, lower, upper)
+    if est["pareto_k"] > PARETO_LIMIT:
+        return (3, f"heavy-tailed weights (generalised Pareto shape k = {est['pareto_k']:.2f} "
+                f"> {PARETO_LIMIT}): the sample variance, and so the interval, is not reliable",
+                False, pf, lower, upper)
+    if est["cov"] > target_cov:
+        return (1, f"max_samples reached with CoV {est['cov']:.3f} > target {target_cov}",
+                False, pf, lower, upper)
+    return 0, "", False, pf, lower, upper
 
 
 def weighted_estimate(batches: list[dict[str, np.ndarray]], z: float) -> dict[str, float]:
@@ -278,28 +312,9 @@ def weighted_estimate(batches: list[dict[str, np.ndarray]], z: float) -> dict[st
 def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
             est: dict[str, float], found: list[dict[str, Any]], starts: list[dict[str, Any]],
             mix: Mixture, runs: tuple[int, int], t0: float) -> xr.Dataset:
-    status, message, bound = 0, "", False
     reasons: list[Reason] = []
-    pf, lower, upper = est["pf"], est["lower"], est["upper"]
-    if est["n_fail"] == 0:
-        status, bound = 4, True
-        pf = lower = math.nan
-        upper = max(upper, 3.0 / est["n"])
-        message = ("no importance sample failed: the design point(s) do not lead into the "
-                   "failure domain; pf_upper is a rough bound only")
-    elif est["max_share"] > 0.5 or est["ess"] < 10:
-        status = 3
-        message = (f"weights degenerate: one sample carries {est['max_share']:.0%} of the "
-                   f"estimate, effective sample size {est['ess']:.1f} of {est['n_fail']} failing "
-                   "samples; the interval is not trustworthy (a failure region the design "
-                   "points miss, or too narrow a density)")
-    elif est["pareto_k"] > PARETO_LIMIT:
-        status = 3
-        message = (f"heavy-tailed weights (generalised Pareto shape k = {est['pareto_k']:.2f} > "
-                   f"{PARETO_LIMIT}): the sample variance, and so the interval, is not reliable")
-    elif est["cov"] > s["target_cov"]:
-        status = 1
-        message = f"max_samples reached with CoV {est['cov']:.3f} > target {s['target_cov']}"
+    status, message, bound, pf, lower, upper = weight_status(
+        est, s["target_cov"], "the design point(s) do not lead into the failure domain")
     reasons += search_reasons(starts, len(found))
     if est["n_invalid"]:
         reasons.append((6, f"{est['n_invalid']} of {est['n']} importance samples were invalid: "

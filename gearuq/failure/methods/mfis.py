@@ -33,11 +33,10 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy import stats
 
 from gearuq.failure.evaluator import LimitStateEvaluator
 from gearuq.failure.methods import subset
-from gearuq.failure.methods.importance import PARETO_LIMIT, Mixture, weighted_estimate
+from gearuq.failure.methods.importance import Mixture, sample_until, weight_status
 from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Model, Option
 
@@ -148,50 +147,15 @@ def run_mfis(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
                         "sampled by crude Monte Carlo (the defensive component alone)"))
     else:
         mix = fit_mixture(fail_u, s["max_components"], s["defensive"], seed)
-    batches: list[dict[str, np.ndarray]] = []
-    n_est, b = 0, 0
-    z = stats.norm.isf((1 - confidence) / 2)
-    est: dict[str, float] = {}
-    while n_est < s["max_samples"]:
-        rng = np.random.default_rng(np.random.SeedSequence([seed, 31, b]))
-        m = min(s["n_samples"], s["max_samples"] - n_est)
-        u = mix.sample(m, rng)
-        res = ev.evaluate(u, f"mfis/batch{b}")
-        w = np.exp(mix.log_weights(u))
-        ok = res["status"] == 0
-        batches.append({"w": w, "fail": ok & (res["g"] <= 0.0), "invalid": ~ok,
-                        "gap": ok & (res["g"] <= 0.0) & ~(res["g_half"] <= 0.0)})
-        n_est += m
-        b += 1
-        est = weighted_estimate(batches, z)
-        if est["cov"] <= s["target_cov"]:
-            break
+    est = sample_until(ev, mix, s, confidence, np.random.SeedSequence([seed, 31]), "mfis")
     return _report(ev, s, seed, confidence, est, mix, walk, ev_lf, reasons, t0, t_lf)
 
 
 def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
             est: dict[str, float], mix: Mixture, walk: subset.Walk, ev_lf: LimitStateEvaluator,
             reasons: list[Reason], t0: float, t_lf: float) -> xr.Dataset:
-    status, message, bound = 0, "", False
-    pf, lower, upper = est["pf"], est["lower"], est["upper"]
-    if est["n_fail"] == 0:
-        status, bound = 4, True
-        pf, lower = math.nan, math.nan
-        upper = max(upper, 3.0 / est["n"])
-        message = ("no expensive-model sample failed: pf_upper is a rough bound only (the "
-                   "low-fidelity model may lead away from the failure domain)")
-    elif est["max_share"] > 0.5 or est["ess"] < 10:
-        status = 3
-        message = (f"weights degenerate: one sample carries {est['max_share']:.0%} of the "
-                   f"estimate, effective sample size {est['ess']:.1f}: the low-fidelity model "
-                   "missed part of the failure domain, which the defensive component hit")
-    elif est["pareto_k"] > PARETO_LIMIT:
-        status = 3
-        message = (f"heavy-tailed weights (generalised Pareto shape k = {est['pareto_k']:.2f} > "
-                   f"{PARETO_LIMIT}): the interval is not reliable")
-    elif est["cov"] > s["target_cov"]:
-        status = 1
-        message = f"max_samples reached with CoV {est['cov']:.3f} > target {s['target_cov']}"
+    status, message, bound, pf, lower, upper = weight_status(
+        est, s["target_cov"], "the low-fidelity model may lead away from the failure domain")
     if est["n_invalid"]:
         reasons.append((6, f"{est['n_invalid']} of {est['n']} expensive-model samples were "
                         f"invalid: as failed pf would be {est['pf_invalid_failed']:.4g}; the "
