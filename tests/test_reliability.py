@@ -553,8 +553,8 @@ def _offset():
 
 
 def test_crude_mc_reports_a_bound_never_zero():
-    """g = 4.5 - x1 (Pf = 3.4e-6) with 10^4 runs: no failure, pf is the Wilson upper bound
-    (flagged), not 0."""
+    """g = 4.5 - x1 (Pf = 3.4e-6) with 10^4 runs: no failure, pf is the Clopper-Pearson upper
+    bound 1 - 0.025^(1/n) (flagged), not 0."""
     from gearuq.failure.api import failure_probability
     from gearuq.testing.reliability_problems import OFFSET_PF
 
@@ -562,8 +562,8 @@ def test_crude_mc_reports_a_bound_never_zero():
     rep = failure_probability(model, space, "g", method="mc", rng=1, executor="serial")
     assert int(rep["pf_is_upper_bound"]) == 1 and int(rep["status"]) == 4
     assert float(rep["pf"]) == float(rep["pf_upper"]) > 0
-    assert float(rep["pf_upper"]) == pytest.approx(Z975**2 / (1e4 + Z975**2), rel=1e-12)
-    assert float(rep["pf_upper"]) / OFFSET_PF > 100  # honest but 113x the truth
+    assert float(rep["pf_upper"]) == pytest.approx(1.0 - 0.025 ** (1 / 1e4), rel=1e-9)
+    assert float(rep["pf_upper"]) / OFFSET_PF > 100  # honest but 108x the truth
     assert int(rep["n_model_runs"]) == 10_000
 
 
