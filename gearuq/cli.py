@@ -201,8 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_info)
 
     p = sub.add_parser("demo", help="run the built-in helical-pair reliability study",
-                       description="10^4-sample Monte Carlo reliability of the seed-000 helical "
-                                   "gear pair (Table 2 space): R(t), beta, fitted distributions; "
+                       description="10^4-sample Monte Carlo reliability of the helical "
+                                   "gear pair of Li, Hu and Han (their Table 2 space): R(t), "
+                                   "beta, fitted distributions; "
                                    "writes netCDF and PNG into --out.")
     p.add_argument("--out", default="gearuq_demo", help="output folder (default: gearuq_demo)")
     p.add_argument("--n-samples", type=int, default=10_000, help="Monte Carlo samples")

@@ -181,8 +181,8 @@ class GearedRotor(Model):
     """
 
     name = "geared_rotor"
-    description = ("FE helical geared rotor (seed 002): LTCA LPMS/CMS excitation, contact "
-                   "loss, modal reduction, harmonic-balance steady state")
+    description = ("FE helical geared rotor (after Yuan, Liu and Liu 2020): LTCA LPMS/CMS "
+                   "excitation, contact loss, modal reduction, harmonic-balance steady state")
     version = "1.0"
     time_units = "s"
     parameters = _PARAMETERS

@@ -133,7 +133,8 @@ class HelicalPair(Model):
     """
 
     name = "helical_pair"
-    description = "lumped 10-DOF helical gear pair with backlash, clearances, TVMS (seed 000)"
+    description = ("lumped 10-DOF helical gear pair with backlash, clearances, TVMS (after Li, Hu "
+                   "and Han)")
     version = "1.1"
     time_units = "1"
     time_long_name = "nondimensional time tau = omega_n t"

@@ -92,7 +92,8 @@ class MeshExcitation(Model):
     """
 
     name = "mesh_excitation"
-    description = "LTCA mesh excitations (STE, LPMS, CMS, spectra) with random pitch errors"
+    description = ("LTCA mesh excitations (STE, LPMS, CMS, spectra) with random pitch errors "
+                   "(after Yuan, Liu and Liu 2020)")
     version = "1.0"
     time_units = "mesh cycles"
     time_long_name = "mesh position tau (pinion turned by tau base pitches)"

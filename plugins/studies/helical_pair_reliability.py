@@ -1,4 +1,6 @@
-"""Seed 000 Table 3 analog: Monte Carlo vibration reliability of the helical gear pair.
+"""Analog of Table 3 of Li, Hu and Han: Monte Carlo vibration reliability of their helical
+gear pair (Chang Li, Mingyong Hu, Xing Han, "A non-linear random vibration reliability analysis
+method for multi degree of freedom helical gear driven system").
 
 The study that ``gearuq demo`` runs (registered as ``helical_pair_reliability`` in the
 ``gearuq.studies`` entry-point group; ``studies/helical_pair_reliability.py`` runs it from
@@ -41,9 +43,9 @@ MARGIN_RULE = (f"|v| <= {MARGIN} x the nominal design's largest vibration "
 TOL_K = 2.5
 N_PILOT = 1000
 TOLERANCE_RULE = (f"v(200) within mean +- {TOL_K} std of v(200) in an independent "
-                  f"{N_PILOT}-sample pilot run (seed Eq. 2 two-sided band; the seed does not "
-                  "give its limits)")
-#: Seed 000 Table 3 (P_f and beta as printed) for the comparison in the report.
+                  f"{N_PILOT}-sample pilot run (Eq. 2 of Li, Hu and Han: a two-sided band; the "
+                  "paper does not give its limits)")
+#: Table 3 of Li, Hu and Han (P_f and beta as printed) for the comparison in the report.
 SEED_TABLE3 = {
     "x_p": (0.0148, 8.8057), "y_p": (0.0115, 9.7127), "z_p": (0.0197, 2.8025),
     "theta_py": (0.0168, 2.8588), "theta_pz": (0.0128, 9.3206),
@@ -59,7 +61,8 @@ def seed_beta_explanation() -> str:
     """Why the seed's Table 3 beta values cannot follow from its failure probabilities."""
     from scipy.stats import norm
 
-    lines = ["Seed Table 3: printed beta vs the generalised index Phi^-1(1 - P_f) of its own P_f:"]
+    lines = ["Li, Hu and Han, Table 3: printed beta vs the generalised index Phi^-1(1 - P_f) of "
+             "its own P_f:"]
     for dof, (pf, beta) in SEED_TABLE3.items():
         lines.append(f"  {dof:<9} P_f = {pf:.4f}  printed beta = {beta:7.4f}  "
                      f"Phi^-1(1-P_f) = {norm.isf(pf):.4f}  P_f implied by printed beta = "
@@ -81,7 +84,7 @@ def run(
     store: str | Path | None = None,
     keep_chunks: bool = False,
 ) -> int:
-    """Monte Carlo reliability of the seed-000 helical pair (seed Table 3 analog).
+    """Monte Carlo reliability of Li, Hu and Han's helical pair (analog of their Table 3).
 
     Parameters
     ----------
@@ -373,7 +376,7 @@ def _report(n_samples: int, seed: int, space: Any, ds: Any, rows: list[dict[str,
     n_failed = int((ds["status"].values != 0).sum())
     lines = [
         f"gearuq demo: helical_pair Monte Carlo reliability ({n_samples} samples, seed {seed})",
-        f"space: seed Table 2 ({', '.join(space.names)}), tau in [0, {TAU_END:g}], "
+        f"space: Table 2 of Li, Hu and Han ({', '.join(space.names)}), tau in [0, {TAU_END:g}], "
         f"{N_TIME} instants; responses v_i = p_i - static p_i (vibration)",
         f"failed samples (status != 0): {n_failed}", "",
         f"Table 3 analog at tau = 200. Tolerance bands: {TOLERANCE_RULE}.",
