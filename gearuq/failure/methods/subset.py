@@ -321,13 +321,11 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
     p = np.array([lv["p"] for lv in levels])
     pf = float(np.prod(p))
     covs = np.array([lv["cov"] for lv in levels])
-    cov = float(np.sqrt(np.sum(covs**2)))
-    cov_upper = float(np.sum(covs))
+    cov, cov_upper = _level_covs(levels)
     z = stats.norm.isf((1 - confidence) / 2)
     bound = False
     if pf > 0:
-        spread = z * math.sqrt(math.log1p(max(cov, cov_upper) ** 2))
-        lower, upper = pf * math.exp(-spread), pf * math.exp(spread)
+        lower, upper = _lognormal_interval(pf, max(cov, cov_upper), z)
     else:  # no sample of the last level failed: bound from the product of the others
         from gearuq.failure.intervals import wilson_interval
 
@@ -370,6 +368,19 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
                           pf_is_upper_bound=bound, extra=extra)
 
 
+def _level_covs(levels: list[dict[str, Any]]) -> tuple[float, float]:
+    """CoV of the product of the levels: uncorrelated levels (``sqrt(sum delta_i^2)``) and
+    fully correlated levels (``sum delta_i``), Au and Beck (2001)."""
+    covs = np.array([lv["cov"] for lv in levels])
+    return float(np.sqrt(np.sum(covs**2))), float(np.sum(covs))
+
+
+def _lognormal_interval(pf: float, cov: float, z: float) -> tuple[float, float]:
+    """``pf exp(-+ z s)``, ``s^2 = ln(1 + cov^2)``."""
+    spread = z * math.sqrt(math.log1p(cov**2))
+    return pf * math.exp(-spread), pf * math.exp(spread)
+
+
 def _replicate_seed(seed: int, k: int) -> int:
     return int(np.random.SeedSequence([seed, 500, k]).generate_state(1, np.uint64)[0] % 2**63)
 
@@ -398,15 +409,13 @@ def _run_replicates(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
                                   confidence=confidence, settings=s, seed=seed,
                                   wall_time=time.perf_counter() - t0, status=2,
                                   message=f"replicate {k}: {walk.message}")
-        p = np.array([lv["p"] for lv in walk.levels])
-        covs = np.array([lv["cov"] for lv in walk.levels])
-        pf_k = float(np.prod(p)) * walk.levels[-1]["valid_share"]
-        spread = z * math.sqrt(math.log1p(max(float(np.sqrt(np.sum(covs**2))),
-                                              float(np.sum(covs))) ** 2))
-        run_covs.append(max(float(np.sqrt(np.sum(covs**2))), float(np.sum(covs))))
+        pf_k = walk.pf * walk.levels[-1]["valid_share"]
+        cov_k = max(_level_covs(walk.levels))
+        low_k, up_k = _lognormal_interval(pf_k, cov_k, z)
+        run_covs.append(cov_k)
         pfs.append(pf_k)
-        lows.append(pf_k * math.exp(-spread))
-        ups.append(pf_k * math.exp(spread) if pf_k > 0 else math.inf)
+        lows.append(low_k)
+        ups.append(up_k if pf_k > 0 else math.inf)
         n_levels.append(len(walk.levels))
     pfs_a = np.array(pfs)
     mean = float(pfs_a.mean())
@@ -416,8 +425,9 @@ def _run_replicates(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
         # CoV of a mean of K: with few replicates the sample spread alone can come out small
         c = max(float(pfs_a.std(ddof=1) / (math.sqrt(k_rep) * mean)),
                 float(np.mean(run_covs)) / math.sqrt(k_rep))
-        half = stats.t.isf((1 - confidence) / 2, k_rep - 1) * math.sqrt(math.log1p(c * c))
-        lower, upper, status, message = mean * math.exp(-half), mean * math.exp(half), 0, ""
+        lower, upper = _lognormal_interval(mean, c, stats.t.isf((1 - confidence) / 2,
+                                                                 k_rep - 1))
+        status, message = 0, ""
         disjoint = [(i, j) for i in range(k_rep) for j in range(i + 1, k_rep)
                     if ups[i] < lows[j] or ups[j] < lows[i]]
         if disjoint:
