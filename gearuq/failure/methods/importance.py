@@ -54,7 +54,8 @@ from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape",
-           "weighted_estimate", "sample_until", "weight_status", "PARETO_LIMIT"]
+           "weighted_estimate", "sample_until", "weight_status", "weight_diagnostics",
+           "PARETO_LIMIT"]
 
 
 SETTINGS = (
@@ -283,6 +284,29 @@ def weight_status(est: Mapping[str, float], target_cov: float, missed: str
     return 0, "", False, pf, lower, upper
 
 
+def weight_diagnostics(est: Mapping[str, float], samples: str
+                       ) -> tuple[dict[str, tuple], list[Reason]]:
+    """Report variables of the weights (failures, ESS, largest share, Pareto shape) and the
+    invalid-sample reason of an importance-sampling estimate; ``samples`` names the draws."""
+    extra = {
+        "n_failures": ((), np.int64(est["n_fail"]), {"units": "1", "long_name":
+                       f"failing {samples}"}),
+        "effective_sample_size": ((), est["ess"], {"units": "1", "long_name":
+                                  "(sum w)^2 / sum w^2 over failing samples"}),
+        "max_weight_share": ((), est["max_share"], {"units": "1", "long_name":
+                             "largest share of one sample in the pf estimate"}),
+        "pareto_k": ((), est["pareto_k"], {"units": "1", "long_name":
+                     "generalised Pareto shape of the largest contributions (> 0.7: the "
+                     "interval is not reliable)"}),
+    }
+    reasons: list[Reason] = []
+    if est["n_invalid"]:
+        reasons.append((6, f"{est['n_invalid']} of {est['n']} {samples} were invalid: pf reads "
+                        f"them as safe, as failed it would be {est['pf_invalid_failed']:.4g}; "
+                        "the interval covers both"))
+    return extra, reasons
+
+
 def weighted_estimate(batches: list[dict[str, np.ndarray]], z: float) -> dict[str, float]:
     """Importance-sampling estimate, interval and weight diagnostics from sample batches.
 
@@ -316,24 +340,14 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
     status, message, bound, pf, lower, upper = weight_status(
         est, s["target_cov"], "the design point(s) do not lead into the failure domain")
     reasons += search_reasons(starts, len(found))
-    if est["n_invalid"]:
-        reasons.append((6, f"{est['n_invalid']} of {est['n']} importance samples were invalid: "
-                        f"pf reads them as safe, as failed it would be "
-                        f"{est['pf_invalid_failed']:.4g}; the interval covers both"))
+    weights, invalid = weight_diagnostics(est, "importance samples")
+    reasons += invalid
     if not s["defensive"]:
         reasons.append((8, "no defensive component: a failure region the design points miss "
                         "has no sampling density and its probability is lost"))
     form_runs, adapt_runs = runs
     extra = {
-        "n_failures": ((), np.int64(est["n_fail"]), {"units": "1", "long_name":
-                       "failing importance samples"}),
-        "effective_sample_size": ((), est["ess"], {"units": "1", "long_name":
-                                  "(sum w)^2 / sum w^2 over failing samples"}),
-        "max_weight_share": ((), est["max_share"], {"units": "1", "long_name":
-                             "largest share of one sample in the pf estimate"}),
-        "pareto_k": ((), est["pareto_k"], {"units": "1", "long_name":
-                     "generalised Pareto shape of the largest contributions (> 0.7: the "
-                     "interval is not reliable)"}),
+        **weights,
         "n_form_runs": ((), np.int64(form_runs), {"units": "1", "long_name":
                         "model runs of the FORM search (included in n_model_runs)"}),
         "n_adaptation_runs": ((), np.int64(adapt_runs), {"units": "1", "long_name":

@@ -36,7 +36,12 @@ import xarray as xr
 
 from gearuq.failure.evaluator import LimitStateEvaluator
 from gearuq.failure.methods import subset
-from gearuq.failure.methods.importance import Mixture, sample_until, weight_status
+from gearuq.failure.methods.importance import (
+    Mixture,
+    sample_until,
+    weight_diagnostics,
+    weight_status,
+)
 from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Model, Option
 
@@ -156,10 +161,8 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
             reasons: list[Reason], t0: float, t_lf: float) -> xr.Dataset:
     status, message, bound, pf, lower, upper = weight_status(
         est, s["target_cov"], "the low-fidelity model may lead away from the failure domain")
-    if est["n_invalid"]:
-        reasons.append((6, f"{est['n_invalid']} of {est['n']} expensive-model samples were "
-                        f"invalid: as failed pf would be {est['pf_invalid_failed']:.4g}; the "
-                        "interval covers both readings"))
+    weights, invalid = weight_diagnostics(est, "expensive-model samples")
+    reasons += invalid
     extra = {
         "n_low_fidelity_runs": ((), np.int64(ev_lf.n_runs), {"units": "1", "long_name":
                                 "runs of the low-fidelity model (not in n_model_runs)"}),
@@ -171,14 +174,7 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
                             "subset-simulation estimate of the low-fidelity model"}),
         "n_components": ((), np.int64(mix.means.shape[0]), {"units": "1", "long_name":
                          "Gaussian components of the biasing density (defensive excluded)"}),
-        "n_failures": ((), np.int64(est["n_fail"]), {"units": "1", "long_name":
-                       "failing expensive-model samples"}),
-        "effective_sample_size": ((), est["ess"], {"units": "1", "long_name":
-                                  "(sum w)^2 / sum w^2 over failing samples"}),
-        "max_weight_share": ((), est["max_share"], {"units": "1", "long_name":
-                             "largest share of one sample in the pf estimate"}),
-        "pareto_k": ((), est["pareto_k"], {"units": "1", "long_name":
-                     "generalised Pareto shape of the largest contributions"}),
+        **weights,
     }
     settings = {k: (v.name if isinstance(v, Model) else v) for k, v in s.items()}
     return failure_report(
