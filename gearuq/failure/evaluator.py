@@ -88,7 +88,8 @@ class LimitStateEvaluator:
             raise ValueError(f"limit state {self.limit_state.name!r} reads no model output "
                              f"(only inputs {list(self.limit_state.variables)})")
         self.request: Request = self.model.prepare(t, outputs=outputs, **dict(model_options or {}))
-        self._check_window(self.request)
+        for leaf in self.limit_state.leaves():  # refused before any run
+            leaf.check_window(self.request.t, "of the output instants t")
         self.names = self.space.names
         self.dim = self.space.dim
         corr = self.space.correlation
@@ -106,25 +107,6 @@ class LimitStateEvaluator:
         self._grid_fail = 0  # valid failing samples on the full grid ...
         self._grid_missed = 0  # ... of which every other instant misses the failure
         self.errors: list[str] = []
-
-    def _check_window(self, request: Request) -> None:
-        """Refuse a limit-state window that reaches outside the output instants."""
-        t = getattr(request, "t", None)
-        if t is None or np.size(t) == 0:
-            return
-        t = np.asarray(t, dtype=float)
-        t0, t1 = float(t.min()), float(t.max())
-        tol = 1e-9 * max(1.0, abs(t0), abs(t1))
-        for leaf in self.limit_state.leaves():
-            window = getattr(leaf, "window", None)
-            if window is None:
-                continue
-            if window[0] < t0 - tol or window[1] > t1 + tol:
-                raise ValueError(
-                    f"limit state {leaf.name!r}: window [{window[0]:g}, {window[1]:g}] reaches "
-                    f"outside the output instants [{t0:g}, {t1:g}]; a first passage over the "
-                    "part of the window without instants would be missed. Extend t or narrow "
-                    "the window")
 
     # ------------------------------------------------------------------ maps
     def to_correlated(self, u: np.ndarray) -> np.ndarray:

@@ -380,15 +380,18 @@ class LimitState(_GFunction):
                 f"limit state {self.name!r}: variable(s) {', '.join(map(repr, missing))} not "
                 f"in the result; available outputs: {', '.join(outs or map(str, ds.data_vars))}")
 
-    def _check_window_inside(self, t: np.ndarray, var: str) -> None:
-        """Refuse a window reaching outside the instants (a passage there would be missed)."""
+    def check_window(self, t: Any, of: str) -> None:
+        """Refuse a window reaching outside the instants ``t`` (a first passage there would
+        be missed); ``of`` says whose instants they are. No window: nothing to check."""
+        if self.window is None or t is None or np.size(t) == 0:
+            return
         t0, t1 = float(np.min(t)), float(np.max(t))
         tol = 1e-9 * max(1.0, abs(t0), abs(t1))
         if self.window[0] < t0 - tol or self.window[1] > t1 + tol:
             raise ValueError(
                 f"limit state {self.name!r}: window [{self.window[0]:g}, {self.window[1]:g}] "
-                f"reaches outside the instants [{t0:g}, {t1:g}] of {var!r}; a first passage "
-                "in the part without instants would be missed. Extend t or narrow the window")
+                f"reaches outside the instants [{t0:g}, {t1:g}] {of}; a first passage in the "
+                "part without instants would be missed. Extend t or narrow the window")
 
     def values(self, ds: xr.Dataset) -> xr.DataArray:
         """``g`` over ``sample`` (and ``time`` inside the window) as a DataArray.
@@ -416,7 +419,7 @@ class LimitState(_GFunction):
                     f"choose one element with select={{{extra[0]!r}: ...}} (or build a system "
                     "over the elements) - which element fails is otherwise ambiguous")
             if self.window is not None and "time" in da.dims:
-                self._check_window_inside(da["time"].values, var)
+                self.check_window(da["time"].values, f"of {var!r}")
                 da = da.sel(time=slice(*self.window))
                 if da.sizes["time"] == 0:
                     raise ValueError(f"limit state {self.name!r}: window {self.window} holds "
