@@ -388,6 +388,12 @@ def _statistic_samples(q: np.ndarray, statistic: str) -> np.ndarray:
     return q
 
 
+def _sample_statistic(statistic: str, y: np.ndarray) -> float:
+    """The statistic of one sample set: the unbiased variance, or the mean (a probability is
+    the mean of the failure indicator)."""
+    return float(np.var(y, ddof=1) if statistic == "variance" else np.mean(y))
+
+
 def _combine(ys: list[np.ndarray], m: np.ndarray, statistic: str
              ) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray]:
     """MFMC estimate and its variance from nested samples ``ys[i][:m[i]]``."""
@@ -400,12 +406,10 @@ def _combine(ys: list[np.ndarray], m: np.ndarray, statistic: str
         alpha = np.where(sig > 0, rho * sig[0] / np.where(sig > 0, sig, 1.0), 0.0)
     rho = np.nan_to_num(rho)
 
-    def level_stat(y: np.ndarray) -> float:
-        return float(np.var(y, ddof=1) if statistic == "variance" else np.mean(y))
-
-    est = level_stat(ys[0][: m[0]])
+    est = _sample_statistic(statistic, ys[0][: m[0]])
     for i in range(1, len(ys)):
-        est += alpha[i] * (level_stat(ys[i][: m[i]]) - level_stat(ys[i][: m[i - 1]]))
+        est += alpha[i] * (_sample_statistic(statistic, ys[i][: m[i]])
+                           - _sample_statistic(statistic, ys[i][: m[i - 1]]))
     var = _mfmc_variance(m.astype(float), np.where(sig > 0, sig, 1e-300), rho)
     return float(est), var, alpha, sig, rho
 
@@ -423,10 +427,8 @@ def _combine_acvmf(ys: list[np.ndarray], m: np.ndarray, statistic: str
     cf, cvec = _acvmf_terms(cov, r)
     alpha = np.concatenate([[1.0], -np.linalg.lstsq(cf, cvec, rcond=None)[0]])
 
-    def level_stat(y: np.ndarray) -> float:
-        return float(np.var(y, ddof=1) if statistic == "variance" else np.mean(y))
-
-    est = level_stat(ys[0][:n])
+    est = _sample_statistic(statistic, ys[0][:n])
     for i in range(1, len(ys)):
-        est += alpha[i] * (level_stat(ys[i][:n]) - level_stat(ys[i][: m[i]]))
+        est += alpha[i] * (_sample_statistic(statistic, ys[i][:n])
+                           - _sample_statistic(statistic, ys[i][: m[i]]))
     return float(est), _acvmf_variance(cov, r, n), alpha, sig, rho
