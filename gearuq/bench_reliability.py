@@ -21,6 +21,7 @@ reliability section of docs/benchmarks.md (between its markers).
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import time
@@ -280,7 +281,9 @@ def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]
     return rows
 
 
+@functools.lru_cache(maxsize=1)
 def _problems() -> dict[str, dict[str, Any]]:
+    """The problems, built once per process (every seed of every row reads them)."""
     from gearuq.testing.reliability_problems import helical_pair_problem, reliability_problems
 
     return {**reliability_problems(), "helical_pair": helical_pair_problem()}

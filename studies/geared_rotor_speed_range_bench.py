@@ -164,28 +164,16 @@ def form_check(limit: float) -> None:
               ", ".join(f"{names[j]} {u[j]:+.3f}" for j in order))
 
 
-def mc_check(limit: float, n: int) -> None:
-    """Crude Monte Carlo on the same limit state (an independent estimator)."""
+def sampling_check(method: str, limit: float, rng: int, label: str, **settings) -> None:
+    """A sampling method on the same limit state (crude MC: an independent estimator; subset
+    simulation: its Markov chains need the continuous space)."""
     model = _model()
     start = _clock()
     res = gearuq.failure_probability(model, model.default_space(),
                                      gearuq.LimitState.upper("dte_rms_max", limit), None,
-                                     method="mc", rng=7, n_samples=n)
+                                     method=method, rng=rng, **settings)
     cpu, wall = _since(start)
-    print(f"\nMonte Carlo, dte_rms_max > {limit * 1e6:g} um, {n} samples: pf "
-          f"{float(res['pf']):.3e} [{float(res['pf_lower']):.3e}, {float(res['pf_upper']):.3e}]"
-          f", status {int(res['status'])}, CPU {cpu:.0f} s, wall {wall:.0f} s")
-
-
-def subset_check(limit: float, n_per_level: int) -> None:
-    """Subset simulation on the same limit state: its Markov chains need a continuous space."""
-    model = _model()
-    start = _clock()
-    res = gearuq.failure_probability(model, model.default_space(),
-                                     gearuq.LimitState.upper("dte_rms_max", limit), None,
-                                     method="subset", rng=3, n_per_level=n_per_level)
-    cpu, wall = _since(start)
-    print(f"\nsubset simulation, dte_rms_max > {limit * 1e6:g} um, {n_per_level} per level: pf "
+    print(f"\n{label}, dte_rms_max > {limit * 1e6:g} um: pf "
           f"{float(res['pf']):.3e} [{float(res['pf_lower']):.3e}, {float(res['pf_upper']):.3e}]"
           f", status {int(res['status'])}, {int(res['n_model_runs'])} model runs, CPU {cpu:.0f}"
           f" s, wall {wall:.0f} s")
@@ -207,9 +195,11 @@ def main() -> None:
     if args.form:
         form_check(args.limit)
     if args.mc:
-        mc_check(args.limit, args.mc)
+        sampling_check("mc", args.limit, 7, f"Monte Carlo, {args.mc} samples",
+                       n_samples=args.mc)
     if args.subset:
-        subset_check(args.limit, args.subset)
+        sampling_check("subset", args.limit, 3,
+                       f"subset simulation, {args.subset} per level", n_per_level=args.subset)
 
 
 if __name__ == "__main__":
