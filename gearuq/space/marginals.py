@@ -496,16 +496,10 @@ def _scipy_equivalent(kind: str, p: Mapping[str, Any]) -> Any:
     if kind == "gamma":
         return stats.gamma(p["shape"], loc=p["shift"], scale=p["scale"])
     if kind == "truncated":
-        base = p["base"] if isinstance(p["base"], Mapping) else {}
-        kind_key = "dist" if "dist" in base else "kind"
-        base_kind = _ALIASES.get(str(base.get(kind_key, "")).lower(),
-                                str(base.get(kind_key, "")).lower())
-        base_scipy = None
-        if base_kind in KINDS:
-            names, defaults = KINDS[base_kind]
-            bp = {**defaults, **{k: v for k, v in base.items() if k != kind_key}}
-            if all(n in bp for n in names):
-                base_scipy = _scipy_equivalent(base_kind, bp)
+        try:  # the base marginal's own scipy equivalent, if its kind has one
+            base_scipy = Marginal.from_spec("base", p["base"])._scipy
+        except (TypeError, ValueError):
+            base_scipy = None
         if base_scipy is not None:
             return _TruncatedFrozen(base_scipy, p["lower"], p["upper"])
     return None
