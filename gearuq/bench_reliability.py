@@ -37,6 +37,8 @@ _START = "<!-- reliability-bench:start -->"
 _END = "<!-- reliability-bench:end -->"
 _COV_START = "<!-- reliability-coverage:start -->"
 _COV_END = "<!-- reliability-coverage:end -->"
+_RUNS_START = "<!-- reliability-runs:start -->"
+_RUNS_END = "<!-- reliability-runs:end -->"
 
 
 def cases(quick: bool = False) -> list[tuple[str, str, str, dict[str, Any]]]:
@@ -107,6 +109,8 @@ def _one(problem: dict[str, Any], method: str, settings: dict[str, Any], seed: i
     extra = {}
     if "pf_multi_design_points" in rep:
         extra["pf_multi"] = float(rep["pf_multi_design_points"])
+    if "n_low_fidelity_runs" in rep:
+        extra["lf_runs"] = int(rep["n_low_fidelity_runs"])
     return {"pf": pf, "error": abs(pf / ref - 1) if math.isfinite(pf) else math.nan,
             "cov": float(rep["cov_pf"]), "covered": bool(lo <= ref <= up) if math.isfinite(
                 lo + up) else None, "runs": int(rep["n_model_runs"]), "wall": wall,
@@ -246,7 +250,8 @@ def update_docs(path: Path, table: str, markers: tuple[str, str] = (_START, _END
 
 
 def main(quick: bool = False, out: str = "gearuq_bench", docs: str | None = "auto",
-         with_coverage: bool = False, seeds: int | None = None, workers: int = 1) -> int:
+         with_coverage: bool = False, seeds: int | None = None, workers: int = 1,
+         problems: list[str] | None = None) -> int:
     """Entry for ``gearuq bench reliability [--coverage]``: run, print, write; return 0.
 
     ``docs="auto"`` updates ``docs/benchmarks.md`` when run from a source checkout (the file
@@ -255,7 +260,8 @@ def main(quick: bool = False, out: str = "gearuq_bench", docs: str | None = "aut
     if docs == "auto":
         docs = "docs/benchmarks.md" if Path("docs/benchmarks.md").is_file() else None
     if with_coverage:
-        coverage(Path(out), quick=quick, docs=docs, seeds=seeds, workers=workers)
+        coverage(Path(out), quick=quick, docs=docs, seeds=seeds, workers=workers,
+                 problems=problems)
     else:
         run(Path(out), quick=quick, docs=docs)
     if docs is not None:
@@ -264,6 +270,24 @@ def main(quick: bool = False, out: str = "gearuq_bench", docs: str | None = "aut
 
 
 # =========================================================================== coverage
+def case_label(method: str, settings: dict[str, Any]) -> str:
+    """The method as the tables name it: its settings that change what it does."""
+    if settings.get("replicates", 1) > 1:
+        return f"{method} (replicates {settings['replicates']})"
+    if method == "mfis":
+        opts = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                         for k, v in (settings.get("low_fidelity_options") or {}).items())
+        return f"mfis (LF: {settings['low_fidelity']}{', ' + opts if opts else ''})"
+    return method
+
+
+#: The helical pair's cheap model for MFIS: the same model at a looser step tolerance
+#: (rtol 1e-4 instead of 1e-6): half the cost, peaks within 1 N of the default's on 2000
+#: draws about the failure domain (docs/reliability.md).
+HELICAL_PAIR_LOW_FIDELITY = {"low_fidelity": "helical_pair",
+                             "low_fidelity_options": {"rtol": 1e-4}}
+
+
 def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]:
     """``(problem, method, settings)`` of the coverage benchmark."""
     rows: list[tuple[str, str, dict[str, Any]]] = []
@@ -278,6 +302,10 @@ def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]
     if not quick:  # the gear model at Pf ~ 1e-4 against 10^6 crude MC runs
         rows.append(("helical_pair", "subset", {}))
         rows.append(("helical_pair", "subset", {"replicates": 5}))
+        rows.append(("helical_pair", "mfis", {**HELICAL_PAIR_LOW_FIDELITY, "n_per_level": 1000,
+                                              "max_samples": 20_000}))
+        rows.append(("helical_pair", "akmcs", {"max_runs": 150, "n_mc": 50_000,
+                                               "max_mc": 400_000}))
     return rows
 
 
@@ -306,35 +334,54 @@ def coverage_row(name: str, method: str, ref: float, runs: list[dict[str, Any]]
     sd = float(pf[finite].std(ddof=1)) if finite.sum() > 1 else math.nan
     se = sd / math.sqrt(finite.sum()) if finite.sum() > 1 else math.nan
     rep_cov = [r["cov"] for r in runs if math.isfinite(r["cov"])]
-    return {"problem": name, "method": method, "reference": ref, "seeds": len(runs),
+    judged = [bool(r["covered"]) for r in runs if r["covered"] is not None]
+    n_runs = float(np.mean([r["runs"] for r in runs]))
+    cov_emp = sd / ref
+    # expensive runs for a 10 % empirical CoV: the variance falls as 1/runs
+    runs_10 = n_runs * (cov_emp / 0.1) ** 2 if math.isfinite(cov_emp) else math.nan
+    mc_10 = 100.0 * (1.0 - ref) / ref
+    return {"coverage_all": float(np.mean(judged)) if judged else math.nan,
+            "lf_runs": float(np.mean([r.get("lf_runs", 0) for r in runs])),
+            "runs_10pct": runs_10, "mc_runs_10pct": mc_10,
+            "gain_vs_mc": mc_10 / runs_10 if runs_10 and math.isfinite(runs_10) else math.nan,
+            "problem": name, "method": method, "reference": ref, "seeds": len(runs),
             "pf_mean": mean, "bias_se": (mean - ref) / se if se and se > 0 else math.nan,
-            "cov_empirical": sd / ref, "cov_reported": float(np.mean(rep_cov)) if rep_cov
+            "cov_empirical": cov_emp, "cov_reported": float(np.mean(rep_cov)) if rep_cov
             else math.nan, "n_status0": int(ok.sum()),
             "coverage_status0": float(held[ok].mean()) if ok.any() else math.nan,
             "held_or_flagged": float(np.mean(held | ~ok)),
             "statuses": sorted({int(r["status"]) for r in runs}),
-            "runs": float(np.mean([r["runs"] for r in runs])),
-            "wall": float(np.mean([r["wall"] for r in runs]))}
+            "runs": n_runs, "wall": float(np.mean([r["wall"] for r in runs]))}
 
 
 def coverage(out: str | Path = "gearuq_bench_reliability", quick: bool = False,
              docs: str | Path | None = None, seeds: int | None = None, workers: int = 1,
-             cases_: list[tuple[str, str, dict[str, Any]]] | None = None) -> dict[str, Any]:
+             cases_: list[tuple[str, str, dict[str, Any]]] | None = None,
+             problems: list[str] | None = None) -> dict[str, Any]:
     """Interval coverage of every method over many seeds against exact references.
 
     For each (problem, method): the mean Pf, its bias in standard errors, the empirical CoV
     (spread of the estimates over the seeds) against the mean reported one, how many runs
     had status 0, the share of those whose interval holds the reference (the honesty
     target: >= 90 %), and the share of all runs whose interval holds or whose status is
-    nonzero. ``workers`` > 1 runs seeds in parallel processes.
+    nonzero. ``workers`` > 1 runs seeds in parallel processes. ``problems`` keeps only the
+    rows of those problems; the docs table then keeps its other rows and replaces these.
+    The gear-model rows also go into a second table: expensive runs for a 10 % empirical
+    CoV against crude Monte Carlo's.
     """
     import concurrent.futures as cf
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     n_seeds = seeds if seeds is not None else (5 if quick else 20)
-    problems = _problems()
     todo = cases_ if cases_ is not None else coverage_cases(quick)
+    if problems is not None:
+        known = sorted({name for name, _, _ in todo})
+        unknown = [p for p in problems if p not in known]
+        if unknown:
+            raise ValueError(f"problems: unknown {unknown}; valid: {', '.join(known)}")
+        todo = [case for case in todo if case[0] in problems]
+    problems_ = _problems()
     tasks = [(name, method, settings, 1000 + k) for name, method, settings in todo
              for k in range(n_seeds)]
     if workers > 1:
@@ -344,9 +391,8 @@ def coverage(out: str | Path = "gearuq_bench_reliability", quick: bool = False,
         results = [_coverage_task(t) for t in tasks]
     rows = []
     for i, (name, method, settings) in enumerate(todo):
-        label = method + (f" (replicates {settings['replicates']})"
-                          if settings.get("replicates", 1) > 1 else "")
-        row = coverage_row(name, label, problems[name]["pf"],
+        label = case_label(method, settings)
+        row = coverage_row(name, label, problems_[name]["pf"],
                            results[i * n_seeds:(i + 1) * n_seeds])
         rows.append(row)
         print(f"  {name:<16} {method:<10} status0 {row['n_status0']:>2}/{n_seeds} coverage "
@@ -355,11 +401,72 @@ def coverage(out: str | Path = "gearuq_bench_reliability", quick: bool = False,
     text = coverage_markdown(rows, quick, n_seeds)
     (out / "reliability_coverage.md").write_text(text)
     (out / "reliability_coverage.json").write_text(json.dumps(rows, indent=1, default=float))
+    runs_text = runs_markdown([r for r in rows if r["problem"] in GEAR_PROBLEMS], n_seeds)
     if docs is not None:
+        if problems is not None:
+            text = merge_table_rows(Path(docs), text, (_COV_START, _COV_END))
         update_docs(Path(docs), text, (_COV_START, _COV_END),
                     "## Interval coverage: `gearuq bench reliability --coverage`")
-    print(text)
-    return {"rows": rows, "markdown": text}
+        if runs_text:
+            if problems is not None:
+                runs_text = merge_table_rows(Path(docs), runs_text, (_RUNS_START, _RUNS_END))
+            update_docs(Path(docs), runs_text, (_RUNS_START, _RUNS_END),
+                        "## Runs to a 10 % CoV on the gear models")
+    print(text + "\n" + runs_text)
+    return {"rows": rows, "markdown": text, "runs_markdown": runs_text}
+
+
+#: Problems that are gear models: their rows also go into the runs-to-10 % table.
+GEAR_PROBLEMS = ("helical_pair",)
+
+
+def runs_markdown(rows: list[dict[str, Any]], n_seeds: int) -> str:
+    """Expensive-model runs for a 10 % empirical CoV against crude Monte Carlo ("" if none)."""
+    if not rows:
+        return ""
+    head = [
+        f"Measured with the coverage table's runs ({n_seeds} seeds per row). *HF runs*: mean "
+        "expensive-model runs per estimate; *LF runs*: cheap-model runs (not in HF runs); "
+        "*HF runs for 10 %*: HF runs x (empirical CoV / 0.1)^2; *crude MC*: 100 (1 - Pf) / Pf "
+        "runs for the same CoV; *coverage (all)*: share of every run's 95 % interval that "
+        "holds the reference, whatever its status.",
+        "",
+        "| problem | Pf ref | method | mean Pf | CoV emp. | coverage (all) | statuses | "
+        "HF runs | LF runs | HF runs for 10 % | crude MC | gain |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    body = [
+        f"| {r['problem']} | {r['reference']:.3g} | {r['method']} | {_fmt(r['pf_mean'], '.3g')}"
+        f" | {_fmt(r['cov_empirical'], '.2f')} | {_fmt(r['coverage_all'], '.0%')} | "
+        f"{','.join(map(str, r['statuses']))} | {r['runs']:.0f} | {r['lf_runs']:.0f} | "
+        f"{_fmt(r['runs_10pct'], '.3g')} | {r['mc_runs_10pct']:.3g} | "
+        f"{_fmt(r['gain_vs_mc'], '.3g')}x |" for r in rows]
+    return "\n".join(head + body) + "\n"
+
+
+def merge_table_rows(path: Path, table: str, markers: tuple[str, str]) -> str:
+    """``table`` with the rows of the table already between ``markers`` in ``path`` that it
+    does not replace (a row is keyed by its problem and method cells), in their order."""
+    text = path.read_text() if path.exists() else ""
+    start, end = markers
+    if start not in text or end not in text:
+        return table
+    old = text[text.index(start) + len(start): text.index(end)]
+
+    def key(line: str) -> tuple[str, str]:
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        return cells[0], cells[2]
+
+    def is_row(line: str) -> bool:
+        return line.startswith("| ") and not line.startswith("| problem") and len(
+            line.split("|")) > 4
+
+    new_lines = table.rstrip("\n").split("\n")
+    new_rows = {key(line): line for line in new_lines if is_row(line)}
+    merged = [new_rows.pop(key(line), line) for line in old.split("\n") if is_row(line)]
+    merged += list(new_rows.values())
+    prose = [line for line in new_lines if not is_row(line)]
+    return "\n".join(prose + merged) + "\n"
 
 
 def coverage_markdown(rows: list[dict[str, Any]], quick: bool, n_seeds: int) -> str:

@@ -162,7 +162,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         from gearuq.bench_reliability import main as run_reliability
 
         return int(run_reliability(quick=args.quick, out=args.out, with_coverage=args.coverage,
-                                   seeds=args.seeds, workers=args.workers) or 0)
+                                   seeds=args.seeds, workers=args.workers,
+                                   problems=args.problems.split(",") if args.problems
+                                   else None) or 0)
     if args.what == "memory":
         from gearuq.bench_memory import run as run_memory
 
@@ -252,6 +254,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "interval coverage of every method over many seeds (20 by default), "
                         "the helical pair included")
     p.add_argument("--seeds", type=int, default=None, help="seeds per row (--coverage)")
+    p.add_argument("--problems", default=None,
+                   help="comma-separated problems (--coverage): run only their rows and "
+                        "replace only those rows of the docs tables")
     p.add_argument("--workers", type=int, default=1,
                    help="parallel processes over the seeds (--coverage)")
     p.set_defaults(func=_cmd_bench)

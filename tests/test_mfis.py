@@ -30,16 +30,27 @@ def _run(fn, seed: int, **kw):
                                low_fidelity=lf, rng=seed, executor="serial", **kw)
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_a_biased_cheap_model_still_gives_an_interval_that_holds(seed):
-    rep = _run(_shifted_branches, seed)
+def test_a_biased_cheap_model_still_gives_intervals_that_hold():
+    """Ten seeds: every run vouches (status 0) and at least 8 of the 95 % intervals hold the
+    quadrature value (8 or fewer of 10 happens with probability 1.2 % at the nominal level);
+    the expensive model ran only on the biasing density's draws: far fewer runs than the 2.2e4
+    crude Monte Carlo needs for a 10 % CoV at this Pf."""
+    reps = [_run(_shifted_branches, seed) for seed in range(1, 11)]
+    holds = [float(r["pf_lower"]) <= PROBLEM["pf"] <= float(r["pf_upper"]) for r in reps]
+    assert sum(holds) >= 8, holds
+    for rep in reps:
+        assert int(rep["status"]) == 0
+        assert int(rep["n_model_runs"]) <= 2000 and float(rep["cov_pf"]) <= 0.1
+        assert int(rep["n_low_fidelity_runs"]) > 0
+        assert rep.attrs["low_fidelity_model"] == "_shifted_branches"
+
+
+def test_fitting_to_the_failing_samples_only_is_the_other_choice():
+    """``fit_to="failing"`` with narrow components is the leaner density on this benign
+    problem; it too must hold the reference."""
+    rep = _run(_shifted_branches, 4, fit_to="failing", min_std=0.3)
     assert int(rep["status"]) == 0
     assert float(rep["pf_lower"]) <= PROBLEM["pf"] <= float(rep["pf_upper"])
-    # the expensive model ran only on the biasing density's draws: far fewer runs than the
-    # 2.2e4 crude Monte Carlo needs for a 10 % CoV at this Pf
-    assert int(rep["n_model_runs"]) <= 2000 and float(rep["cov_pf"]) <= 0.1
-    assert int(rep["n_low_fidelity_runs"]) > 0
-    assert rep.attrs["low_fidelity_model"] == "_shifted_branches"
 
 
 def test_a_useless_cheap_model_costs_variance_never_bias():

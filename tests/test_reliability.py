@@ -670,3 +670,43 @@ def test_coverage_benchmark_rows_and_docs_section(tmp_path):
     assert by["resistance_load"]["seeds"] == 3 and by["resistance_load"]["runs"] > 1000
     text = doc.read_text()
     assert "reliability-coverage:start" in text and "| resistance_load |" in text
+
+
+def test_coverage_for_some_problems_replaces_only_their_rows(tmp_path):
+    """``problems=[...]`` reruns some rows: the docs table keeps the others in their order,
+    replaces the rerun ones, and an unknown problem is refused with the valid names."""
+    from gearuq import bench_reliability as bench
+
+    doc = tmp_path / "benchmarks.md"
+    doc.write_text("# Benchmarks\n")
+    cases = [("offset", "mc", {"n_samples": 2000}),
+             ("resistance_load", "mc", {"n_samples": 2000})]
+    bench.coverage(tmp_path, seeds=2, docs=doc, cases_=cases)
+    first = doc.read_text()
+    bench.coverage(tmp_path, seeds=2, docs=doc, cases_=cases + [
+        ("resistance_load", "subset", {"n_per_level": 500})], problems=["resistance_load"])
+    text = doc.read_text()
+    block = text[text.index("reliability-coverage:start"):text.index("reliability-coverage:end")]
+    rows = [line for line in block.splitlines() if line.startswith("| ") and "problem" not in
+            line]
+    assert [r.split("|")[1].strip() + "/" + r.split("|")[3].strip() for r in rows] == [
+        "offset/mc", "resistance_load/mc", "resistance_load/subset"]
+    offset_row = [r for r in rows if r.startswith("| offset")][0]
+    assert offset_row in first  # kept as it was
+    with pytest.raises(ValueError, match="unknown.*valid: offset, resistance_load"):
+        bench.coverage(tmp_path, seeds=1, cases_=cases, problems=["bogus"])
+
+
+def test_runs_to_ten_percent_is_runs_times_squared_cov_ratio():
+    """The runs-to-10 % column: mean runs x (empirical CoV / 0.1)^2, gain against
+    100 (1 - Pf) / Pf crude-MC runs."""
+    from gearuq import bench_reliability as bench
+
+    runs = [{"pf": pf, "cov": 0.1, "covered": True, "runs": 1000, "wall": 1.0, "status": 0,
+             "bound": 0, "lf_runs": 50} for pf in (0.8e-3, 1.0e-3, 1.2e-3)]
+    row = bench.coverage_row("p", "m", 1e-3, runs)
+    assert row["cov_empirical"] == pytest.approx(0.2)
+    assert row["runs_10pct"] == pytest.approx(4000.0)
+    assert row["gain_vs_mc"] == pytest.approx(99_900.0 / 4000.0)
+    assert row["lf_runs"] == 50 and row["coverage_all"] == 1.0
+    assert "| p | 0.001 | m |" in bench.runs_markdown([row], 3)

@@ -74,6 +74,13 @@ SETTINGS = (
            "(default: the same as the expensive model's)", kind="any", allow_none=True),
     Option("n_per_level", 2000, "subset-simulation samples per level on the cheap model",
            lower=100),
+    Option("fit_to", "last_level", "samples the mixture is fitted to: 'last_level' (every valid "
+           "sample of subset simulation's last level, a superset of the cheap model's failure "
+           "domain that reaches back to its boundary) or 'failing' (only its failing samples)",
+           kind="str", choices=("last_level", "failing")),
+    Option("min_std", 1.0, "smallest standard deviation of a mixture component along any axis "
+           "(standard normal units); 1 keeps the weights' tail light where the failure domain "
+           "reaches behind the component's mean", lower=0.05, upper=3.0),
     Option("max_components", 4, "largest number of mixture components (chosen by BIC)",
            lower=1, upper=20),
     Option("defensive", 0.1, "share of the defensive standard normal component", lower=0.01,
@@ -84,10 +91,17 @@ SETTINGS = (
 )
 
 
-def fit_mixture(u: np.ndarray, max_components: int, defensive: float, seed: int) -> Mixture:
+def fit_mixture(u: np.ndarray, max_components: int, defensive: float, seed: int,
+                min_std: float = 1.0) -> Mixture:
     """Gaussian mixture (components by BIC) fitted to points ``u`` of the standard normal
     space, with a defensive standard normal component; with fewer than ``2 (d + 1)`` points
-    one component at their mean with the unit covariance."""
+    one component at their mean with the unit covariance.
+
+    Every component's covariance has its eigenvalues kept in ``[min_std^2, 9]``. A component
+    narrower than the failure set it stands for starves its edges, and one narrower than the
+    standard normal along the direction towards the origin gives weights ``phi / q`` that grow
+    without bound behind its mean (heavy-tailed weights); ``min_std = 1`` bounds that growth.
+    """
     from sklearn.mixture import GaussianMixture
     from threadpoolctl import threadpool_limits
 
@@ -108,10 +122,8 @@ def fit_mixture(u: np.ndarray, max_components: int, defensive: float, seed: int)
                 best, best_bic = gm, bic
     covs = best.covariances_ if kinds == "full" else np.array([np.diag(c) for c in
                                                                 best.covariances_])
-    # a component narrower than the failure set it stands for starves its edges: widen the
-    # smallest axes to at least 0.3 (standard normal units)
     val, vec = np.linalg.eigh(covs)
-    covs = np.einsum("kij,kj,klj->kil", vec, np.clip(val, 0.3**2, 9.0), vec)
+    covs = np.einsum("kij,kj,klj->kil", vec, np.clip(val, min_std**2, 9.0), vec)
     return Mixture(best.means_, covs, best.weights_, defensive)
 
 
@@ -146,12 +158,13 @@ def run_mfis(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
     t_lf = time.perf_counter() - t0
     reasons: list[Reason] = []
     fail_u = walk.failing() if walk.levels else np.empty((0, ev.dim))
+    fit_u = fail_u if s["fit_to"] == "failing" else walk.u[np.isfinite(walk.g)]
     if fail_u.shape[0] == 0:
         mix = Mixture(np.zeros((1, ev.dim)), np.eye(ev.dim)[None], np.ones(1), 1.0 - 1e-12)
         reasons.append((8, "the low-fidelity model found no failure: the expensive model is "
                         "sampled by crude Monte Carlo (the defensive component alone)"))
     else:
-        mix = fit_mixture(fail_u, s["max_components"], s["defensive"], seed)
+        mix = fit_mixture(fit_u, s["max_components"], s["defensive"], seed, s["min_std"])
     est = sample_until(ev, mix, s, confidence, np.random.SeedSequence([seed, 31]), "mfis")
     return _report(ev, s, seed, confidence, est, mix, walk, ev_lf, reasons, t0, t_lf)
 
