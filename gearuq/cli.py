@@ -65,9 +65,17 @@ def _cmd_studies(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
+    import inspect
+
     from gearuq import registry
 
-    return int(registry.get_study(args.name)(out=args.out or f"gearuq_{args.name}") or 0)
+    study = registry.get_study(args.name)
+    kwargs: dict[str, object] = {"out": args.out or f"gearuq_{args.name}"}
+    if args.quick:
+        if "quick" not in inspect.signature(study).parameters:
+            raise ValueError(f"study {args.name!r} has no quick mode; run it without --quick")
+        kwargs["quick"] = True
+    return int(study(**kwargs) or 0)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
@@ -228,6 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run a study registered under 'gearuq.studies'.")
     p.add_argument("name", help="study name (see `gearuq studies`)")
     p.add_argument("--out", default=None, help="output folder (default: gearuq_<name>)")
+    p.add_argument("--quick", action="store_true",
+                   help="a quick version of the study (smaller questions, fewer runs)")
     p.set_defaults(func=_cmd_study)
 
     p = sub.add_parser("compile", help="compile the models' kernels once (numba cache)",

@@ -416,6 +416,29 @@ class Model:
         """Model construction options, recorded as provenance (override in subclasses)."""
         return {}
 
+    #: Parameters whose nominal values :meth:`with_nominal` changed (name -> value).
+    nominal_overrides: Mapping[str, float] = {}
+
+    def with_nominal(self, **values: float) -> Model:
+        """A copy of this model whose listed parameters have other nominal values.
+
+        The nominal value is what every engine uses for a parameter outside the parameter
+        space: ``rotor.with_nominal(iso_grade=6)`` is the rotor at ISO grade 6 for studies
+        whose space leaves the grade out. Values are validated like samples (name, range,
+        whole numbers); the overrides enter the model's store fingerprint and provenance
+        (``nominal_overrides``), so a store of the original model is never reused for them.
+        """
+        import copy
+        from dataclasses import replace
+
+        checked = self.validate_params({k: [v] for k, v in values.items()})
+        new = copy.copy(self)
+        new.parameters = tuple(replace(p, nominal=float(checked[p.name][0]))
+                               if p.name in values else p for p in self.parameters)
+        new.nominal_overrides = {**self.nominal_overrides,
+                                 **{k: float(checked[k][0]) for k in values}}
+        return new
+
     def default_space(self) -> Any:
         """The model's documented default random inputs (a ParameterSpace), or ``None``."""
         return None

@@ -1,6 +1,6 @@
-"""The question seed 002 leaves open: how likely is a geared rotor to vibrate too much?
+"""The question Yuan et al. (2020) leaves open: how likely is a geared rotor to vibrate too much?
 
-Seed 002 shows one realisation of the random cumulative pitch deviations. Here the pitch
+Yuan et al. (2020) shows one realisation of the random cumulative pitch deviations. Here the pitch
 deviations are random (ISO 1328-1 flank tolerance class as the input: amplitude F_pT/2,
 scatter f_pT/(3 sqrt 2) per gear, a new realisation per sample), together with the torque
 (uniform 800-1200 N m), the bearing stiffness (lognormal, median 5e8 N/m, 20 %) and the modal

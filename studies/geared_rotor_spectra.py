@@ -1,4 +1,5 @@
-"""Seed 002 Figs. 11-12 and 15-16 analogs: DTE and bearing-acceleration spectra of the FE rotor.
+"""Yuan et al. (2020) Figs. 11-12 and 15-16 analogs: DTE and bearing-acceleration spectra of the
+FE rotor.
 
 - Figs. 11-12: dynamic transmission error (DTE) and the y acceleration at bearing 1 at
   4000 rpm for 200, 350, 600 and 1000 N m, random cumulative pitch deviations (sine 15 um +

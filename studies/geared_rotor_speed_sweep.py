@@ -1,4 +1,4 @@
-"""Seed 002 Fig. 17 analog: RMS DTE of the FE rotor from 25 to 8000 rpm (step 25 rpm).
+"""Yuan et al. (2020) Fig. 17 analog: RMS DTE of the FE rotor from 25 to 8000 rpm (step 25 rpm).
 
 Four amplitudes of the random cumulative pitch deviations (cases 1-4: 0, 5, 10, 15 um sine
 amplitude; the scatter scales with it, sigma = amplitude / 5, so case 1 is error-free and

@@ -1,4 +1,4 @@
-"""Seed 000 Fig. 4 analog: dynamic response of the helical pair at n = 3600 rpm, T = 2600 N m.
+"""Li, Hu and Han Fig. 4 analog: dynamic response of the helical pair at n = 3600 rpm, T = 2600 N m.
 
 Time history, velocity, phase portrait, amplitude spectrum and Poincare section (sampled once
 per mesh period after the transient) for the driving and driven gear along x, and the same

@@ -2,7 +2,7 @@
 
 The question a designer asks at a design margin: with torque, speed, transmission-error
 amplitude, mesh damping and backlash scattered as they are in service (a space far wider than
-seed 000's Table 2, whose standard deviations are 0.02 % of the means), how likely is the peak
+Li, Hu and Han's Table 2, whose standard deviations are 0.02 % of the means), how likely is the peak
 dynamic mesh force in the steady window tau in [100, 200] to reach a limit ``F``? Answered at
 three limits by subset simulation (first passage: the limit state is ``F - max_t force(t)``),
 at the lowest by AK-MCS too, and checked against crude Monte Carlo where it is affordable.

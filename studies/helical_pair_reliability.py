@@ -1,4 +1,4 @@
-"""Seed 000 Table 3 analog: Monte Carlo vibration reliability of the helical pair.
+"""Li, Hu and Han Table 3 analog: Monte Carlo vibration reliability of the helical pair.
 
 This is the study that ``gearuq demo`` runs; its code is packaged (registered as
 ``helical_pair_reliability`` under the ``gearuq.studies`` entry points) so the installed

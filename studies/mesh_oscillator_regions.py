@@ -1,4 +1,5 @@
-"""Seed 003 with the ``mesh_oscillator`` plugin: response regions, modified gears, speed
+"""Eritenel and Parker (2013) with the ``mesh_oscillator`` plugin: response regions, modified
+gears, speed
 against error, and a reliability use of the cheap model.
 
 Writes PNG + netCDF into ``studies/output/mesh_oscillator_regions/`` and prints a summary:
@@ -13,7 +14,7 @@ Writes PNG + netCDF into ``studies/output/mesh_oscillator_regions/`` and prints 
 3. ``speed_error.md`` - a 500-point frequency response by the second-order perturbation
    against numerical sweeps: time and amplitude error per region
    (``gearuq_plugins.mesh_oscillator.bench``).
-4. ``reliability.png`` - probability that the resonant DTE amplitude of the seed-002
+4. ``reliability.png`` - probability that the resonant DTE amplitude of Yuan, Liu and Liu (2020)
    helical pair exceeds a limit under random damping, torque and tip-relief amount (Monte
    Carlo on the perturbation model), checked on a subsample against numerical sweeps.
 
@@ -45,7 +46,8 @@ REGION_COLOURS = {1: "#4daf4a", 2: "#377eb8", 3: "#ff7f00", 4: "#e41a1c"}
 
 
 def example_spur_pair() -> HelicalGearPair:
-    """Unity-ratio spur pair of our choice (seed 003 Tables 2-4 are lost): z 50/50, module
+    """Unity-ratio spur pair of our choice (Eritenel and Parker (2013) Tables 2-4 are lost): z
+    50/50, module
     3 mm, 20 deg, face width 20 mm, standard rack."""
     return HelicalGearPair(mn=3e-3, z1=50, z2=50, alpha_n=math.radians(20.0), beta=0.0,
                            b1=20e-3, b2=20e-3)
@@ -218,7 +220,7 @@ def gear_comparison(quick: bool) -> dict:
 
 # ------------------------------------------------------------------------------ 4 reliability
 def _relief_model(quick: bool):
-    """mesh_oscillator of the seed-002 helical pair with a tip-relief family (0-20 um)."""
+    """mesh_oscillator of Yuan, Liu and Liu's helical pair with a tip-relief family (0-20 um)."""
     from gearuq.gears.geometry import seed002_pair
     from gearuq_plugins.mesh_oscillator import MeshOscillator, TableFamily
 
@@ -243,7 +245,7 @@ def _peaks(ds: xr.Dataset) -> dict[str, np.ndarray]:
 
 
 def reliability(quick: bool) -> dict:
-    """P(resonant DTE amplitude > limit) of the seed-002 helical pair under random damping,
+    """P(resonant DTE amplitude > limit) of Yuan, Liu and Liu's helical pair under random damping,
     torque and tip relief; two questions: the peak met on a run-up (upward sweep) and the
     largest amplitude on either sweep. Checked on a subsample by numerical sweeps."""
     import chaospy as cp
@@ -360,7 +362,7 @@ def main(argv: list[str] | None = None) -> int:
         a = res["alpha01"]
         print(f"  {name:18s} alpha01 {a[0]:.4f} ({res['torque'][0]:.0f} N m) -> {a[-1]:.4f} "
               f"({res['torque'][-1]:.0f} N m), max/min {a.max() / a.min():.2f}")
-    print("\n== reliability (seed-002 helical pair, 300 N m, random relief)")
+    print("\n== reliability (Yuan, Liu and Liu's helical pair, 300 N m, random relief)")
     print(f"  {rel['n']} perturbation samples in {rel['wall']:.1f} s ({rel['n_invalid']} "
           f"flagged invalid); check: {rel['n_check_ok']} of {rel['m']} samples integrated "
           f"in {rel['wall_check']:.1f} s")

@@ -1,17 +1,18 @@
-"""Model only what the scene needs: DTE amplitude near primary resonance, seed-000 pair.
+"""Model only what the scene needs: DTE amplitude near primary resonance, Li, Hu and Han's pair.
 
 One question: the amplitude of the dynamic transmission error (fundamental at the mesh
-frequency) against mesh frequency near primary resonance, for the seed-000 helical pair at
+frequency) against mesh frequency near primary resonance, for Li, Hu and Han's helical pair at
 its nominal load (2600 N m). Answered side by side by
 
-- ``mesh_oscillator`` (SDOF, seed 003): second-order perturbation and numerical sweeps, with
+- ``mesh_oscillator`` (SDOF, Eritenel and Parker (2013)): second-order perturbation and numerical
+sweeps, with
   the force-deflection function from ISO 6336 (the mesh law of ``helical_pair``:
   ``k_m (1 + s cos) `` with the error ``e_a sin`` and the half backlash as the unloaded
   transmission error) or from the LTCA of the pair (plus the same error);
-- ``helical_pair`` (10 DOF, seed 000): time integration at each speed.
+- ``helical_pair`` (10 DOF, Li, Hu and Han): time integration at each speed.
 
-The SDOF needs an equivalent mass. Seed 003 assumes rigid bearings (torsional mass
-``m_e / n_y^2`` along the normal line of action); the seed-000 supports are soft next to the
+The SDOF needs an equivalent mass. Eritenel and Parker (2013) assume rigid bearings (torsional mass
+``m_e / n_y^2`` along the normal line of action); Li, Hu and Han's supports are soft next to the
 mesh (``k_r = 6e6`` vs ``k_m = 1.4e9 N/m``), so the mesh mode also moves the gear bodies:
 ``1 / m = sum_i (d delta / d q_i)^2 / M_i`` over every DOF (supports free). Both are shown.
 
@@ -45,7 +46,7 @@ OUT = Path(__file__).resolve().parent / "output" / "model_fidelity"
 
 
 def pair_data() -> dict:
-    """Mesh stiffness, masses and mean mesh force of the seed-000 pair (helical_pair's own
+    """Mesh stiffness, masses and mean mesh force of Li, Hu and Han's pair (helical_pair's own
     numbers, so that both models describe the same pair)."""
     hp = gearuq.get_model("helical_pair")
     nom = hp.nominal()
@@ -67,7 +68,7 @@ def pair_data() -> dict:
 
 
 def forces(data: dict, e_a: float, quick: bool):
-    """ISO and LTCA force-deflection functions with the seed-000 error ``e_a sin``."""
+    """ISO and LTCA force-deflection functions with Li, Hu and Han's error ``e_a sin``."""
     from gearuq.gears.ltca import force_deflection
     from gearuq_plugins.mesh_oscillator import LoadDeflectionTable, Periodic, SegmentForce
 
@@ -191,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
                       "peak_Hz": float(f_mesh[np.argmax(h_amp)]),
                       "status": int(np.max(h_status)), "max_separation": float("nan")})
         store[f"helical_pair e_a={e_a * 1e6:.1f}um"] = h_amp * 1e6
-        ax.set_title(f"seed-000 pair, T = {data['T']:.0f} N m, error amplitude e_a = "
+        ax.set_title(f"Li, Hu and Han's pair, T = {data['T']:.0f} N m, error amplitude e_a = "
                      f"{e_a * 1e6:.1f} um", fontsize=10)
         ax.set_xlabel("mesh frequency [Hz]")
         ax.set_ylabel("DTE amplitude at the mesh frequency [um]")

@@ -1,4 +1,5 @@
-"""Seed 002 Figs. 8, 9, 10, 14 analogs: LTCA of the 30/30 helical pair with random pitch errors.
+"""Yuan et al. (2020) Figs. 8, 9, 10, 14 analogs: LTCA of the 30/30 helical pair with random pitch
+errors.
 
 - Fig. 8: random cumulative pitch deviations (sine 15 um + N(0, 3 um)) and pitch deviations
   of pinion and wheel.
@@ -328,7 +329,7 @@ def summary(pair, comp, runs, rmap, iso, sens, both, worst, tau_face, peak_loads
     perfect = ltca(pair, torque=1000.0, compliance=comp)
     km = float(perfect["lpms"].mean())
     cb2 = math.cos(pair.beta_b) ** 2
-    print(f"seed 002 pair: eps_alpha {pair.eps_alpha:.4f}, eps_beta {pair.eps_beta:.4f}; "
+    print(f"Yuan et al.'s pair: eps_alpha {pair.eps_alpha:.4f}, eps_beta {pair.eps_beta:.4f}; "
           f"coupling length {comp.coupling_length * 1e3:.2f} mm "
           f"({comp.coupling_length / pair.mn:.2f} mn); LTCA {t_run:.2f} s per load "
           f"(720 positions x 20 points)")

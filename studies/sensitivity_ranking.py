@@ -1,4 +1,4 @@
-"""Which of seed 000's six Table 2 parameters drives the helical pair's vibration?
+"""Which of Li, Hu and Han's six Table 2 parameters drives the helical pair's vibration?
 
 Ranks B1, B2, b5, rho, s, n by first-order (S1) and total (ST) Sobol' indices for each DOF's
 vibration ``v_i = p_i - p_i,static`` (the response of the reliability study, ``gearuq demo``)
@@ -99,7 +99,7 @@ def main(out: Path, n_base: int, quick: bool, seed: int = 2024) -> int:
 
     # ---------------------------------------------------------------- table
     lines = [
-        "# Sensitivity ranking of the seed 000 Table 2 parameters",
+        "# Sensitivity ranking of Li, Hu and Han Table 2 parameters",
         "",
         "Response: v_i(tau = 200) = p_i - static p_i (the reliability study's quantity).",
         f"Sobol' MC: SALib Saltelli, N = {n_base}, {mc.attrs['n_model_evaluations']} runs, "

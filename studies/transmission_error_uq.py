@@ -1,6 +1,7 @@
-"""Uncertainty of the transmission error of the seed-002 pair under random pitch deviations.
+"""Uncertainty of the transmission error of Yuan, Liu and Liu's pair under random pitch deviations.
 
-Seed 002 shows one realisation of random cumulative pitch deviations (sine 15 um + N(0, 3 um)
+Yuan et al. (2020) shows one realisation of random cumulative pitch deviations (sine 15 um + N(0,
+3 um)
 per gear). This study asks what the realisations do as a population, with the
 ``mesh_excitation`` plugin (one long-period LTCA per sample):
 
@@ -12,7 +13,7 @@ per gear). This study asks what the realisations do as a population, with the
    and its largest shaft-order sideband at 200, 350, 600 and 1000 N m, for the unmodified
    flank, the error-free optimum relief and the relief that is best on average.
 3. Probability that the STE peak-to-peak exceeds a limit: the ISO 1328-1:2013 total cumulative
-   pitch tolerance F_pT of flank tolerance class 7 of one seed-002 gear, in the normal
+   pitch tolerance F_pT of flank tolerance class 7 of one Yuan, Liu and Liu's gear, in the normal
    direction (43.2 um), with Wilson intervals.
 4. Sobol indices (Jansen, bootstrap intervals) of tip-relief amount, tip-relief length,
    torque and pitch scatter sigma, with the realisation as a fifth input ``pitch_seed``

@@ -77,7 +77,7 @@ def test_rms_and_spectrum_agree_with_the_time_signal(model):
 
 
 def test_tip_relief_lowers_the_mesh_harmonic(model):
-    """Seed 002 Sec. 3.2: relief reduces the mesh-frequency DTE (no pitch deviations)."""
+    """Yuan et al. (2020) Sec. 3.2: relief reduces the mesh-frequency DTE (no pitch deviations)."""
     base = {"pitch_amplitude": [0.0, 0.0], "pitch_sigma": [0.0, 0.0], "speed": [2000.0] * 2,
             "tip_relief_amount": [0.0, 42.0]}
     opts = {**COARSE, "positions_per_cycle": 16, "n_pts": 10}

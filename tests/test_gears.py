@@ -269,7 +269,7 @@ def test_seed_pairs_stiffness():
     s0 = seed000_pair()
     std = mesh_stiffness(s0)
     seed = mesh_stiffness(s0, use_virtual_teeth=False)
-    # hand: seed 000 Eq. (7)-(9) with z, C_M 0.8, C_R 1, C_B = 0.975*1.1, x = 0
+    # hand: Li, Hu and Han Eq. (7)-(9) with z, C_M 0.8, C_R 1, C_B = 0.975*1.1, x = 0
     q_seed = 0.04723 + 0.15551 / 34 + 0.25791 / 84
     km_seed = (0.75 * s0.eps_alpha + 0.25) * 0.8 * 1.0 * 1.0725 * math.cos(17 * DEG) / q_seed
     assert seed.q_prime == pytest.approx(q_seed, rel=1e-14)

@@ -1,4 +1,5 @@
-"""Tests of the LTCA (issue 5): contact lines, compliance, deviations, solver, seed 002 trends."""
+"""Tests of the LTCA (issue 5): contact lines, compliance, deviations, solver, and the trends of
+Yuan et al. (2020)."""
 
 from __future__ import annotations
 
@@ -156,7 +157,7 @@ def test_discretisation_convergence_order(pair, comp, random_dev):
     assert min(order) > 1.5  # observed ~2 (midpoint rule on smooth kernels)
 
 
-# ------------------------------------------------------------------ seed 002 trends
+# ------------------------------------------------------------------ Yuan, Liu and Liu's trends
 def test_seed_trends(seed_runs):
     loss = {T: r["partial_contact_loss"].groupby("mesh_cycle").any().values
             for T, r in seed_runs.items()}
@@ -269,7 +270,7 @@ def test_bad_input(pair):
 def _iso_ratio(pair, **compliance_options):
     """LTCA mean mesh stiffness (transverse convention) over ISO 6336-1 c_gamma_alpha b.
 
-    Load: 300 N/mm transverse base-circle force per face width (seed-002 pair at 1000 N m:
+    Load: 300 N/mm transverse base-circle force per face width (Yuan et al.'s pair at 1000 N m:
     282 N/mm), two mesh cycles.
     """
     comp = ComplianceModel(pair, **compliance_options)
@@ -281,7 +282,7 @@ def _iso_ratio(pair, **compliance_options):
 
 
 def test_beam_starts_at_root_circle_when_root_above_base():
-    # 60/60 with the seed-002 data: root circle 5 mm (radius) above the base circle
+    # 60/60 with Yuan, Liu and Liu's data: root circle 5 mm (radius) above the base circle
     big = HelicalGearPair(mn=6e-3, z1=60, z2=60, alpha_n=20 * DEG, beta=18 * DEG, b1=0.04,
                           b2=0.04)
     assert big.df1 / 2 - big.db1 / 2 == pytest.approx(5.0e-3, rel=1e-3)

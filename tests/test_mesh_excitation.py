@@ -91,7 +91,7 @@ def test_pitch_seed_reproduces_the_realisation(model):
     largest = sample_deviations(pair, values, "largest", "seeded")
     assert np.abs(largest.Fp1).max() == pytest.approx(15e-6, rel=1e-12)
     assert np.abs(dev.Fp1).max() > 15e-6  # the sine reading exceeds it
-    # ISO 1328 grade 5 on the seed-002 pair: sine amplitude F_pT / 2
+    # ISO 1328 grade 5 on Yuan, Liu and Liu's pair: sine amplitude F_pT / 2
     iso = sample_deviations(pair, {**values, "iso_grade": 5, "pitch_sigma": 0.0}, "sine", "seeded")
     d_mm = pair.d1 * 1e3
     F_pT = (0.002 * d_mm + 0.55 * math.sqrt(d_mm) + 0.7 * 6.0 + 12.0) * 1e-6

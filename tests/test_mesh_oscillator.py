@@ -1,4 +1,5 @@
-"""mesh_oscillator (seed 003): contract, inputs, force-deflection functions and expansion.
+"""mesh_oscillator (Eritenel and Parker (2013)): contract, inputs, force-deflection functions and
+expansion.
 
 Oracles: closed-form Taylor coefficients of Hertzian contact, the mean deflection of a linear
 mesh with periodic stiffness, the LTCA's own force interpolation
@@ -234,7 +235,7 @@ def test_family_interpolates_between_members():
 
 
 def test_ltca_force_deflection_source():
-    """The LTCA of the seed-002 pair over one mesh cycle: a valid monotone table whose mean
+    """The LTCA of Yuan, Liu and Liu's pair over one mesh cycle: a valid monotone table whose mean
     tangent stiffness is the LTCA's mean tangent mesh stiffness at the mean load."""
     from gearuq.gears.geometry import seed002_pair
 

@@ -133,3 +133,22 @@ def test_cli_bench_surrogate_quick(tmp_path, monkeypatch):
                         lambda out, quick=False: seen.update(out=str(out), quick=quick) or {})
     assert cli.main(["bench", "surrogate", "--quick", "--out", str(tmp_path)]) == 0
     assert seen == {"out": str(tmp_path), "quick": True}
+
+
+def test_with_nominal_changes_what_engines_use_outside_the_space():
+    """A copy with another nominal value: samples outside the space take it, the original is
+    untouched, the fingerprint and provenance tell them apart, bad values are refused."""
+    from gearuq.execution import model_fingerprint
+
+    base = gearuq.FunctionModel(lambda a, b: a + 10.0 * b, ["a", "b"], ["y"], name="sum")
+    fixed = base.with_nominal(b=2.0)
+    x = {"a": np.array([0.0, 1.0])}
+    np.testing.assert_allclose(fixed.response(x)["y"].values, [20.0, 21.0])
+    np.testing.assert_allclose(base.response(x)["y"].values, [base.nominal()["b"] * 10.0,
+                                                             1.0 + base.nominal()["b"] * 10.0])
+    assert model_fingerprint(fixed) != model_fingerprint(base)
+    ds = gearuq.monte_carlo(fixed, gearuq.ParameterSpace.normal(a=(0.0, 1.0)), n_samples=4,
+                            rng=1)
+    assert '"b": 2.0' in ds.attrs["model_nominal_overrides"]
+    with pytest.raises(ValueError, match="unknown parameter"):
+        base.with_nominal(c=1.0)

@@ -114,6 +114,7 @@ def provenance(engine: str, model: Model, request: Request | None, space: Parame
     """Provenance attributes shared by every engine's result.
 
     Keys: ``gearuq_version``, ``engine``, ``model``, ``model_version``, ``model_settings``,
+    ``model_nominal_overrides`` (JSON, :meth:`~gearuq.model.Model.with_nominal`),
     ``outputs``, ``options`` (JSON), ``space`` (JSON), ``seed``, ``created`` (UTC ISO 8601)
     and the engine's own ``settings`` (each as its own key; dicts as JSON).
     """
@@ -123,6 +124,7 @@ def provenance(engine: str, model: Model, request: Request | None, space: Parame
         "model": model.name,
         "model_version": str(model.version),
         "model_settings": json.dumps(model.settings(), sort_keys=True, default=repr),
+        "model_nominal_overrides": json.dumps(dict(model.nominal_overrides), sort_keys=True),
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
     if request is not None:

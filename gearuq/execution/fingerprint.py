@@ -140,6 +140,8 @@ def model_fingerprint(model: Any) -> dict[str, Any]:
         "distribution_version": dist_version,
         "source": source_digest(cls),
     }
+    if getattr(model, "nominal_overrides", None):
+        fp["nominal_overrides"] = dict(sorted(model.nominal_overrides.items()))
     if isinstance(model, FunctionModel):
         fp["function"] = function_digest(model.fn)
         fp["function_name"] = getattr(model.fn, "__qualname__", repr(model.fn))

@@ -284,7 +284,7 @@ class ComplianceModel:
     coupling_length : float or None
         Decay length ``lam`` of the face-width kernel [m]; ``None``: calibrated on the
         cantilever plate, :func:`gearuq.gears.face_coupling.plate_coupling_length`
-        (1.85 ``mn`` for the seed-002 pair; versions before 0.2 used ``1.0 mn``).
+        (1.85 ``mn`` for Yuan, Liu and Liu's pair; versions before 0.2 used ``1.0 mn``).
     hertz : bool
         Include Weber's nonlinear contact approach.
     E, nu : float

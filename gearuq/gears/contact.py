@@ -36,7 +36,7 @@ __all__ = ["ContactGrid", "MeshKinematics", "contact_grid", "long_period_cycles"
 def long_period_cycles(pair: HelicalGearPair) -> int:
     """Return the number of mesh cycles after which the tooth pairing repeats.
 
-    ``lcm(z1, z2)``: 30 for the 30/30 pair of seed 002.
+    ``lcm(z1, z2)``: 30 for the 30/30 pair of Yuan, Liu and Liu (2020).
     """
     return math.lcm(int(pair.z1), int(pair.z2))
 

@@ -5,12 +5,12 @@ from the mate), i.e. it *adds* initial clearance ``xi`` at the contact points. A
 measured as ISO 1328 / ISO 21771 measure them and converted to the normal of the flank at
 the contact (the direction of the LTCA compatibility equation):
 
-- cumulative pitch deviations ``F_pk`` [m], tangential on the reference circle (seed 002,
+- cumulative pitch deviations ``F_pk`` [m], tangential on the reference circle (Yuan et al. (2020),
   Eq. 2): ``xi = F_pk cos(alpha_t) cos(beta_b)``;
 - profile (tip/root) relief and lead crowning, measured in the transverse plane along the
   base tangent (the line of action): ``xi = C cos(beta_b)``.
 
-The parabolic tip relief of seed 002 (Eq. 12) is written in the POA coordinate ``s``; see
+The parabolic tip relief of Yuan et al. (2020) (Eq. 12) is written in the POA coordinate ``s``; see
 ``docs/theory/ltca.md``.
 """
 
@@ -89,7 +89,7 @@ def cumulative_pitch_from_germ(
     sigma: float,
     amplitude_reading: str = "sine",
 ) -> np.ndarray:
-    """Cumulative pitch deviations from their random germ (seed 002, Sec. 3) [m].
+    """Cumulative pitch deviations from their random germ (Yuan, Liu and Liu (2020), Sec. 3) [m].
 
     ``F_p,k = A sin(2 pi k / z + phase) + sigma (n_k - n_0)`` with ``n_k`` standard normal.
     The germ ``(phase, normals)`` is the realisation; ``amplitude`` and ``sigma`` only scale
@@ -310,7 +310,8 @@ def random_cumulative_pitch_deviations(
     mn: float | None = None,
     amplitude_reading: str = "sine",
 ) -> np.ndarray:
-    """Return random cumulative pitch deviations ``F_p,k``, k = 0..z-1 [m] (seed 002, Sec. 3).
+    """Return random cumulative pitch deviations ``F_p,k``, k = 0..z-1 [m] (Yuan et al. (2020),
+    Sec. 3).
 
     ``F_p,k = A sin(2 pi k / z + phase) + e_k - e_0``, ``e_k ~ N(0, sigma^2)`` i.i.d.:
     a once-per-revolution sine (run-out-like) plus normal scatter; tooth 0 is the reference
@@ -322,7 +323,8 @@ def random_cumulative_pitch_deviations(
     z : int
         Number of teeth (>= 5).
     amplitude, sigma : float, optional
-        The seed's amplitude and the scatter standard deviation [m] (seed 002: 15 um, 3 um).
+        The sine amplitude and the scatter standard deviation [m] (Yuan et al. (2020): 15 um,
+        3 um).
     phase : float or None, optional
         Sine phase [rad]; ``None`` draws it uniformly from the generator.
     seed : int, Generator or None, optional
@@ -404,7 +406,7 @@ class FlankDeviations:
 
     @classmethod
     def symmetric_tip_relief(cls, amount: float, length: float, **kw: object) -> FlankDeviations:
-        """Seed 002 Eq. 12: the same parabolic tip relief on pinion and wheel."""
+        """Yuan, Liu and Liu (2020) Eq. 12: the same parabolic tip relief on pinion and wheel."""
         return cls(tip_relief1=(amount, length), tip_relief2=(amount, length), **kw)
 
     @property

@@ -22,7 +22,7 @@ integral over ``y`` is the beam value ``W_0(h) = h^3 / (3 D)``, so
 ``W_eff = W_0(h) / w(h, 0)``; it depends on ``h / H`` and ``nu`` only (``D`` cancels). For a
 tip load ``W_eff = 2.00 H``, for a load at mid height ``1.65 H``. The LTCA uses one kernel per
 pair: ``lam = mean(W_eff) / 2`` over the load heights of the active flanks of both gears
-(:func:`plate_coupling_length`), 1.85 ``m_n`` for the seed-002 pair. Why a thin plate, and what
+(:func:`plate_coupling_length`), 1.85 ``m_n`` for Yuan et al.'s pair. Why a thin plate, and what
 it leaves out, is discussed in ``docs/theory/ltca.md``.
 """
 
@@ -165,7 +165,7 @@ def plate_coupling_length(pair: HelicalGearPair, *, nu: float = 0.3, n_heights: 
     Returns
     -------
     float
-        ``lam`` in metres (seed-002 pair: 11.1 mm = 1.85 ``m_n``).
+        ``lam`` in metres (Yuan, Liu and Liu's pair: 11.1 mm = 1.85 ``m_n``).
     """
     ratios, table = _effective_width_table(float(nu))
     t1t2 = pair.centre_distance * math.sin(pair.alpha_wt)

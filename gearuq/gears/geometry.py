@@ -531,7 +531,7 @@ class HelicalGearPair:
 
 # ---------------------------------------------------------------------- built-in examples
 def seed000_pair() -> HelicalGearPair:
-    """Return the helical pair of seed 000, Table 1.
+    """Return the helical pair of Li, Hu and Han, Table 1.
 
     z 34/84, mn 6 mm, beta 17 deg, alpha_n 25 deg (as Table 1 prints it), b1 = b2 = 70 mm,
     x1 = x2 = 0, ISO 53 A basic rack (the seed gives no rack: ha* 1, hf* 1.25, rho* 0.38
@@ -549,7 +549,7 @@ def seed000_pair() -> HelicalGearPair:
 
 
 def seed002_pair() -> HelicalGearPair:
-    """Return the helical pair of seed 002, Table 1.
+    """Return the helical pair of Yuan, Liu and Liu (2020), Table 1.
 
     z 30/30, mn 6 mm, alpha_n 20 deg, beta 18 deg (the seed's +-18 is the hand of the two
     gears), b 40 mm, ha* 1, c* 0.25 (hf* 1.25), x = 0; rho_f* 0.38 assumed (not given).

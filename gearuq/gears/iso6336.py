@@ -53,7 +53,7 @@ def single_stiffness_coefficient_q(zn1: float, zn2: float, x1: float, x2: float)
     ----------
     zn1, zn2 : float
         Virtual numbers of teeth of pinion and wheel, ``z / (cos^2(beta_b) cos(beta))``
-        (pass ``z`` itself to reproduce the seed 000 form). External gears only: for an
+        (pass ``z`` itself to reproduce Li, Hu and Han's form). External gears only: for an
         internal wheel the standard sets ``zn2 = inf`` (not implemented here).
     x1, x2 : float
         Profile shift coefficients. The regression is stated for ``x1 >= x2`` and
@@ -205,7 +205,8 @@ class MeshStiffness:
     face_width_mm : float
         Face width used [mm].
     use_virtual_teeth : bool
-        True: ``q'`` from the virtual numbers of teeth (standard); False: from ``z`` (seed 000).
+        True: ``q'`` from the virtual numbers of teeth (standard); False: from ``z`` (Li, Hu and
+        Han).
     """
 
     q_prime: float
@@ -254,7 +255,7 @@ def mesh_stiffness(
         ``F_t K_A / b`` in N/mm for the light-load correction (< 100 N/mm); ``None``: none.
     use_virtual_teeth : bool, optional
         True (default, ISO 6336-1): ``q'`` from ``zn = z / (cos^2(beta_b) cos(beta))``.
-        False: ``q'`` from the actual ``z``, the form printed in seed 000 (Eq. 9).
+        False: ``q'`` from the actual ``z``, the form printed in Li, Hu and Han (Eq. 9).
 
     Returns
     -------

@@ -1,6 +1,6 @@
-"""Loaded tooth contact analysis (LTCA) of a helical pair over the long period (seed 002).
+"""Loaded tooth contact analysis (LTCA) of a helical pair over the long period (Yuan et al. (2020)).
 
-For each mesh position the contact problem of seed 002, Eq. 3, is solved exactly::
+For each mesh position the contact problem of Yuan, Liu and Liu (2020), Eq. 3, is solved exactly::
 
     g = xi + D F + chi(F) - STE >= 0,   F >= 0,   F_i g_i = 0,   sum F = P
 

@@ -1,6 +1,6 @@
 """Compiled core of the LTCA: block active-set solver with a Newton loop on the contact law.
 
-Per mesh position the contact problem (seed 002, Eq. 3) is::
+Per mesh position the contact problem (Yuan, Liu and Liu (2020), Eq. 3) is::
 
     g = xi + D F + chi(F) - delta >= 0,   F >= 0,   F_i g_i = 0,   sum F = P
 

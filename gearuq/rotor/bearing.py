@@ -1,6 +1,7 @@
 """Bearing element: constant stiffness and damping between a shaft node and the ground.
 
-Seed 002 (Sec. 2.2.1) argues for constant bearing stiffness (the variation with the number of
+Yuan et al. (2020) (Sec. 2.2.1) argues for constant bearing stiffness (the variation with the
+number of
 loaded rolling elements is neglected); its values are not printed. The values used by the
 built-in rotor and their sources are in docs/theory/geared_rotor.md.
 """

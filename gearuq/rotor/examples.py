@@ -44,7 +44,7 @@ def friswell_example(n_elements: int = 6, *, bearing_stiffness: float = 1e6,
 #: Through-hardened gear steel (E 206 GPa, nu 0.3 as in the LTCA compliance; rho 7850).
 gear_steel = Material("gear steel", E=206e9, G=206e9 / 2.6, rho=7850.0)
 
-#: Seed 002, Sec. 2.2: shaft sections (length, outer diameter) [m], shaft 1 left to right.
+#: Yuan et al. (2020), Sec. 2.2: shaft sections (length, outer diameter) [m], shaft 1 left to right.
 SEED002_SECTIONS = ((0.100, 0.070), (0.110, 0.090), (0.220, 0.110), (0.110, 0.090),
                     (0.060, 0.070))
 
@@ -90,7 +90,7 @@ def seed002_rotor(
     drive_inertia: float | None = None,
     load_inertia: float | None = None,
 ) -> Rotor:
-    """The helical geared rotor of seed 002 (Sec. 2.2, Table 1, Fig. 5).
+    """The helical geared rotor of Yuan, Liu and Liu (2020) (Sec. 2.2, Table 1, Fig. 5).
 
     Two solid shafts of five sections (diameters 70, 90, 110, 90, 70 mm; lengths
     100/110/220/110/60 mm and the mirror image), 13 Timoshenko elements each, the 30/30 pair
@@ -169,4 +169,4 @@ def seed002_rotor(
     tags = {"input": shaft1.first_node, "output": shaft2.last_node, "pinion": pinion,
             "gear": gear} | {b.label: b.node for b in bearings}
     return Rotor(shaft1.elements() + shaft2.elements() + disks + bearings + [mesh],
-                 shafts=[shaft1, shaft2], name="seed 002 helical geared rotor", tags=tags)
+                 shafts=[shaft1, shaft2], name="Yuan et al.'s helical geared rotor", tags=tags)

@@ -1,4 +1,4 @@
-"""12-DOF helical gear mesh element along the normal line of action (seed 002, Eqs. 6-10).
+"""12-DOF helical gear mesh element along the normal line of action (Yuan et al. (2020), Eqs. 6-10).
 
 The mesh couples the pinion node ``p`` and the gear node ``g`` through one scalar, the
 approach of the flanks along the normal line of action (the mesh deflection)::

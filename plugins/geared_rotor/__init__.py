@@ -3,7 +3,7 @@
 Yuan, Liu and Liu, "Quasi-static characteristics and vibration responses analysis of helical
 geared rotor system with random cumulative pitch deviations", Applied Sciences 10 (2020), part 2.
 
-The rotor of seed 002 (Sec. 2.2): two stepped Timoshenko shafts of 13 elements, the 30/30
+The rotor of Yuan et al. (2020) (Sec. 2.2): two stepped Timoshenko shafts of 13 elements, the 30/30
 helical pair on rigid gear bodies, four rolling-element bearings and the 12-DOF mesh element
 along the normal line of action. Each sample runs the loaded tooth contact analysis of
 ``gearuq.gears`` at its torque, with its tip relief and its realisation of the random
@@ -36,15 +36,16 @@ _S, _ST, _SO, _SBT = ("sample",), ("sample", "time"), ("sample", "order"), (
 
 _P = Parameter
 _PARAMETERS = (
-    _P("torque", "N m", 1000.0, 10.0, 5000.0, "pinion torque (seed 002: 200-1000 N m)"),
+    _P("torque", "N m", 1000.0, 10.0, 5000.0, "pinion torque (Yuan et al. (2020): 200-1000 N m)"),
     _P("speed", "rpm", 4000.0, 1.0, 20000.0,
-       "pinion speed (seed 002: 4000 rpm in Figs. 11-16, 25-8000 rpm in Fig. 17)"),
+       "pinion speed (Yuan, Liu and Liu (2020): 4000 rpm in Figs. 11-16, 25-8000 rpm in Fig. 17)"),
     _P("pitch_amplitude", "um", 15.0, 0.0, 200.0,
-       "sine amplitude of the random cumulative pitch deviations (seed 002: 15 um); with "
+       "sine amplitude of the random cumulative pitch deviations (Yuan et al. (2020): 15 um); with "
        "the germ, the once-per-revolution coefficients have standard deviation "
        "amplitude / sqrt(2); unused when iso_grade > 0"),
     _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
-       "standard deviation of the pitch scatter (seed 002: 3 um); unused when iso_grade > 0"),
+       "standard deviation of the pitch scatter (Yuan et al. (2020): 3 um); unused when "
+       "iso_grade > 0"),
     _P("iso_grade", "1", 0, 0, 12,
        "ISO 1328-1 flank tolerance class 1-12 setting amplitude F_pT/2 and sigma "
        "f_pT/(3 sqrt 2) per gear; 0: use pitch_amplitude and pitch_sigma", integer=True),
@@ -171,7 +172,8 @@ _OPTIONS = (
 
 
 class GearedRotor(Model):
-    """Finite-element helical geared rotor of seed 002 driven by the LTCA mesh excitation.
+    """Finite-element helical geared rotor of Yuan et al. (2020), driven by the LTCA mesh
+    excitation.
 
     Parameters
     ----------

@@ -35,7 +35,7 @@ _SEAT_DIAMETER = 0.110  # gear seat of both shafts (seed Sec. 2.2): the gear-bla
 
 
 def seed_pair() -> Any:
-    """The helical pair of seed 002, Table 1."""
+    """The helical pair of Yuan, Liu and Liu (2020), Table 1."""
     from gearuq.gears.geometry import seed002_pair
 
     return seed002_pair()

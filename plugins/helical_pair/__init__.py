@@ -1,4 +1,4 @@
-"""``helical_pair``: lumped 10-DOF bend-twist-axial-swing helical gear pair (seed 000).
+"""``helical_pair``: lumped 10-DOF bend-twist-axial-swing helical gear pair (Li, Hu and Han).
 
 Each gear has five DOFs: radial x (along the line of centres), tangential y, axial z, swing
 (rocking about the tangential axis y) and torsion about its axis z. The mesh is a single
@@ -26,7 +26,7 @@ from gearuq_plugins.helical_pair.outputs import DOFS, OUTPUTS, STATUS_MEANINGS
 
 __all__ = ["HelicalPair", "DOFS", "SEED_TABLE2"]
 
-#: Seed 000 Table 2: (mean, standard deviation) of the normal random parameters.
+#: Li, Hu and Han Table 2: (mean, standard deviation) of the normal random parameters.
 SEED_TABLE2 = {
     "B1": (7e-2, 1e-3 / 3),
     "B2": (7e-2, 1e-3 / 3),
@@ -168,7 +168,7 @@ class HelicalPair(Model):
 
     @staticmethod
     def default_space():
-        """Seed 000 Table 2: six independent normal parameters (B1, B2, b5, rho, s, n)."""
+        """Li, Hu and Han Table 2: six independent normal parameters (B1, B2, b5, rho, s, n)."""
         import chaospy as cp
 
         from gearuq.space import ParameterSpace

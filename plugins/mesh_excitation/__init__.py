@@ -1,9 +1,10 @@
 """``mesh_excitation``: LTCA mesh excitations of a helical pair with random pitch deviations.
 
-The loaded tooth contact analysis of ``gearuq.gears`` (seed 002, Sec. 2.1) run as a model:
+The loaded tooth contact analysis of ``gearuq.gears`` (Yuan et al. (2020), Sec. 2.1) run as a model:
 each sample is one long period (``lcm(z1, z2)`` mesh cycles) at one torque, with the
 sample's tip/root relief, lead crowning and one realisation of the random cumulative pitch
-deviations (sine + normal scatter, seed 002 Sec. 3, or ISO 1328 tolerances). Outputs are the
+deviations (sine + normal scatter, Yuan et al. (2020) Sec. 3, or ISO 1328 tolerances). Outputs are
+the
 static transmission error, the long-period mesh stiffness (secant, seed Eq. 4, and tangent),
 the composite mesh error (seed Eq. 5), their mean and peak-to-peak values, the partial
 contact loss and the mesh-order spectrum with its shaft-order sidebands.
@@ -59,7 +60,7 @@ _OPTIONS = (
     Option("sideband_shaft", "pinion", "shaft whose orders label the sidebands",
            choices=("pinion", "wheel")),
     Option("amplitude_reading", "sine",
-           "seed 002's '15 um amplitude': sine amplitude or largest cumulative deviation "
+           "Yuan, Liu and Liu's '15 um amplitude': sine amplitude or largest cumulative deviation "
            "(pitch_model='seeded' only)",
            choices=("sine", "largest")),
     Option("pitch_model", "germ",
@@ -81,7 +82,7 @@ class MeshExcitation(Model):
     Parameters
     ----------
     pair : HelicalGearPair or None
-        The gear pair; ``None``: the seed-002 pair (30/30, m_n 6 mm, 18 deg, b 40 mm).
+        The gear pair; ``None``: Yuan, Liu and Liu's pair (30/30, m_n 6 mm, 18 deg, b 40 mm).
     coupling_length : float or None
         Face-width coupling length of the compliance [m]; ``None``: the cantilever-plate
         calibration (:func:`gearuq.gears.face_coupling.plate_coupling_length`).
@@ -141,7 +142,7 @@ class MeshExcitation(Model):
         }
 
     def default_space(self, pitch_harmonics: int | None = None) -> Any:
-        """Seed 002's random input: torque 200-1000 N m and the pitch-deviation germ.
+        """Yuan, Liu and Liu's random input: torque 200-1000 N m and the pitch-deviation germ.
 
         ``torque`` uniform on the seed's load range; the germ ``pitch_xi_p_*`` and
         ``pitch_xi_g_*`` independent standard normals (all ``z - 1`` per gear, or those of
@@ -176,7 +177,7 @@ def _parameters(pair: Any) -> tuple[Parameter, ...]:
     length = math.floor(g_alpha_mm * 1000.0) / 1000.0  # path of contact, rounded down
     _P = Parameter
     return (
-        _P("torque", "N m", 600.0, 1.0, 5000.0, "pinion torque (seed 002: 200-1000 N m)"),
+        _P("torque", "N m", 600.0, 1.0, 5000.0, "pinion torque (Yuan et al. (2020): 200-1000 N m)"),
         _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
            "parabolic tip relief amount e_max on pinion and wheel (seed Eq. 12), measured "
            "along the line of action in the transverse plane"),
@@ -189,12 +190,13 @@ def _parameters(pair: Any) -> tuple[Parameter, ...]:
            "root relief length along the path of contact (at most the active profile)"),
         _P("crowning", "um", 0.0, 0.0, 100.0, "lead crowning C_b (sum of both gears)"),
         _P("pitch_amplitude", "um", 15.0, 0.0, 200.0,
-           "amplitude of the random cumulative pitch deviations (seed 002: 15 um; seeded: "
+           "amplitude of the random cumulative pitch deviations (Yuan et al. (2020): 15 um; "
+           "seeded: "
            "read as the option amplitude_reading says; germ: the once-per-revolution "
            "coefficients have standard deviation amplitude / sqrt(2)); unused when "
            "iso_grade > 0"),
         _P("pitch_sigma", "um", 3.0, 0.0, 50.0,
-           "standard deviation of the pitch scatter (seed 002: 3 um); unused when "
+           "standard deviation of the pitch scatter (Yuan, Liu and Liu (2020): 3 um); unused when "
            "iso_grade > 0"),
         _P("iso_grade", "1", 0, 0, 12,
            "ISO 1328-1 flank tolerance class 1-12 setting amplitude F_pT/2 and sigma "

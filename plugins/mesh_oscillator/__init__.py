@@ -1,4 +1,5 @@
-"""``mesh_oscillator``: SDOF gear mesh with a general force-deflection function (seed 003).
+"""``mesh_oscillator``: SDOF gear mesh with a general force-deflection function (Eritenel and
+Parker (2013)).
 
 ``m x'' + c x' + C(x, t) f(x, t) = F(t)`` with the separation function ``C`` (contact loss),
 a periodic force-deflection function ``f`` from the LTCA, a table or an analytic form, its

@@ -1,7 +1,7 @@
 """Symbolic second-order multiple-scales derivation of the mesh oscillator (needs sympy).
 
 This reproduces, from the equation of motion alone, the slow flow that :mod:`.slowflow`
-implements by hand (seed 003 Eqs. 20-31 and the terms the seed omits), so that the
+implements by hand (Eritenel and Parker (2013) Eqs. 20-31 and the terms the seed omits), so that the
 implementation can be checked term by term (``tests/test_mesh_oscillator_perturbation.py``)
 and the derivation of docs/theory/mesh_oscillator.md re-run. It is a development tool:
 sympy is not a runtime dependency of gearuq, and nothing in the plugin imports this module.

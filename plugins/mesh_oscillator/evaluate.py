@@ -336,7 +336,7 @@ def evaluate(model: MeshOscillator, params: dict[str, np.ndarray], t: np.ndarray
     coords: dict[str, tuple] = {}
     status = np.zeros(n, dtype=np.int8)
     attrs: dict[str, Any] = {"model_settings": model.settings(),
-                             "nondimensionalisation": "seed 003 Eqs. 11-14, "
+                             "nondimensionalisation": "Eritenel and Parker (2013) Eqs. 11-14, "
                              "docs/theory/mesh_oscillator.md"}
     if _FREQUENCY_OUTPUTS & set(outputs):
         _frequency_block(model, system, params, outputs, options, out, extra, coords, status)

@@ -1,6 +1,6 @@
 """Taylor-Fourier expansion of the force-deflection function and the nondimensional system.
 
-Seed 003 Eqs. 3-14, re-derived in docs/theory/mesh_oscillator.md:
+Eritenel and Parker (2013) Eqs. 3-14, re-derived in docs/theory/mesh_oscillator.md:
 
 1. mean deflection ``x_m``: ``mean_phase f(x_m, phase) = F_0`` (Eq. 4; ``f`` increasing in
    ``x``, so the root is unique and bracketed);

@@ -1,4 +1,4 @@
-"""Force-deflection functions ``f(x, phase)`` of a gear mesh (seed 003 Eq. 1).
+"""Force-deflection functions ``f(x, phase)`` of a gear mesh (Eritenel and Parker (2013) Eq. 1).
 
 ``x`` is the mesh deflection (dynamic transmission error along the line of action) [m],
 ``phase`` the mesh phase in mesh cycles (``f`` has period 1 in it), ``f`` the mesh force [N].

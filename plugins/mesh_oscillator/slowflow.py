@@ -1,6 +1,6 @@
 """Slow-flow equations of the multiple-scales solution near primary resonance (compiled).
 
-The nondimensional equation of motion (seed 003 Eqs. 11-12, derived in
+The nondimensional equation of motion (Eritenel and Parker (2013) Eqs. 11-12, derived in
 docs/theory/mesh_oscillator.md) is written ``u'' + 2 mu u' + (1 + H) f(u, T) = F(T)`` with the
 separation function ``H = C - 1`` (0 in contact, -1 out of contact). Near ``Omega = 1`` the
 response is ``u = a cos(Omega T - gamma) + ...`` and the amplitude ``a`` and phase ``gamma``
