@@ -79,3 +79,29 @@ def test_bad_input_is_refused_before_any_run():
     with pytest.raises(ValueError, match="max_samples"):
         failure_probability(PROBLEM["model"], PROBLEM["space"], "g", method="mfis",
                             low_fidelity=wrong_output, max_samples=-5)
+
+
+def test_informative_directions_find_the_shifted_and_widened_ones_only():
+    """In 50 dimensions, points shifted along one direction and widened along another are
+    standard normal elsewhere: the two directions are found (to sampling accuracy) and no
+    noise direction, and the fitted mixture is exactly standard normal across them."""
+    from gearuq.failure.methods.mfis import fit_mixture, informative_directions
+
+    rng = np.random.default_rng(3)
+    d, n = 50, 2000
+    q, _ = np.linalg.qr(rng.standard_normal((d, d)))
+    z = rng.standard_normal((n, d))
+    z[:, 0] += 3.5  # the failure direction
+    z[:, 1] *= 2.5  # a ring-like spread
+    u = z @ q.T
+    basis = informative_directions(u)
+    assert basis.shape == (d, 2)
+    for k in (0, 1):  # each planted direction lies in the found span
+        assert np.linalg.norm(basis.T @ q[:, k]) > 0.99
+    mix = fit_mixture(u, 2, 0.1, seed=1)
+    assert mix.n_directions == 2
+    # across the found directions: unit variance, zero mean
+    full, _ = np.linalg.qr(np.hstack([basis, rng.standard_normal((d, d - 2))]))
+    across = full[:, 2:]
+    np.testing.assert_allclose(across.T @ mix.covs[0] @ across, np.eye(d - 2), atol=1e-9)
+    np.testing.assert_allclose(mix.means @ across, 0.0, atol=1e-9)
