@@ -260,8 +260,9 @@ class FidelityLink(Model):
             raise ValueError(f"link {self.name!r}: HF output(s) {twice} are given by more than "
                              "one LF output; map each HF output once")
         if not self.produces:
+            valid = ", ".join(self.low.parameter_names)
             raise ValueError(f"link {self.name!r}: produces is empty; name the LF parameters "
-                             f"the input map returns (valid: {', '.join(self.low.parameter_names)})")
+                             f"the input map returns (valid: {valid})")
         for item in self.produces:
             if item not in self.low.parameter_names:
                 raise ValueError(
@@ -331,7 +332,8 @@ class FidelityLink(Model):
             raise ValueError(
                 f"link {self.name!r}: the input map returned {sorted(got)}, but the link "
                 f"declares produces={list(self.produces)}; missing "
-                f"{sorted(set(self.produces) - got)}, undeclared {sorted(got - set(self.produces))}")
+                f"{sorted(set(self.produces) - got)}, undeclared "
+                f"{sorted(got - set(self.produces))}")
         n = next(iter(p.values())).shape[0]
         arrays = {k: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy()
                   for k, v in low.params.items()}

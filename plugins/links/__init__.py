@@ -6,7 +6,5 @@ entry-point group ``gearuq.links`` as ``"HIGH->LOW"``. The links reach the model
 models is generic gear mechanics from ``gearuq.gears``. Equations, what each link neglects and
 its measured correlation with its high-fidelity model: docs/theory/fidelity_links.md.
 
-- :mod:`.helical_pair`: ``helical_pair -> mesh_oscillator`` (peak dynamic mesh force);
-- :mod:`.geared_rotor`: ``geared_rotor -> mesh_oscillator`` (largest RMS DTE over a speed
-  range).
+- :mod:`.helical_pair`: ``helical_pair -> mesh_oscillator`` (dynamic mesh force).
 """
