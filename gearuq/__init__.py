@@ -19,6 +19,9 @@ _LAZY = {
     "describe_models": "gearuq.registry",
     "list_studies": "gearuq.registry",
     "get_study": "gearuq.registry",
+    "get_link": "gearuq.registry",
+    "list_links": "gearuq.registry",
+    "FidelityLink": "gearuq.links",
     "Model": "gearuq.model",
     "Parameter": "gearuq.model",
     "Output": "gearuq.model",
@@ -54,6 +57,7 @@ _LAZY = {
 _SUBMODULES = {
     "model", "registry", "space", "ode", "engines", "failure", "interop",
     "fitting", "signal", "execution", "io", "plot", "cli", "gears", "rotor", "testing",
+    "links",
 }
 
 __all__ = ["__version__", *_LAZY]

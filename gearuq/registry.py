@@ -193,3 +193,59 @@ def list_benchmarks() -> list[str]:
 def get_benchmark(name: str) -> Callable[..., Any]:
     """The run function of the plugin benchmark ``name`` (see :func:`list_benchmarks`)."""
     return _load_named(BENCH_GROUP, name, "benchmark")
+
+
+# =========================================================================== fidelity links
+LINK_GROUP = "gearuq.links"
+#: Links registered at run time by :func:`register_link` ("HIGH->LOW" -> factory).
+_RUNTIME_LINKS: dict[str, Callable[..., Any]] = {}
+
+
+def link_name(high: str, low: str) -> str:
+    """Registry name of the link from model ``high`` to model ``low``: ``"HIGH->LOW"``."""
+    return f"{high}->{low}"
+
+
+def list_links() -> list[tuple[str, str]]:
+    """``(high, low)`` model names of every registered fidelity link (metadata only).
+
+    A link is a factory ``build(**options) -> gearuq.links.FidelityLink`` registered under
+    the entry-point group ``gearuq.links`` with the name ``"HIGH->LOW"``.
+    """
+    names = {ep.name for ep in entry_points(group=LINK_GROUP)} | set(_RUNTIME_LINKS)
+    return sorted(tuple(n.split("->", 1)) for n in names if "->" in n)
+
+
+def register_link(high: str, low: str, factory: Callable[..., Any], *,
+                  overwrite: bool = False) -> None:
+    """Register a link factory from model ``high`` to model ``low`` for this process."""
+    name = link_name(high, low)
+    if not overwrite and name in _RUNTIME_LINKS:
+        raise ValueError(f"a link {name!r} is already registered")
+    _RUNTIME_LINKS[name] = factory
+
+
+def get_link(high: str, low: str, **options: Any) -> Any:
+    """The registered fidelity link from model ``high`` to model ``low``.
+
+    ``get_link("helical_pair", "mesh_oscillator")`` is a :class:`gearuq.links.FidelityLink`
+    over the helical pair's parameters, to give as ``low_fidelity=`` to
+    ``failure_probability(..., method="mfis")`` or as a cheaper model to
+    ``multifidelity_estimate``. ``options`` go to the link's factory.
+
+    Raises
+    ------
+    ValueError
+        No link between these models (the message lists the registered links).
+    ModelLoadError
+        The link's module failed to import.
+    """
+    name = link_name(high, low)
+    if name in _RUNTIME_LINKS:
+        return _RUNTIME_LINKS[name](**options)
+    eps = {ep.name for ep in entry_points(group=LINK_GROUP)}
+    if name not in eps:
+        known = ", ".join(f"{h} -> {lo}" for h, lo in list_links()) or "none"
+        raise ValueError(f"no fidelity link from {high!r} to {low!r}; registered links: "
+                         f"{known}")
+    return _load_named(LINK_GROUP, name, "link")(**options)
