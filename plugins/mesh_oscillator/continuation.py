@@ -44,7 +44,7 @@ from gearuq_plugins.mesh_oscillator.slowflow import (
 #: cached kernels of this file, and numba's cache notices changes to this file only: a change
 #: to ``slowflow.py`` must come with a new value here, which invalidates the stale entries
 #: (tests/test_mesh_oscillator_validity.py checks the value).
-SLOWFLOW_DIGEST = "8a8f166fde63c5d1"
+SLOWFLOW_DIGEST = "a440c103473c2182"
 
 #: Trace status codes (per sample).
 TRACE_OK = 0
