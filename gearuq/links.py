@@ -263,18 +263,14 @@ class FidelityLink(Model):
             valid = ", ".join(self.low.parameter_names)
             raise ValueError(f"link {self.name!r}: produces is empty; name the LF parameters "
                              f"the input map returns (valid: {valid})")
-        for item in self.produces:
-            if item not in self.low.parameter_names:
-                raise ValueError(
-                    f"link {self.name!r}: the input map produces {item!r}, which is not a "
-                    f"parameter of the low-fidelity model {self.low.name!r}; valid: "
-                    f"{', '.join(self.low.parameter_names)}")
-        for item in self.reads:
-            if item not in self.high.parameter_names:
-                raise ValueError(
-                    f"link {self.name!r}: the input map reads {item!r}, which is not a "
-                    f"parameter of the high-fidelity model {self.high.name!r}; valid: "
-                    f"{', '.join(self.high.parameter_names)}")
+        for verb, items, side, model in (("produces", self.produces, "low", self.low),
+                                         ("reads", self.reads, "high", self.high)):
+            for item in items:
+                if item not in model.parameter_names:
+                    raise ValueError(
+                        f"link {self.name!r}: the input map {verb} {item!r}, which is not a "
+                        f"parameter of the {side}-fidelity model {model.name!r}; valid: "
+                        f"{', '.join(model.parameter_names)}")
 
     def _declare_outputs(self) -> list[Output]:
         outs = []
