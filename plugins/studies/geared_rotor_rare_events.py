@@ -47,7 +47,7 @@ It is a legitimate low fidelity (a discretisation of the same physics); multi-fi
 importance sampling stays unbiased whatever its quality.
 
 Run: ``gearuq study geared_rotor_rare_events [--quick] [--out DIR]``. ``--quick`` answers
-smaller questions (Pf ~ 1e-1 against 60 crude Monte Carlo runs, and ~ 1e-2; about 250 rotor
+smaller questions (Pf ~ 1e-1 against 60 crude Monte Carlo runs, and ~ 1e-2; about 330 rotor
 runs, a few minutes on 2 cores) and says so; the full study takes about 40 minutes on 2
 cores, most of it the crude Monte Carlo check and subset simulation on the rotor (the
 multi-fidelity answer alone takes a fraction of that: see the printed table).
