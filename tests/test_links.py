@@ -298,3 +298,9 @@ def test_rotor_link_refuses_a_bad_speed_range(rotor_link):
     with pytest.raises(ValueError, match="speed_min=5000.0 rpm must be below speed_max"):
         rotor_link.response({"torque": [1000.0]}, None, outputs=["dte_rms_max"],
                             speed_min=5000.0, speed_max=4000.0)
+
+
+def test_rotor_link_honours_the_model_contract(rotor_link):
+    from gearuq.testing import check_model
+
+    check_model(rotor_link, np.linspace(0.0, 0.01, 5))
