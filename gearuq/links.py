@@ -59,11 +59,17 @@ class LowFidelityInputs:
     t : array_like, optional
         Instants of the LF call when they differ from the link's (e.g. one excitation period
         in LF's own time unit); ``None``: the link's ``t``.
+    carry : mapping, optional
+        Per-sample arrays (first axis ``n_samples``) the input map computed and the output
+        transforms need but LF does not take (e.g. an excitation spectrum): handed to the
+        transforms as ``LinkContext.carried``, restricted to the evaluated samples, so no
+        transform recomputes them.
     """
 
     params: Mapping[str, Any]
     options: Mapping[str, Any] = field(default_factory=dict)
     t: Any = None
+    carry: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -105,6 +111,8 @@ class LinkContext:
         The link's instants and the LF call's instants.
     options : dict
         The link's own options.
+    carried : dict
+        The input map's ``carry`` arrays (see :class:`LowFidelityInputs`).
     """
 
     params: dict[str, np.ndarray]
@@ -114,6 +122,7 @@ class LinkContext:
     t: np.ndarray | None
     low_t: np.ndarray | None
     options: dict[str, Any]
+    carried: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def _resolve(model: Model | str, role: str) -> Model:
@@ -165,6 +174,9 @@ class FidelityLink(Model):
         The link's own declared options (passed to ``input_map`` and the transforms).
     name, description, version : str, optional
         Default name ``"HIGH->LOW"``.
+    also_runs : sequence of Model, optional
+        Other models the input map runs (e.g. a contact analysis giving the LF model's
+        excitation): recorded in the settings (provenance) next to HF and LF.
 
     Raises
     ------
@@ -190,6 +202,7 @@ class FidelityLink(Model):
         name: str | None = None,
         description: str = "",
         version: str = "1",
+        also_runs: Sequence[Model] = (),
     ) -> None:
         self.high = _resolve(high, "high")
         self.low = _resolve(low, "low")
@@ -212,6 +225,11 @@ class FidelityLink(Model):
             f"fidelity link: {self.low.name} seen through the parameters and outputs of "
             f"{self.high.name}")
         self.version = version
+        self.also_runs = tuple(also_runs)
+        for m in self.also_runs:
+            if not isinstance(m, Model):
+                raise ValueError(f"link {self.name!r}: also_runs holds "
+                                 f"{type(m).__name__}, not a Model")
         self.time_units = self.high.time_units
         self.time_long_name = self.high.time_long_name
         self.parameters = tuple(self.high.parameters)
@@ -305,6 +323,7 @@ class FidelityLink(Model):
                            for k, e in self.output_map.items()},
             "low_options": {k: repr(v) for k, v in sorted(self._fixed_low_options.items())},
             "neglects": list(self.neglects),
+            "also_runs": [describe(m) for m in self.also_runs],
         }
 
     def precompile(self) -> float:
@@ -333,8 +352,13 @@ class FidelityLink(Model):
         n = next(iter(p.values())).shape[0]
         arrays = {k: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy()
                   for k, v in low.params.items()}
+        carry = {k: np.asarray(v) for k, v in dict(low.carry).items()}
+        for k, v in carry.items():
+            if v.ndim == 0 or v.shape[0] != n:
+                raise ValueError(f"link {self.name!r}: the input map's carry[{k!r}] has shape "
+                                 f"{v.shape}; its first axis must be the {n} samples")
         return LowFidelityInputs(arrays, {**self._fixed_low_options, **dict(low.options)},
-                                 low.t)
+                                 low.t, carry)
 
     def _in_range(self, low_params: dict[str, np.ndarray], n: int
                   ) -> tuple[np.ndarray, list[str]]:
@@ -382,7 +406,8 @@ class FidelityLink(Model):
         if ok:
             self._carry_status(ds, idx, status, meanings)
         sub = {k: v[run_idx] for k, v in params.items()}
-        ctx = LinkContext(sub, lf_params, low_data, coords, tt, low_t, dict(options))
+        ctx = LinkContext(sub, lf_params, low_data, coords, tt, low_t, dict(options),
+                          {k: v[run_idx] for k, v in low_in.carry.items()})
         data, out_coords = {}, {}
         for o in outputs:
             low_name, entry = by_high[o]

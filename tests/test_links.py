@@ -83,6 +83,14 @@ def test_a_link_over_another_parameter_space_is_refused_before_any_run():
         gearuq.multifidelity_estimate([other, _link()], space, "g", budget=10.0)
 
 
+def test_an_input_map_carrying_arrays_of_the_wrong_length_is_refused():
+    from gearuq.links import LowFidelityInputs
+
+    link = _link(input_map=lambda p: LowFidelityInputs(_map(p), carry={"z": np.zeros(5)}))
+    with pytest.raises(ValueError, match=r"carry\['z'\] has shape \(5,\).*2 samples"):
+        link.response({"x1": [0.0, 1.0], "x2": [0.0, 0.0]})
+
+
 def test_link_carries_high_names_parameters_space_and_provenance():
     link = _link()
     assert link.parameter_names == ["x1", "x2"] and link.output_names == ["g"]
@@ -211,3 +219,88 @@ def test_helical_link_refuses_a_pair_with_fourier_stiffness():
     with pytest.raises(ValueError, match="stiffness_harmonics"):
         get_link("helical_pair", "mesh_oscillator",
                  pair=get_model("helical_pair", stiffness_harmonics=[[0.1, 0.0]]))
+
+
+# ----------------------------------------------------------------- geared rotor link
+@pytest.fixture(scope="module")
+def rotor_link():
+    return get_link("geared_rotor", "mesh_oscillator")
+
+
+def test_rotor_link_equivalent_mass_from_the_gear_bodies_by_hand():
+    """Rigid steel bodies 40 mm wide, bore 110 mm, outer diameter sqrt((d_f^2 + d_a^2)/2)
+    (docs/theory/geared_rotor.md: Ip = 0.0342 kg m^2), torsional mass on the normal line."""
+    from gearuq.gears.geometry import seed002_pair
+    from gearuq_plugins.links.geared_rotor import equivalent_mass
+
+    p = seed002_pair()
+    outer = math.sqrt((p.df1**2 + p.da1**2) / 2.0)
+    ip = 7850.0 * math.pi * 0.040 * (outer**4 - 0.110**4) / 32.0
+    assert ip == pytest.approx(0.0342, abs=5e-5)
+    rb = p.db1 / 2.0
+    m = ip * ip / (ip * rb**2 + ip * rb**2) / math.cos(p.beta_b) ** 2
+    assert equivalent_mass() == pytest.approx(m, rel=1e-3)
+
+
+def test_rotor_link_is_the_sdof_receptance_on_the_ltca_harmonics(rotor_link):
+    """Error-free flanks: the STE repeats every mesh cycle, so only the mesh harmonics
+    j = 30 r load the oscillator; the link's dte_rms over speed is, independently,
+    sqrt(2 sum |STE_j|^2 / ((1 - r^2)^2 + (2 zeta r)^2)) with r = j w0 / omega_n and its
+    maximum sits where the mesh frequency meets omega_n."""
+    x = {"torque": [1000.0], "pitch_amplitude": [0.0], "pitch_sigma": [0.0],
+         "damping_ratio": [0.05]}
+    opts = {"speed_min": 3000.0, "speed_max": 8000.0, "n_speeds": 501}
+    ds = rotor_link.response(x, None, outputs=["dte_rms_max", "speed_at_dte_rms_max"],
+                             **opts)
+    assert list(ds["status"].values) == [0]
+    assert ds["dte_rms_max"].attrs["units"] == "m"
+    # independent path: the LTCA model itself, a closed-form receptance, no interpolation
+    from gearuq_plugins.links.geared_rotor import equivalent_mass
+
+    exc = rotor_link.also_runs[0]
+    tau = np.arange(720) / 24.0
+    ltca = exc.response({"torque": [1000.0], "pitch_amplitude": [0.0], "pitch_sigma": [0.0]},
+                        tau, outputs=["ste", "lpms_tangent"], threads=1)
+    ste = ltca["ste"].values[0] * 1e-6
+    c = np.abs(np.fft.rfft(ste) / ste.size)[1:91]
+    assert np.max(np.delete(c, np.arange(29, 90, 30))) < 1e-6 * c[29]  # mesh orders only
+    wn = math.sqrt(ltca["lpms_tangent"].values[0].mean() * 1e6 / equivalent_mass())
+    speeds = np.linspace(3000.0, 8000.0, 501)
+    r = np.arange(1, 91)[None, :] * (2 * math.pi * speeds[:, None] / 60.0) / wn
+    rms = np.sqrt(2 * np.sum(c**2 / ((1 - r**2) ** 2 + (0.1 * r) ** 2), axis=1))
+    assert float(ds["dte_rms_max"][0]) == pytest.approx(rms.max(), rel=2e-3)
+    assert float(ds["speed_at_dte_rms_max"][0]) == pytest.approx(speeds[rms.argmax()],
+                                                                 abs=10.0)
+    assert float(ds["speed_at_dte_rms_max"][0]) == pytest.approx(
+        60.0 * wn / (2 * math.pi * 30), rel=0.01)  # f_m = z1 n / 60 meets omega_n
+
+
+def test_rotor_link_runs_the_rotors_limit_state_on_its_names_and_space(rotor_link):
+    rotor = get_model("geared_rotor")
+    assert rotor_link.parameter_names == rotor.parameter_names
+    assert rotor_link.default_space().names == rotor.default_space().names
+    assert set(rotor_link.output_names) == {"dte_rms_max", "speed_at_dte_rms_max"}
+    x = rotor.default_space().sample(3, rng=4)
+    opts = {"n_speeds": 40}
+    low = rotor_link.response(x, None, outputs=["dte_rms_max"], **opts)
+    high = rotor.response({k: v[:2] for k, v in x.items()}, None, outputs=["dte_rms_max"],
+                          **opts)
+    limit = LimitState.upper("dte_rms_max", 14e-6)
+    g, g_high = limit.sample_values(low), limit.sample_values(high)
+    assert g.shape == (3,) and np.all(np.isfinite(g)) and np.all(np.isfinite(g_high))
+    assert low["dte_rms_max"].attrs["units"] == high["dte_rms_max"].attrs["units"] == "m"
+    s = rotor_link.settings()
+    assert s["high_fidelity"]["name"] == "geared_rotor"
+    assert s["also_runs"][0]["name"] == "mesh_excitation"
+
+
+def test_rotor_link_refuses_a_bad_speed_range(rotor_link):
+    with pytest.raises(ValueError, match="speed_min=5000.0 rpm must be below speed_max"):
+        rotor_link.response({"torque": [1000.0]}, None, outputs=["dte_rms_max"],
+                            speed_min=5000.0, speed_max=4000.0)
+
+
+def test_rotor_link_honours_the_model_contract(rotor_link):
+    from gearuq.testing import check_model
+
+    check_model(rotor_link, np.linspace(0.0, 0.01, 5))

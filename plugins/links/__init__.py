@@ -7,4 +7,5 @@ models is generic gear mechanics from ``gearuq.gears``. Equations, what each lin
 its measured correlation with its high-fidelity model: docs/theory/fidelity_links.md.
 
 - :mod:`.helical_pair`: ``helical_pair -> mesh_oscillator`` (dynamic mesh force).
+- :mod:`.geared_rotor`: ``geared_rotor -> mesh_oscillator`` (``dte_rms_max`` over a speed range).
 """
