@@ -64,7 +64,7 @@ _PARAMETERS = (
          f"{i // 2 + 1} (pitch_model='germ'; docs/theory/mesh_excitation.md)")
       for g in (1, 2) for i, name in enumerate(pitch_germ_names(30, g))),
     _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
-       "parabolic tip relief e_max on pinion and wheel (seed Eq. 12); 0: unmodified"),
+       "parabolic tip relief e_max on pinion and wheel (Yuan et al. Eq. 12); 0: unmodified"),
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
        "tip relief length along the path of contact (LTCA optimum at 1000 N m: 11.4 mm)"),
     _P("bearing_stiffness", "N m-1", 5.0e8, 1.0e7, 1.0e11,
@@ -104,7 +104,7 @@ _OUTPUTS = (
     Output("mesh_force_rms", "N", _S, "RMS of the mesh force about its mean"),
     Output("mesh_force_min", "N", _S, "smallest mesh force (0: contact loss)"),
     Output("bearing1_acceleration_y_rms", "m s-2", _S,
-           "RMS acceleration at bearing 1 along y (seed Figs. 12, 16)"),
+           "RMS acceleration at bearing 1 along y (Yuan et al. Figs. 12, 16)"),
     Output("contact_loss_fraction", "1", _S, "share of the long period with the teeth apart"),
     Output("dte_rms_max", "m", _S, "largest RMS DTE over the speed range speed_min..speed_max "
            "(n_speeds equally spaced speeds; the parameter speed is not used)"),

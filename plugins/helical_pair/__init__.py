@@ -38,28 +38,32 @@ SEED_TABLE2 = {
 
 _P = Parameter
 _PARAMETERS = (
-    _P("z1", "1", 34, 8, 200, "pinion (driving) teeth, seed Table 1", integer=True),
-    _P("z2", "1", 84, 8, 400, "gear (driven) teeth, seed Table 1", integer=True),
-    _P("m_n", "m", 6e-3, 5e-4, 5e-2, "normal module, seed Table 1"),
-    _P("beta", "degree", 17.0, 0.0, 40.0, "helix angle, seed Table 1"),
-    _P("alpha_n", "degree", 25.0, 14.0, 30.0, "normal pressure angle, seed Table 1"),
+    _P("z1", "1", 34, 8, 200, "pinion (driving) teeth, Li, Hu and Han Table 1", integer=True),
+    _P("z2", "1", 84, 8, 400, "gear (driven) teeth, Li, Hu and Han Table 1", integer=True),
+    _P("m_n", "m", 6e-3, 5e-4, 5e-2, "normal module, Li, Hu and Han Table 1"),
+    _P("beta", "degree", 17.0, 0.0, 40.0, "helix angle, Li, Hu and Han Table 1"),
+    _P("alpha_n", "degree", 25.0, 14.0, 30.0, "normal pressure angle, Li, Hu and Han Table 1"),
     _P("x_shift_p", "1", 0.0, -0.5, 1.0, "pinion profile shift coefficient"),
     _P("x_shift_g", "1", 0.0, -0.5, 1.0, "gear profile shift coefficient"),
-    _P("B1", "m", 7e-2, 5e-3, 0.5, "pinion face width, seed Tables 1-2"),
-    _P("B2", "m", 7e-2, 5e-3, 0.5, "gear face width, seed Tables 1-2"),
-    _P("rho", "kg m-3", 7.85e3, 1.0e3, 2.0e4, "material density, seed Table 2"),
-    _P("s", "1", 0.1, 0.0, 0.9, "mesh stiffness variation coefficient, seed Eq. 11 / Table 2"),
-    _P("n", "rpm", 4000.0, 1.0, 3.0e4, "pinion speed, seed Table 2 (Fig. 4: 3600)"),
-    _P("T", "N m", 2600.0, 0.0, 1.0e6, "pinion input torque, seed Fig. 4"),
-    _P("b5", "m", 2e-5, 0.0, 1e-3, "half backlash on the mesh, seed Table 2"),
+    _P("B1", "m", 7e-2, 5e-3, 0.5, "pinion face width, Li, Hu and Han Tables 1-2"),
+    _P("B2", "m", 7e-2, 5e-3, 0.5, "gear face width, Li, Hu and Han Tables 1-2"),
+    _P("rho", "kg m-3", 7.85e3, 1.0e3, 2.0e4, "material density, Li, Hu and Han Table 2"),
+    _P("s", "1", 0.1, 0.0, 0.9, "mesh stiffness variation coefficient, Li, Hu and Han Eq. 11 / "
+       "Table 2"),
+    _P("n", "rpm", 4000.0, 1.0, 3.0e4, "pinion speed, Li, Hu and Han Table 2 (Fig. 4: 3600)"),
+    _P("T", "N m", 2600.0, 0.0, 1.0e6, "pinion input torque, Li, Hu and Han Fig. 4"),
+    _P("b5", "m", 2e-5, 0.0, 1e-3, "half backlash on the mesh, Li, Hu and Han Table 2"),
     _P("b1", "m", 5.35e-5, 0.0, 1e-3, "pinion radial half clearance (Table 1: 0.107 mm / 2)"),
     _P("b2", "m", 3.75e-5, 0.0, 1e-3, "gear radial half clearance (Table 1: 0.075 mm / 2)"),
     _P("b3", "m", 7.4e-5, 0.0, 1e-3, "pinion axial half clearance (Table 1: 0.148 mm / 2)"),
     _P("b4", "m", 0.0, 0.0, 1e-3, "gear axial half clearance (Table 1: 0)"),
-    _P("k_r", "N m-1", 5.968e6, 1e4, 1e13, "radial support stiffness per gear, seed Table 1"),
-    _P("k_a", "N m-1", 5.968e6, 1e4, 1e13, "axial support stiffness per gear, seed Table 1"),
+    _P("k_r", "N m-1", 5.968e6, 1e4, 1e13, "radial support stiffness per gear, Li, Hu and "
+       "Han Table 1"),
+    _P("k_a", "N m-1", 5.968e6, 1e4, 1e13, "axial support stiffness per gear, Li, Hu and "
+       "Han Table 1"),
     _P("span", "m", 0.1, 1e-3, 2.0, "bearing distance from gear centre (both sides; ours)"),
-    _P("zeta_m", "1", 0.08, 0.0, 0.5, "mesh damping ratio, seed Table 1 (range 0.03-0.17)"),
+    _P("zeta_m", "1", 0.08, 0.0, 0.5, "mesh damping ratio, Li, Hu and Han Table 1 "
+       "(range 0.03-0.17)"),
     _P("zeta_s", "1", 0.05, 0.0, 0.5, "support damping ratio (ours; not in the seed)"),
     _P("e_0", "m", 0.0, -1e-3, 1e-3, "constant static error e_0, seed: 0"),
     _P("e_a", "m", 1.08e-5, 0.0, 2e-4, "static error amplitude (seed '108 um' read as 10.8 um)"),
@@ -118,7 +122,7 @@ class HelicalPair(Model):
     Parameters
     ----------
     stiffness_harmonics : sequence of (a_n, b_n), optional
-        Fourier coefficients of k(t)/k_m (seed Eq. 6); when given they replace the seed's
+        Fourier coefficients of k(t)/k_m (Li, Hu and Han Eq. 6); when given they replace the seed's
         ``1 + s cos(omega tau)`` and ``s`` is ignored.
     use_virtual_teeth : bool
         ISO 6336 q' with virtual numbers of teeth (standard, default) or with z as the seed

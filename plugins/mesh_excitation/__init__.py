@@ -5,8 +5,8 @@ each sample is one long period (``lcm(z1, z2)`` mesh cycles) at one torque, with
 sample's tip/root relief, lead crowning and one realisation of the random cumulative pitch
 deviations (sine + normal scatter, Yuan et al. (2020) Sec. 3, or ISO 1328 tolerances). Outputs are
 the
-static transmission error, the long-period mesh stiffness (secant, seed Eq. 4, and tangent),
-the composite mesh error (seed Eq. 5), their mean and peak-to-peak values, the partial
+static transmission error, the long-period mesh stiffness (secant, Yuan et al. Eq. 4, and tangent),
+the composite mesh error (Yuan et al. Eq. 5), their mean and peak-to-peak values, the partial
 contact loss and the mesh-order spectrum with its shaft-order sidebands.
 
 The model's "time" is the mesh position in mesh cycles (``tau``; the pinion has turned
@@ -27,9 +27,9 @@ __all__ = ["MeshExcitation"]
 _S, _ST, _SO = ("sample",), ("sample", "time"), ("sample", "order")
 _OUTPUTS = (
     Output("ste", "um", _ST, "static transmission error (normal approach of the flanks)"),
-    Output("lpms", "N/um", _ST, "long-period mesh stiffness, secant (seed Eq. 4)"),
+    Output("lpms", "N/um", _ST, "long-period mesh stiffness, secant (Yuan et al. Eq. 4)"),
     Output("lpms_tangent", "N/um", _ST, "long-period mesh stiffness, tangent dP/dSTE"),
-    Output("cms", "um", _ST, "composite mesh error (seed Eq. 5)"),
+    Output("cms", "um", _ST, "composite mesh error (Yuan et al. Eq. 5)"),
     Output("ste_mean", "um", _S, "mean STE over the long period"),
     Output("ste_ptp", "um", _S, "peak-to-peak STE over the long period"),
     Output("lpms_mean", "N/um", _S, "mean secant LPMS over the long period"),
@@ -179,7 +179,7 @@ def _parameters(pair: Any) -> tuple[Parameter, ...]:
     return (
         _P("torque", "N m", 600.0, 1.0, 5000.0, "pinion torque (Yuan et al. (2020): 200-1000 N m)"),
         _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
-           "parabolic tip relief amount e_max on pinion and wheel (seed Eq. 12), measured "
+           "parabolic tip relief amount e_max on pinion and wheel (Yuan et al. Eq. 12), measured "
            "along the line of action in the transverse plane"),
         _P("tip_relief_length", "mm", 0.0, 0.0, length,
            f"tip relief length L along the path of contact (at most the active profile, "

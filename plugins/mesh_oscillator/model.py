@@ -4,7 +4,7 @@ Two kinds of instance:
 
 - ``MeshOscillator()`` (default): the nondimensional equation of motion of Eritenel and Parker
   (Eqs. 11-12) with its coefficients as parameters; the nominal values are the example system of
-  seed Fig. 4.
+  Eritenel and Parker Fig. 4.
 - ``MeshOscillator(force=...)``: a dimensional gear mesh ``m x'' + c x' + C f(x, t) = F(t)``
   with a force-deflection function from :mod:`.forces` (LTCA table, user table, analytic);
   the parameters are the equivalent mass, damping ratio, mean load and load harmonic (and a
@@ -29,9 +29,10 @@ from gearuq.model import Model, Option, Output, Parameter
 _P = Parameter
 _NONDIMENSIONAL_PARAMETERS = (
     _P("alpha_0_0", "1", 2 / 3, 1e-3, 100.0,
-       "mean load over (mean tangent stiffness x d), seed Eq. 13 (Fig. 4: 2/3)"),
+       "mean load over (mean tangent stiffness x d), Eritenel and Parker Eq. 13 (Fig. 4: 2/3)"),
     _P("alpha_0_1", "1", 2 / 75, 0.0, 10.0,
-       "first harmonic of the excitation from f (phase reference), seed Fig. 4: 2/75"),
+       "first harmonic of the excitation from f (phase reference), Eritenel and Parker "
+       "Fig. 4: 2/75"),
     _P("alpha_0_2", "1", 0.0, 0.0, 10.0, "second harmonic of the excitation from f"),
     _P("phi_0_2", "rad", 0.0, -math.pi, math.pi, "phase of alpha_0_2"),
     _P("alpha_1_1", "1", 0.0, 0.0, 0.9, "first harmonic of the linear mesh stiffness"),
@@ -39,17 +40,19 @@ _NONDIMENSIONAL_PARAMETERS = (
     _P("alpha_1_2", "1", 0.0, 0.0, 0.9,
        "second harmonic of the linear mesh stiffness (principal parametric resonance)"),
     _P("phi_1_2", "rad", 0.0, -math.pi, math.pi, "phase of alpha_1_2"),
-    _P("alpha_2_0", "1", 0.25, -10.0, 10.0, "quadratic stiffness, seed Fig. 4: 1/4"),
+    _P("alpha_2_0", "1", 0.25, -10.0, 10.0, "quadratic stiffness, Eritenel and Parker Fig. 4: 1/4"),
     _P("alpha_2_1", "1", 0.0, 0.0, 10.0, "first harmonic of the quadratic stiffness"),
     _P("phi_2_1", "rad", 0.0, -math.pi, math.pi, "phase of alpha_2_1"),
-    _P("alpha_3_0", "1", -1 / 24, -10.0, 10.0, "cubic stiffness, seed Fig. 4: -1/24"),
+    _P("alpha_3_0", "1", -1 / 24, -10.0, 10.0, "cubic stiffness, Eritenel and Parker "
+       "Fig. 4: -1/24"),
     _P("e_1", "1", 0.1, 0.0, 0.99, "first harmonic of the unloaded deflection / d, Fig. 4: 0.1"),
-    _P("psi_1", "rad", 0.0, -math.pi, math.pi, "phase of e_1, seed Fig. 4: 0"),
+    _P("psi_1", "rad", 0.0, -math.pi, math.pi, "phase of e_1, Eritenel and Parker Fig. 4: 0"),
     _P("e_2", "1", 0.0, 0.0, 0.99, "second harmonic of the unloaded deflection / d"),
     _P("psi_2", "rad", 0.0, -math.pi, math.pi, "phase of e_2"),
     _P("q_1", "1", 0.0, 0.0, 10.0, "first harmonic of the applied load / (k d)"),
     _P("rho_1", "rad", 0.0, -math.pi, math.pi, "phase of q_1"),
-    _P("damping_ratio", "1", 0.0082, 0.0, 0.5, "damping ratio mu, seed Fig. 4: 0.0082"),
+    _P("damping_ratio", "1", 0.0082, 0.0, 0.5, "damping ratio mu, Eritenel and Parker "
+       "Fig. 4: 0.0082"),
     _P("frequency_ratio", "1", 1.0, 1e-3, 10.0,
        "mesh frequency / natural frequency Omega of the time response"),
 )
@@ -75,8 +78,9 @@ _COMMON_OUTPUTS = (
     _O("amplitude_down", "1", _FREQ, "fundamental amplitude a reached by a downward sweep"),
     _O("separation_up", "1", _FREQ, "fraction of the period out of contact, upward sweep"),
     _O("separation_down", "1", _FREQ, "fraction of the period out of contact, downward sweep"),
-    _O("region_up", "1", _FREQ, "response region 1-4 of seed Fig. 4, upward sweep"),
-    _O("region_down", "1", _FREQ, "response region 1-4 of seed Fig. 4, downward sweep"),
+    _O("region_up", "1", _FREQ, "response region 1-4 of Eritenel and Parker Fig. 4, upward sweep"),
+    _O("region_down", "1", _FREQ, "response region 1-4 of Eritenel and Parker Fig. 4, "
+       "downward sweep"),
     _O("linear_amplitude", "1", _FREQ, "amplitude of the linear time-invariant response"),
     _O("branch_amplitude", "1", _BRANCH,
        "amplitude of every steady state (perturbation): lower, middle, upper branch"),
@@ -88,7 +92,8 @@ _COMMON_OUTPUTS = (
     _O("u", "1", ("sample", "time"), "nondimensional deflection u = (x - x_m) / d"),
     _O("contact", "1", ("sample", "time"), "1 in contact, 0 out of contact"),
     _O("u_perturbation", "1", ("sample", "time"),
-       "approximate solution (seed Eq. 28) on the upward-sweep branch at frequency_ratio"),
+       "approximate solution (Eritenel and Parker Eq. 28) on the upward-sweep branch at "
+       "frequency_ratio"),
 )
 _DIMENSIONAL_OUTPUTS = (
     _O("dte_amplitude_up", "m", _FREQ, "fundamental amplitude of the dynamic transmission "
@@ -145,7 +150,8 @@ def _check_frequencies(value: Any) -> np.ndarray:
 _OPTIONS = (
     Option("method", "perturbation", "frequency response by the multiple-scales solution or "
            "by numerical sweeps (time integration)", choices=("perturbation", "sweep")),
-    Option("order", 2, "perturbation order: 1 (seed Eq. 27) or 2 (Eq. 31)", choices=(1, 2)),
+    Option("order", 2, "perturbation order: 1 (Eritenel and Parker Eq. 27) or 2 (Eq. 31)",
+           choices=(1, 2)),
     Option("separation", "closed_form", "separation-function harmonics: closed form for one "
            "contact loss per period (Eqs. 34-35) or numerical (Eqs. 32-33)",
            choices=("closed_form", "numerical")),
