@@ -167,19 +167,19 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         registry.get_benchmark(args.what)(args.out, quick=args.quick)
         return 0
     if args.what == "reliability":
-        from gearuq.bench_reliability import main as run_reliability
+        from gearuq.bench.reliability import main as run_reliability
 
         return int(run_reliability(quick=args.quick, out=args.out, with_coverage=args.coverage,
                                    seeds=args.seeds, workers=args.workers,
                                    problems=args.problems.split(",") if args.problems
                                    else None) or 0)
     if args.what == "memory":
-        from gearuq.bench_memory import run as run_memory
+        from gearuq.bench.memory import run as run_memory
 
         run_memory(args.out, quick=args.quick)
         return 0
     if args.what == "surrogate":
-        from gearuq.bench_surrogate import run
+        from gearuq.bench.surrogate import run
 
         run(args.out, quick=args.quick)  # returns the measured table; prints the report
         return 0

@@ -7,9 +7,9 @@ import pytest
 from scipy.stats import norm
 
 import gearuq
-from gearuq import bench
+from gearuq.bench import core as bench
 from gearuq.registry import DEFAULT_STUDY, get_study
-from gearuq_plugins.studies.helical_pair_reliability import SEED_TABLE3, seed_beta_explanation
+from gearuq_studies.helical_pair_reliability import SEED_TABLE3, seed_beta_explanation
 
 run_demo = get_study(DEFAULT_STUDY)
 

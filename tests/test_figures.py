@@ -216,7 +216,7 @@ def test_equal_support_stiffness_is_what_makes_the_translations_proportional():
 
 def test_demo_reliability_figure_lists_every_dof_and_shows_the_band(demo):
     import gearuq
-    from gearuq_plugins.studies.helical_pair_reliability import (
+    from gearuq_studies.helical_pair_reliability import (
         DOF_NAMES,
         _first_passage_figure,
         _reliability_figure,
@@ -243,7 +243,7 @@ def test_demo_reliability_figure_lists_every_dof_and_shows_the_band(demo):
 
 def test_demo_fits_figure_has_units_on_every_axis(demo):
     import gearuq
-    from gearuq_plugins.studies.helical_pair_reliability import DOF_NAMES, _fits_figure
+    from gearuq_studies.helical_pair_reliability import DOF_NAMES, _fits_figure
 
     ds = gearuq.load(demo / "helical_pair_mc.nc")
     unit = ds.attrs["length_scale"]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from gearuq.failure.intervals import clopper_pearson_interval
-from gearuq_plugins.studies import geared_rotor_rare_events as study
+from gearuq_studies import geared_rotor_rare_events as study
 
 
 def test_space_is_the_germ_of_both_gears_relief_tolerance_and_torque_spread():

@@ -453,7 +453,7 @@ def test_bad_input_messages():
 
 def test_bench_surrogate_quick(tmp_path):
     """The one run of the surrogate benchmark in the default suite (its numbers asserted)."""
-    from gearuq import bench_surrogate
+    from gearuq.bench import surrogate as bench_surrogate
 
     res = bench_surrogate.run(tmp_path, quick=True)
     assert (tmp_path / "surrogate_bench.md").exists()

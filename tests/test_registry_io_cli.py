@@ -126,7 +126,7 @@ def test_cli_version_and_help():
 def test_cli_bench_surrogate_quick(tmp_path, monkeypatch):
     """The CLI passes --quick/--out to the benchmark (run and asserted once in the suite:
     tests/test_pce.py::test_bench_surrogate_quick)."""
-    from gearuq import bench_surrogate
+    from gearuq.bench import surrogate as bench_surrogate
 
     seen = {}
     monkeypatch.setattr(bench_surrogate, "run",

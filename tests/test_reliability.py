@@ -618,7 +618,7 @@ def test_entry_point_bad_input():
 
 # =========================================================================== benchmark
 def test_bench_rows_table_and_docs_section(tmp_path):
-    from gearuq import bench_reliability as bench
+    from gearuq.bench import reliability as bench
     from gearuq.testing.reliability_problems import OFFSET_PF, reliability_problems
 
     rows = bench.cases(quick=True)
@@ -646,7 +646,7 @@ def test_bench_rows_table_and_docs_section(tmp_path):
 
 @pytest.mark.bench
 def test_bench_reliability_quick(tmp_path):
-    from gearuq import bench_reliability as bench
+    from gearuq.bench import reliability as bench
 
     res = bench.run(tmp_path, quick=True)
     by = {(r["problem"], r["row"]): r for r in res["rows"]}
@@ -657,7 +657,7 @@ def test_bench_reliability_quick(tmp_path):
 
 def test_coverage_benchmark_rows_and_docs_section(tmp_path):
     """The coverage table on a tiny case: counts, coverage of status-0 runs, the docs block."""
-    from gearuq import bench_reliability as bench
+    from gearuq.bench import reliability as bench
 
     doc = tmp_path / "benchmarks.md"
     doc.write_text("# Benchmarks\n")
@@ -675,7 +675,7 @@ def test_coverage_benchmark_rows_and_docs_section(tmp_path):
 def test_coverage_for_some_problems_replaces_only_their_rows(tmp_path):
     """``problems=[...]`` reruns some rows: the docs table keeps the others in their order,
     replaces the rerun ones, and an unknown problem is refused with the valid names."""
-    from gearuq import bench_reliability as bench
+    from gearuq.bench import reliability as bench
 
     doc = tmp_path / "benchmarks.md"
     doc.write_text("# Benchmarks\n")
@@ -700,7 +700,7 @@ def test_coverage_for_some_problems_replaces_only_their_rows(tmp_path):
 def test_runs_to_ten_percent_is_runs_times_squared_cov_ratio():
     """The runs-to-10 % column: mean runs x (empirical CoV / 0.1)^2, gain against
     100 (1 - Pf) / Pf crude-MC runs."""
-    from gearuq import bench_reliability as bench
+    from gearuq.bench import reliability as bench
 
     runs = [{"pf": pf, "cov": 0.1, "covered": True, "runs": 1000, "wall": 1.0, "status": 0,
              "bound": 0, "lf_runs": 50} for pf in (0.8e-3, 1.0e-3, 1.2e-3)]

@@ -341,7 +341,7 @@ def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Command line: ``python -m gearuq_plugins.studies.geared_rotor_rare_events``."""
+    """Command line: ``python -m gearuq_studies.geared_rotor_rare_events``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("gearuq_geared_rotor_rare_events"))
     parser.add_argument("--quick", action="store_true", help="a quick check, not the answer")

@@ -371,7 +371,7 @@ def run_bench(what: str, out: str | Path = "gearuq_bench", quick: bool = False) 
     return 0
 
 
-if __name__ == "__main__":  # python -m gearuq.bench {integrator,startup} [--quick]
+if __name__ == "__main__":  # python -m gearuq.bench.core {integrator,startup} [--quick]
     import sys
 
     raise SystemExit(run_bench(sys.argv[1] if len(sys.argv) > 1 else "integrator",
