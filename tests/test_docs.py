@@ -13,6 +13,8 @@ import inspect
 import re
 from pathlib import Path
 
+import pytest
+
 import gearuq
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -257,7 +259,7 @@ def test_theory_pages_write_equations_as_labelled_display_math():
         assert not as_code, f"{name} writes equations as code blocks: {as_code}"
 
 
-def test_math_renders_offline_and_from_a_local_copy():
+def test_math_renders_offline_and_from_a_local_copy(tmp_path):
     """conf.py turns on MyST's math and points MathJax at a local copy on request."""
     import importlib.util
     import os
@@ -272,6 +274,15 @@ def test_math_renders_offline_and_from_a_local_copy():
         assert conf._local_mathjax("") == (None, None)
         path, config = conf._local_mathjax("https://example.org/mathjax/tex-mml-chtml.js")
         assert path.endswith("tex-mml-chtml.js") and config is None
+        # a MathJax 2 copy (Debian's libjs-mathjax layout): file URI, TeX config, and only the
+        # elements MyST marks as math are processed
+        (tmp_path / "MathJax.js").write_text("")
+        path, config = conf._local_mathjax(str(tmp_path))
+        assert path == (tmp_path / "MathJax.js").as_uri() + "?config=TeX-AMS-MML_HTMLorMML"
+        assert "math" in config["tex2jax"]["processClass"].split("|")
+        assert config["tex2jax"]["inlineMath"] == [["\\(", "\\)"]]
+        with pytest.raises(ValueError, match="GEARUQ_DOCS_MATHJAX"):
+            conf._local_mathjax(str(tmp_path / "missing"))
     finally:
         if old is not None:
             os.environ["GEARUQ_DOCS_MATHJAX"] = old
