@@ -9,8 +9,39 @@ is generated from the numpydoc docstrings by autodoc/autosummary, and the galler
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import gearuq
+
+
+def _local_mathjax(value: str) -> tuple[str | None, dict | None]:
+    """``mathjax_path`` and ``mathjax2_config`` for GEARUQ_DOCS_MATHJAX (None, None: unset)."""
+    if not value:
+        return None, None
+    if "://" not in value:
+        path = Path(value).expanduser().resolve()
+        if path.is_dir():
+            names = ("MathJax.js", "tex-mml-chtml.js", "es5/tex-mml-chtml.js")
+            found = [path / name for name in names if (path / name).is_file()]
+            if not found:
+                raise ValueError(f"GEARUQ_DOCS_MATHJAX={value!r}: no MathJax.js or "
+                                 "tex-mml-chtml.js in that directory")
+            path = found[0]
+        elif not path.is_file():
+            raise ValueError(f"GEARUQ_DOCS_MATHJAX={value!r}: no such file or directory")
+        value = path.as_uri()
+    if value.split("?")[0].endswith("/MathJax.js"):  # MathJax 2
+        if "?" not in value:
+            value += "?config=TeX-AMS-MML_HTMLorMML"
+        # only Sphinx's delimiters inside the elements MyST marks as math (MyST marks the
+        # rest of each page with the ignore class), as MyST configures MathJax 3/4
+        return value, {"tex2jax": {"inlineMath": [["\\(", "\\)"]],
+                                   "displayMath": [["\\[", "\\]"]],
+                                   "processEscapes": True, "processEnvironments": False,
+                                   "processClass": "tex2jax_process|mathjax_process|math"},
+                       "TeX": {"extensions": ["AMSmath.js", "AMSsymbols.js"]}}
+    return value, None
+
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -55,10 +86,17 @@ numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 
-# MathJax is loaded from its CDN by default; GEARUQ_DOCS_MATHJAX points the pages at a local
-# copy instead (for building and viewing offline).
-if os.environ.get("GEARUQ_DOCS_MATHJAX"):
-    mathjax_path = os.environ["GEARUQ_DOCS_MATHJAX"]
+# MathJax: the pages load it from Sphinx's default CDN URL (nothing is fetched at build time,
+# so the build itself works offline). GEARUQ_DOCS_MATHJAX points the pages at a local copy
+# instead, for viewing them without a network (e.g. a headless-browser check):
+#   GEARUQ_DOCS_MATHJAX=/usr/share/javascript/mathjax   (Debian's libjs-mathjax, MathJax 2)
+# A directory, a file (MathJax.js of MathJax 2, or a v3/v4 bundle such as tex-mml-chtml.js)
+# or a URL; a MathJax 2 entry point gets the TeX configuration MathJax 2 needs.
+_mathjax_local, _mathjax2_local = _local_mathjax(os.environ.get("GEARUQ_DOCS_MATHJAX", ""))
+if _mathjax_local:
+    mathjax_path = _mathjax_local
+if _mathjax2_local:
+    mathjax2_config = _mathjax2_local
 
 sphinx_gallery_conf = {
     "examples_dirs": "gallery",

@@ -13,6 +13,8 @@ import inspect
 import re
 from pathlib import Path
 
+import pytest
+
 import gearuq
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -70,3 +72,217 @@ def test_gallery_scripts_use_only_the_public_api():
         imports = re.findall(r"^(?:from|import) (\S+)", text, flags=re.M)
         private = [m for m in imports if m.startswith("gearuq_plugins") or "._" in m]
         assert not private, f"{path.name} imports {private}"
+
+
+# --------------------------------------------------------------------------------------------
+# Papers cited by their authors; theory pages with rendered equations
+# --------------------------------------------------------------------------------------------
+
+ROOT = DOCS.parent
+#: "seed 002", "Seed 000", "seed-003" ...: a paper named by an internal number. Identifiers
+#: such as ``seed002_pair``, ``SEED002_TABLE`` or ``pitch_phases="seed"`` do not match (a word
+#: character follows the digits, or no digits follow), nor do random seeds ("seed 2020",
+#: "seed 3": not three digits).
+_SEED_NUMBER = re.compile(r"\bseed[ -]?\d{3}\b", re.IGNORECASE)
+#: "seed Eq. 4", "the seed's", "(seed Table 2)": the paper named "the seed" (theory pages and
+#: models.md; a random seed is written "random seed 2020" or ``rng=``).
+_SEED_AS_PAPER = re.compile(r"\bseed(?:'s\b| (?:Eqs?\.|Figs?\.|Tables?\b|Secs?\.|§))",
+                            re.IGNORECASE)
+_FENCE = re.compile(r"^( {0,3})(`{3,}|~{3,})\s*([^`\s]*)")
+_LIST_ITEM = re.compile(r"^( *)(?:[-*+]|\d+[.)])( +)\S")
+_DISPLAY_CLOSE = re.compile(r"\$\$\s*(?:\(([^)]+)\))?\s*$")
+#: a formula rather than code: an equals sign together with TeX or spelled-out maths
+_MATH_WORDS = re.compile(
+    r"\\frac|\^|\bdot\b|\bsqrt\b|\bsum_|\bint\b|\b(?:alpha|beta|gamma|delta|theta|omega|sigma"
+    r"|zeta|kappa|lambda|mu|xi|eps|phi|psi|rho|tau|nu)(?:_\w+)?\b")
+_CODE_WORDS = re.compile(
+    r"^\s*(?:>>>|import |from \S+ import |def |class |print\()|\bnp\.|gearuq\.")
+
+
+def user_docs() -> list[Path]:
+    """README.md and every Markdown page of the site (not the build output)."""
+    pages = [p for p in sorted(DOCS.rglob("*.md")) if "_build" not in p.parts]
+    return [ROOT / "README.md", *pages]
+
+
+def theory_pages() -> list[Path]:
+    """The theory pages: one per model plus the shared gear pages."""
+    return sorted((DOCS / "theory").glob("*.md"))
+
+
+def _strip_code_spans(line: str) -> str:
+    """A line without its inline code spans (API names may contain "seed")."""
+    return re.sub(r"(`+)(?:(?!\1).)+\1", "", line)
+
+
+def seed_citations(text: str, *, as_paper: bool = False) -> list[str]:
+    """Lines that name a paper "seed NNN" (or, with ``as_paper``, "the seed's", "seed Eq.")."""
+    found = []
+    for number, line in enumerate(text.splitlines(), 1):
+        prose = _strip_code_spans(line)
+        if _SEED_NUMBER.search(prose) or (as_paper and _SEED_AS_PAPER.search(prose)):
+            found.append(f"line {number}: {line.strip()}")
+    return found
+
+
+def markdown_blocks(text: str) -> tuple[list[tuple[str, str]], list[tuple[str | None, str]]]:
+    """Code blocks ``(info, body)`` and display-math blocks ``(label, body)`` of a MyST page.
+
+    A small scanner of the CommonMark block structure that matters here: fenced blocks (with
+    their info string, ``"indented"`` for indented code), ``$$ ... $$ (label)`` display math,
+    and list items, whose continuation lines are indented without being code (an indented
+    code block inside an item needs four spaces beyond the item's content column).
+    """
+    code: list[tuple[str, str]] = []
+    math: list[tuple[str | None, str]] = []
+    lines = text.splitlines()
+    i, list_column, previous_blank = 0, -1, True
+    while i < len(lines):
+        line = lines[i]
+        stripped = line.strip()
+        indent = len(line) - len(line.lstrip(" "))
+        fence = _FENCE.match(line)
+        item = _LIST_ITEM.match(line)
+        if fence:
+            marker = fence.group(2)
+            body, i = [], i + 1
+            while i < len(lines) and not lines[i].strip().startswith(marker):
+                body.append(lines[i])
+                i += 1
+            code.append((fence.group(3) or "", "\n".join(body)))
+            i, previous_blank = i + 1, False
+            continue
+        if stripped.startswith("$$"):
+            rest = stripped[2:]
+            close = re.search(r"\$\$\s*(?:\(([^)]+)\))?\s*$", rest)
+            if close:  # one-line $$ ... $$
+                math.append((close.group(1), rest[:close.start()]))
+                i, previous_blank = i + 1, False
+                continue
+            body, i = ([rest] if rest.strip() else []), i + 1
+            while i < len(lines) and not _DISPLAY_CLOSE.search(lines[i]):
+                body.append(lines[i])
+                i += 1
+            close = _DISPLAY_CLOSE.search(lines[i]) if i < len(lines) else None
+            if close and lines[i][:close.start()].strip():  # "... $$" ends a content line
+                body.append(lines[i][:close.start()])
+            math.append((close.group(1) if close else None, "\n".join(body)))
+            i, previous_blank = i + 1, False
+            continue
+        if not stripped:
+            i, previous_blank = i + 1, True
+            continue
+        if item:
+            list_column = len(item.group(1)) + len(item.group(0)) - len(item.group(1)) - 1
+        elif indent == 0:
+            list_column = -1
+        code_column = (list_column if list_column >= 0 else 0) + 4
+        if previous_blank and indent >= code_column and not item:
+            body = []
+            while i < len(lines) and (not lines[i].strip()
+                                      or len(lines[i]) - len(lines[i].lstrip(" ")) >= code_column):
+                body.append(lines[i])
+                i += 1
+            code.append(("indented", "\n".join(body).rstrip()))
+            previous_blank = True
+            continue
+        i, previous_blank = i + 1, False
+    return code, math
+
+
+def equations_as_code(text: str) -> list[str]:
+    """Code blocks that hold formulas: indented or fenced without a language (or ``text``),
+    with an equals sign and maths, and none of the marks of a Python example."""
+    found = []
+    for info, body in markdown_blocks(text)[0]:
+        if info not in ("indented", "", "text", "none"):
+            continue
+        if _CODE_WORDS.search(body) and not _MATH_WORDS.search(_CODE_WORDS.sub("", body)):
+            continue
+        if any("=" in ln and _MATH_WORDS.search(ln) and not _CODE_WORDS.search(ln)
+               for ln in body.splitlines()):
+            found.append(body.strip().splitlines()[0])
+    return found
+
+
+def test_seed_guards_tell_papers_from_identifiers():
+    bad = "as in seed 002, Fig. 4\nSeed 000 Table 1 gives\nthe seed-003 oscillator\n"
+    assert len(seed_citations(bad)) == 3
+    fine = ("`seed002_rotor()` and `gearuq.gears.seed002_pair()`, SEED002_TABLE,\n"
+            'option `pitch_phases="seed"`, pitch_phases="seed", random seed 2020, seed 3,\n'
+            "400 draws (seed 2024), `seed 002` in code\n")
+    assert seed_citations(fine) == []
+    assert seed_citations("(seed Eq. 12) and the seed's rotor", as_paper=True)
+    assert seed_citations("(seed Eq. 12)") == []  # only with as_paper
+    assert seed_citations("realisation of random seed 2020, `rng(seed)`", as_paper=True) == []
+
+
+def test_equation_guard_flags_formulas_and_spares_code():
+    indented_equation = "Text.\n\n    m x'' + c x' + k x = F cos(omega t)\n\nMore.\n"
+    assert equations_as_code(indented_equation)
+    fenced_equation = "```\nk_m = c_gamma_alpha * b,  c' = 1 / q^2\n```\n"
+    assert equations_as_code(fenced_equation)
+    python = ("```python\nx = np.sqrt(omega**2 - zeta^2)\n```\n\n"
+              "    import numpy as np\n    omega = np.sqrt(k / m)\n\n"
+              "    ds = gearuq.monte_carlo(model, space, tau, n_samples=10)\n")
+    assert equations_as_code(python) == []
+    list_continuation = ("1. **Length scale.** The paper scales by b5,\n"
+                         "    a fixed alpha = 10 um keeps p comparable\n")
+    assert equations_as_code(list_continuation) == []
+    item_math = "1. Mean deflection:\n\n   $$\n   f(x_m) = F_0\n   $$ (x-mean)\n"
+    code, math = markdown_blocks(item_math)
+    assert code == [] and math == [("x-mean", "   f(x_m) = F_0")]
+    inline_close = "$$a = b\n+ c$$\n\n$$d = e$$ (one-line)\n"
+    assert markdown_blocks(inline_close)[1] == [(None, "a = b\n+ c"), ("one-line", "d = e")]
+
+
+def test_user_docs_cite_papers_by_authors():
+    for path in user_docs():
+        found = seed_citations(path.read_text())
+        assert not found, f"{path.relative_to(ROOT)} cites a paper as 'seed NNN': {found}"
+    for path in [*theory_pages(), DOCS / "models.md"]:
+        found = seed_citations(path.read_text(), as_paper=True)
+        assert not found, f"{path.relative_to(ROOT)} calls a paper 'the seed': {found}"
+
+
+def test_theory_pages_write_equations_as_labelled_display_math():
+    pages = theory_pages()
+    assert len(pages) >= 8
+    for path in pages:
+        text = path.read_text()
+        code, math = markdown_blocks(text)
+        name = path.relative_to(ROOT)
+        assert math, f"{name} has no display math ($$ ... $$ (label))"
+        unlabelled = [body.strip().splitlines()[0] for label, body in math if not label]
+        assert not unlabelled, f"{name}: display equations without a label: {unlabelled}"
+        as_code = equations_as_code(text)
+        assert not as_code, f"{name} writes equations as code blocks: {as_code}"
+
+
+def test_math_renders_offline_and_from_a_local_copy(tmp_path):
+    """conf.py turns on MyST's math and points MathJax at a local copy on request."""
+    import importlib.util
+    import os
+
+    spec = importlib.util.spec_from_file_location("docs_conf", DOCS / "conf.py")
+    old = os.environ.pop("GEARUQ_DOCS_MATHJAX", None)
+    try:
+        conf = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(conf)
+        assert {"dollarmath", "amsmath"} <= set(conf.myst_enable_extensions)
+        assert not hasattr(conf, "mathjax_path")  # Sphinx's default CDN URL
+        assert conf._local_mathjax("") == (None, None)
+        path, config = conf._local_mathjax("https://example.org/mathjax/tex-mml-chtml.js")
+        assert path.endswith("tex-mml-chtml.js") and config is None
+        # a MathJax 2 copy (Debian's libjs-mathjax layout): file URI, TeX config, and only the
+        # elements MyST marks as math are processed
+        (tmp_path / "MathJax.js").write_text("")
+        path, config = conf._local_mathjax(str(tmp_path))
+        assert path == (tmp_path / "MathJax.js").as_uri() + "?config=TeX-AMS-MML_HTMLorMML"
+        assert "math" in config["tex2jax"]["processClass"].split("|")
+        assert config["tex2jax"]["inlineMath"] == [["\\(", "\\)"]]
+        with pytest.raises(ValueError, match="GEARUQ_DOCS_MATHJAX"):
+            conf._local_mathjax(str(tmp_path / "missing"))
+    finally:
+        if old is not None:
+            os.environ["GEARUQ_DOCS_MATHJAX"] = old
