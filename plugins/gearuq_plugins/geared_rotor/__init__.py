@@ -16,8 +16,8 @@ forces and accelerations (in time, as RMS values and as spectra at the shaft ord
 the mesh harmonics and the sidebands ``f_m +- i f_s`` labelled), and over a whole speed
 range per sample the largest RMS DTE ``dte_rms_max`` and its speed. The pitch deviations
 are, by default, a smooth function of declared standard normals (``pitch_xi_p_*``,
-``pitch_xi_g_*``), so every engine can explore them; the seed's realisation stays available
-as ``pitch_model="seeded"``. Theory, parameter sources and the deviations from the seed:
+``pitch_xi_g_*``), so every engine can explore them; the paper's own realisation stays available
+as ``pitch_model="seeded"``. Theory, parameter sources and the deviations from Yuan, Liu and Liu:
 docs/theory/geared_rotor.md.
 """
 
@@ -68,14 +68,14 @@ _PARAMETERS = (
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
        "tip relief length along the path of contact (LTCA optimum at 1000 N m: 11.4 mm)"),
     _P("bearing_stiffness", "N m-1", 5.0e8, 1.0e7, 1.0e11,
-       "radial stiffness of each of the four bearings (ours; the seed prints none)"),
+       "radial stiffness of each of the four bearings (ours; Yuan, Liu and Liu print none)"),
     _P("bearing_axial_stiffness", "N m-1", 2.0e8, 1.0e7, 1.0e11,
        "axial stiffness of each bearing (ours)"),
     _P("bearing_damping", "N s m-1", 0.0, 0.0, 1.0e6,
        "radial and axial viscous damping of each bearing"),
     _P("drive_inertia", "kg m2", 0.03, 1e-4, 100.0,
        "polar inertia turning with the free end of shaft 1 (drive side: a coupling hub of "
-       "twice the 70 mm shaft-end diameter, 108 mm long; ours, the seed prints none)"),
+       "twice the 70 mm shaft-end diameter, 108 mm long; ours, Yuan, Liu and Liu print none)"),
     _P("load_inertia", "kg m2", 0.03, 1e-4, 100.0,
        "polar inertia turning with the free end of shaft 2 (load side; as drive_inertia)"),
     _P("damping_ratio", "1", 0.05, 0.0, 0.5,
@@ -161,12 +161,13 @@ _OPTIONS = (
     _O("range_cutoff_factor", 1.0, "modal cut-off factor of the range", lower=1.0,
        upper=50.0),
     _O("end_inertias", "parameters", "drive and load inertias on the shaft ends: the "
-       "parameters drive_inertia / load_inertia, or 'none' (the seed's rotor as printed, "
+       "parameters drive_inertia / load_inertia, or 'none' (Yuan, Liu and Liu's rotor as printed, "
        "whose 448 Hz mode has no inertia at the shaft ends)", choices=("parameters", "none")),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),
-    _O("moment_arm", "pitch_point", "mesh element arms: re-derived (pitch point) or as seed "
+    _O("moment_arm", "pitch_point", "mesh element arms: re-derived (pitch point) or as "
+       "Yuan, Liu and Liu "
        "Eq. 8 prints them (base circles)", choices=("pitch_point", "base_circle")),
 )
 
@@ -238,7 +239,8 @@ class GearedRotor(Model):
         """The :class:`gearuq.rotor.geared.GearedRotorProblem` of one parameter set.
 
         For analyses beyond the plugin's outputs (modal and Campbell data, sweeps along one
-        branch): the seed rotor with the LTCA excitation of ``params`` (missing names take
+        branch): Yuan, Liu and Liu's rotor with the LTCA excitation of ``params`` (missing names
+        take
         their nominal values), built exactly as :meth:`response` builds it;
         ``speed_range=True`` gives the problem behind ``dte_rms_max`` (the range options
         ``range_mesh_harmonics`` and ``range_cutoff_factor``).

@@ -3,7 +3,7 @@
 Every sample: the flank deviations of its parameters (pitch-deviation germ shared with the
 ``mesh_excitation`` plugin, so one seed gives one realisation in both), the LTCA over the long
 period on a cached contact setup, the tangent linearisation (:class:`MeshExcitation`), the
-seed rotor with the sample's bearings, the modal reduction for its speed and the harmonic-
+paper's rotor with the sample's bearings, the modal reduction for its speed and the harmonic-
 balance steady state. LTCA results and rotor reductions are cached per model instance, so a
 speed sweep at fixed torque and deviations runs the LTCA and the eigen-solution once.
 """
@@ -31,7 +31,7 @@ STATUS_MEANINGS = {
 _FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
 _RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max")
 _BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
-_SEAT_DIAMETER = 0.110  # gear seat of both shafts (seed Sec. 2.2): the gear-blank bore
+_SEAT_DIAMETER = 0.110  # gear seat of both shafts (Yuan, Liu and Liu Sec. 2.2): the gear-blank bore
 
 
 def seed_pair() -> Any:
@@ -69,7 +69,7 @@ def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
     :func:`gearuq.gears.deviations.cumulative_pitch_from_normals` of its standard normals
     ``pitch_xi_p_*`` / ``pitch_xi_g_*``. ``"seeded"``: the realisation of ``pitch_seed``;
     ``phases="parameters"`` then replaces its two sine phases by ``pitch_phase_pinion`` and
-    ``pitch_phase_wheel`` (the scatter stays the seed's).
+    ``pitch_phase_wheel`` (the scatter stays the paper's).
     """
     from gearuq.gears.deviations import (
         FlankDeviations,
@@ -193,7 +193,7 @@ def mesh_harmonics(options: dict[str, Any], speed: float) -> int:
     if options["n_mesh_harmonics"] is not None:
         return int(options["n_mesh_harmonics"])
     top = (options["positions_per_cycle"] - 1) // 2
-    f_mesh = 30 * speed / 60.0  # z1 = 30 (the seed pair)
+    f_mesh = 30 * speed / 60.0  # z1 = 30 (Yuan, Liu and Liu's pair)
     return int(min(top, max(4, math.ceil(options["harmonic_band"] / f_mesh - 1e-9))))
 
 

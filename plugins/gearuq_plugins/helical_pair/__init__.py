@@ -3,9 +3,9 @@
 Each gear has five DOFs: radial x (along the line of centres), tangential y, axial z, swing
 (rocking about the tangential axis y) and torsion about its axis z. The mesh is a single
 spring-damper along the normal line of action through the pitch point, with time-varying
-stiffness (seed cosine form or Fourier series), static transmission error excitation and a
-half-backlash dead zone; supports are spring-dampers with bearing-clearance dead zones.
-Equations, nondimensionalisation, parameter sources and every deviation from the seed are in
+stiffness (Li, Hu and Han's cosine form or Fourier series), static transmission error excitation
+and a half-backlash dead zone; supports are spring-dampers with bearing-clearance dead zones.
+Equations, nondimensionalisation, parameter sources and every deviation from Li, Hu and Han are in
 docs/theory/helical_pair.md.
 
 Modules, in the order data flows through them: ``physics`` (set-up: geometry, coefficients,
@@ -65,8 +65,9 @@ _PARAMETERS = (
     _P("zeta_m", "1", 0.08, 0.0, 0.5, "mesh damping ratio, Li, Hu and Han Table 1 "
        "(range 0.03-0.17)"),
     _P("zeta_s", "1", 0.05, 0.0, 0.5, "support damping ratio (ours; not in the seed)"),
-    _P("e_0", "m", 0.0, -1e-3, 1e-3, "constant static error e_0, seed: 0"),
-    _P("e_a", "m", 1.08e-5, 0.0, 2e-4, "static error amplitude (seed '108 um' read as 10.8 um)"),
+    _P("e_0", "m", 0.0, -1e-3, 1e-3, "constant static error e_0, Li, Hu and Han: 0"),
+    _P("e_a", "m", 1.08e-5, 0.0, 2e-4, "static error amplitude (Li, Hu and Han's '108 um' "
+       "read as 10.8 um)"),
     _P("phi", "rad", 0.0, -2 * math.pi, 2 * math.pi, "static error phase"),
     _P("C_R", "1", 1.0, 0.1, 1.0, "ISO 6336-1 gear blank factor (1: solid)"),
 )
@@ -108,7 +109,8 @@ _OPTIONS = (
        "'always': c_m delta' acts also across the open backlash (seed); 'in_contact': no mesh "
        "force in the gap, flank force clipped to compression", choices=("always", "in_contact")),
     _O("length_scale", 1e-5,
-       "unit L of p, dp, v: a length in m, or 'b5' (each sample's half backlash, as the seed; "
+       "unit L of p, dp, v: a length in m, or 'b5' (each sample's half backlash, as "
+       "Li, Hu and Han; "
        "b5 = 0 is flagged)", kind="any", units="m", check=_check_length_scale),
 )
 
@@ -122,10 +124,10 @@ class HelicalPair(Model):
     Parameters
     ----------
     stiffness_harmonics : sequence of (a_n, b_n), optional
-        Fourier coefficients of k(t)/k_m (Li, Hu and Han Eq. 6); when given they replace the seed's
-        ``1 + s cos(omega tau)`` and ``s`` is ignored.
+        Fourier coefficients of k(t)/k_m (Li, Hu and Han Eq. 6); when given they replace the
+        paper's ``1 + s cos(omega tau)`` and ``s`` is ignored.
     use_virtual_teeth : bool
-        ISO 6336 q' with virtual numbers of teeth (standard, default) or with z as the seed
+        ISO 6336 q' with virtual numbers of teeth (standard, default) or with z as Li, Hu and Han
         prints it.
 
     Notes

@@ -60,7 +60,7 @@ def dead_zone(x: float, b: float) -> float:
 def excitation(tau: float, p: np.ndarray) -> tuple[float, float, float]:
     """kappa = k(tau)/k_m, eps = e/L and d eps/d tau from one sin/cos pair of Omega tau.
 
-    kappa is the seed form 1 + s cos(Omega tau) or the Fourier series of Eq. 6 (harmonics by
+    kappa is Li, Hu and Han's form 1 + s cos(Omega tau) or the Fourier series of Eq. 6 (harmonics by
     the angle-addition recurrence); the error phase enters through precomputed cos/sin(phi).
     """
     om = p[I_OMEGA]
@@ -149,7 +149,7 @@ def mesh_force(kappa: float, d: float, dd: float, p: np.ndarray) -> float:
     """Nondimensional mesh force with its branch decided by the state.
 
     Default (``p[I_GATE] == 0``): kappa f(d) + 2 zeta d', the damping acting at all times as
-    in the seed. Gated: no force inside the backlash, and in contact the flank force is
+    in Li, Hu and Han. Gated: no force inside the backlash, and in contact the flank force is
     clipped to compression (the teeth can push, not pull).
     """
     b5 = p[I_B5]

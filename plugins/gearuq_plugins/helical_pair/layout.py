@@ -15,7 +15,7 @@ INTERNAL_LENGTH = 1e-5
 
 # layout of the per-sample coefficient vector
 I_OMEGA = 0  # mesh frequency / omega_n
-I_S = 1  # seed's stiffness variation coefficient s (used when n_harm == 0)
+I_S = 1  # Li, Hu and Han's stiffness variation coefficient s (used when n_harm == 0)
 I_EPS0 = 2  # constant error e_0 / L
 I_EPSA = 3  # error amplitude e_a / L
 I_PHI = 4  # error phase [rad]
@@ -27,7 +27,8 @@ I_XI = I_ETA + N_DOF  # 10 support damping c_i / (M_i omega_n)
 I_BETA = I_XI + N_DOF  # 10 dead-zone half widths b_i / L (0: linear support)
 I_B5 = I_BETA + N_DOF  # mesh half backlash b5 / L
 I_G = I_B5 + 1  # 10 constant generalised loads (torques) / (M_i L omega_n^2)
-I_NHARM = I_G + N_DOF  # number of Fourier harmonics of the stiffness (0: seed cosine form)
+# number of Fourier harmonics of the stiffness (0: Li, Hu and Han's cosine form)
+I_NHARM = I_G + N_DOF
 I_HARM = I_NHARM + 1  # a_1, b_1, a_2, b_2, ... relative to k_m
 I_CPHI = I_HARM + 2 * MAX_HARMONICS  # cos(phi), precomputed (saves a trig call per rhs)
 I_SPHI = I_CPHI + 1  # sin(phi)

@@ -51,7 +51,8 @@ def _declare() -> tuple[Output, ...]:
     outs = []
     for i, (_, _, meaning) in enumerate(DOFS):
         outs.append(Output(f"p{i + 1}", "1", ("sample", "time"),
-                           f"nondimensional {meaning} p{i + 1} = u / L (seed p{i + 1})"))
+                           f"nondimensional {meaning} p{i + 1} = u / L "
+                           f"(Li, Hu and Han's p{i + 1})"))
     for i in range(N_DOF):
         outs.append(Output(f"dp{i + 1}", "1", ("sample", "time"),
                            f"nondimensional velocity d p{i + 1} / d tau"))

@@ -40,7 +40,7 @@ NEGLECTS = (
     "tangent stiffness (STE excitation), so the coupling of the long-period harmonics by "
     "the varying stiffness k_t(tau) is left out.",
     "Contact loss and back-flank contact (the linear harmonic solution assumes full contact, "
-    "as the rotor finds at every speed of its seed sweep).",
+    "as the rotor finds at every speed of its 25-8000 rpm sweep).",
     "Gyroscopic terms (less than 0.01 % on the mesh modes at 8000 rpm in the rotor).",
     "The difference between the DTE of the gear bodies' rotations and the mesh approach: "
     "both are the oscillator's single coordinate.",

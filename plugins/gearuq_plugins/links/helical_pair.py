@@ -41,7 +41,7 @@ NEGLECTS = (
     "The start-up transient: the link gives the periodic steady state reached from rest at "
     "the mean deflection; the pair's outputs before the transient has decayed (tau < about "
     "3 / (zeta_m Omega)) differ.",
-    "The pair's optional Fourier stiffness (stiffness_harmonics): the link uses the seed's "
+    "The pair's optional Fourier stiffness (stiffness_harmonics): the link uses Li, Hu and Han's "
     "cosine form 1 + s cos(theta) and refuses a pair built with harmonics.",
 )
 
@@ -84,7 +84,7 @@ def oscillator_inputs(high: Model, params: dict[str, np.ndarray], equivalent: st
                       ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Nondimensional oscillator parameters of pair samples, and the SI scales behind them.
 
-    Returns ``(inputs, scales)``: ``inputs`` the ``mesh_oscillator`` parameters (seed
+    Returns ``(inputs, scales)``: ``inputs`` the ``mesh_oscillator`` parameters (Eritenel and Parker
     Eqs. 11-14 with the phases taken relative to the excitation's first harmonic),
     ``scales`` ``k`` [N/m], ``mass`` [kg], ``d`` [m], ``phase_shift`` ``Phi_01`` [rad],
     ``omega_high`` (the pair's time scale) and ``omega_osc`` [rad/s], ``xi`` mesh
@@ -213,7 +213,7 @@ def build(pair: Model | str = "helical_pair", oscillator: Model | str = "mesh_os
     low = get_model(oscillator) if isinstance(oscillator, str) else oscillator
     harmonics = getattr(high, "stiffness_harmonics", np.zeros((0, 2)))
     if np.size(harmonics):
-        raise ValueError("pair: the link maps the seed's stiffness 1 + s cos(theta); a pair "
+        raise ValueError("pair: the link maps Li, Hu and Han's stiffness 1 + s cos(theta); a pair "
                          "built with stiffness_harmonics is not supported")
     if getattr(low, "dimensional", False):
         raise ValueError("oscillator: the link drives the nondimensional mesh oscillator "

@@ -87,7 +87,8 @@ class MeshExcitation(Model):
         Face-width coupling length of the compliance [m]; ``None``: the cantilever-plate
         calibration (:func:`gearuq.gears.face_coupling.plate_coupling_length`).
     bore_ratio : float
-        Bore over root radius of the fillet foundation (0.5 assumed; seed gives no bore).
+        Bore over root radius of the fillet foundation (0.5 assumed; Yuan, Liu and Liu give no
+        bore).
     hertz : bool
         Include Weber's nonlinear contact approach (default True).
     """
@@ -144,7 +145,7 @@ class MeshExcitation(Model):
     def default_space(self, pitch_harmonics: int | None = None) -> Any:
         """Yuan, Liu and Liu's random input: torque 200-1000 N m and the pitch-deviation germ.
 
-        ``torque`` uniform on the seed's load range; the germ ``pitch_xi_p_*`` and
+        ``torque`` uniform on Yuan, Liu and Liu's load range; the germ ``pitch_xi_p_*`` and
         ``pitch_xi_g_*`` independent standard normals (all ``z - 1`` per gear, or those of
         ``pitch_harmonics`` harmonics; pass the same value as the option), amplitude 15 um
         and sigma 3 um at their nominal values. Continuous: every engine can explore the

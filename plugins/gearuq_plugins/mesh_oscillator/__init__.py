@@ -6,7 +6,7 @@ a periodic force-deflection function ``f`` from the LTCA, a table or an analytic
 Taylor-Fourier expansion, the method of multiple scales to first and second order (frequency
 response, all branches, stability, onset of contact loss, the four response regions) and
 numerical frequency sweeps through the shared integrator. Theory and every deviation from
-the seed: docs/theory/mesh_oscillator.md.
+Eritenel and Parker: docs/theory/mesh_oscillator.md.
 
 Modules: :mod:`.forces` (force-deflection functions), :mod:`.expansion` (Eqs. 3-14),
 :mod:`.slowflow` and :mod:`.continuation` (multiple scales, compiled), :mod:`.perturbation`

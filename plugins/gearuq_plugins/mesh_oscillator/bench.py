@@ -1,7 +1,7 @@
 """Speed against error: perturbation frequency response against numerical frequency sweeps.
 
 ``run()`` measures, side by side in one process, a frequency response on the same grid of
-``n_points`` frequencies (500 by default) for the example system of seed Fig. 4:
+``n_points`` frequencies (500 by default) for the example system of EP Fig. 4:
 
 - the multiple-scales solution, second order with the closed-form separation (Eqs. 31, 34,
   35), second order with the numerical separation (Eqs. 32-33) and first order (Eq. 27);
@@ -19,6 +19,8 @@ frequency: the accuracy of the solution itself). Timings are wall-clock on this 
 machine should reproduce.
 
 Call ``gearuq_plugins.mesh_oscillator.bench.run(out="gearuq_bench", quick=False)``.
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -99,7 +101,7 @@ def _stable_branches(res: Any) -> np.ndarray:
 def damping_dependence(n_points: int, dampings: tuple[float, ...],
                        repeat: int = 1) -> list[dict[str, Any]]:
     """Speed ratio sweep / perturbation (second order, closed form) at several damping
-    ratios of the seed Fig. 4 system: the settle periods of the sweep grow like ``1/mu``."""
+    ratios of the EP Fig. 4 system: the settle periods of the sweep grow like ``1/mu``."""
     model = MeshOscillator()
     options = model.validate_options({})
     grid = np.linspace(*GRID, n_points)
@@ -163,7 +165,7 @@ def measure(n_points: int = 500, quick: bool = False,
                 "perturbation_s": rows[0]["wall_s"], "sweep_s": sweep_wall,
                 "speedup_vs_sweep": rows[0]["speedup_vs_sweep"]}]
     damping += damping_dependence(n_points, dampings, 1 if quick else 2)
-    return {"rows": rows, "n_points": n_points, "grid": list(GRID), "system": "seed Fig. 4",
+    return {"rows": rows, "n_points": n_points, "grid": list(GRID), "system": "EP Fig. 4",
             "region_points": counts, "sweep_status": ref["status"],
             "sweep_steps": ref["steps"], "damping": damping,
             "machine": machine_description() + " (shared with other jobs)"}

@@ -6,19 +6,21 @@ continuation from below the lowest grid frequency to above the highest, in the s
 coordinates ``y = (a / a_scale, gamma / pi, Omega / Omega_span)`` (predictor along the
 tangent, Newton-chord corrector on the bordered system). The curve has a corner where
 contact loss starts or ends (the separation harmonics grow like the square root of the
-depth of separation: the kink of seed Fig. 4, region 3); it is crossed explicitly by solving
+depth of separation: the kink of EP Fig. 4, region 3); it is crossed explicitly by solving
 for the onset point (margin 0) and a point just across it.
 
 Every solution at a grid frequency is then found where the traced curve crosses it (cubic
 Hermite guess along the segment, Newton-chord refinement at fixed ``Omega``), so all branches
 (one or three, or more) come out with their position along the curve, which decides the path
 of an upward or downward sweep. Stability follows from the eigenvalues of the slow-flow
-Jacobian with respect to ``(a, gamma)`` (seed Eq. 38), by finite differences, so the
+Jacobian with respect to ``(a, gamma)`` (EP Eq. 38), by finite differences, so the
 dependence of the separation harmonics on ``(a, gamma)`` is included.
 
 Limits: an isolated branch (isola) not connected to the low-frequency end is not found; the
 trace starts below the lowest grid frequency, which must lie where the response is
 single-valued (the start is checked against the linear solution).
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from gearuq_plugins.mesh_oscillator.slowflow import (
 #: cached kernels of this file, and numba's cache notices changes to this file only: a change
 #: to ``slowflow.py`` must come with a new value here, which invalidates the stale entries
 #: (tests/test_mesh_oscillator_validity.py checks the value).
-SLOWFLOW_DIGEST = "a440c103473c2182"
+SLOWFLOW_DIGEST = "ad11dc697ff67962"
 
 #: Trace status codes (per sample).
 TRACE_OK = 0
@@ -604,7 +606,7 @@ def sweep_paths(sol_par, sol_stable, n_sol, up, down):
 
 @njit(cache=True, nogil=True)
 def onset_points(c, order, mode, tr, n_pts, brk, out):
-    """Points of the traced curve where the contact margin changes sign (seed Eqs. 36-37).
+    """Points of the traced curve where the contact margin changes sign (EP Eqs. 36-37).
 
     Each is refined by the Illinois (regula falsi) method on ``Omega`` with Newton solves on
     the smooth contact-side flow at fixed ``Omega``. Fills ``out[i] = (Omega, a, gamma)`` and

@@ -1,12 +1,12 @@
 """Symbolic second-order multiple-scales derivation of the mesh oscillator (needs sympy).
 
 This reproduces, from the equation of motion alone, the slow flow that :mod:`.slowflow`
-implements by hand (Eritenel and Parker (2013) Eqs. 20-31 and the terms the seed omits), so that the
-implementation can be checked term by term (``tests/test_mesh_oscillator_perturbation.py``)
+implements by hand (Eritenel and Parker (2013) Eqs. 20-31 and the terms the paper omits), so
+that the implementation can be checked term by term (``tests/test_mesh_oscillator_perturbation.py``)
 and the derivation of docs/theory/mesh_oscillator.md re-run. It is a development tool:
 sympy is not a runtime dependency of gearuq, and nothing in the plugin imports this module.
 
-Equation (seed Eq. 11 with ``C = 1 + H``)::
+Equation (EP Eq. 11 with ``C = 1 + H``)::
 
     u'' + 2 mu u' + u + alpha20 u^2 + alpha30 u^3
         + [alpha11 cos(W - phi11) + alpha12 cos(2W - phi12)] u + alpha21 cos(W - phi21) u^2
@@ -15,7 +15,7 @@ Equation (seed Eq. 11 with ``C = 1 + H``)::
 
 with ``W = Omega T``, ``Omega = 1 + eps sigma``, ``H = Delta0 + Delta1 cos(W - nu1) +
 Delta2 cos(2W - nu2)``. Ordering: ``O(eps)``: mu, sigma, alpha01, alpha02, q1, alpha20,
-alpha30, alpha11, alpha12, Delta0; ``O(eps^2)``: alpha21, Delta1, Delta2 (the seed's Eqs.
+alpha30, alpha11, alpha12, Delta0; ``O(eps^2)``: alpha21, Delta1, Delta2 (the paper's Eqs.
 18-19, extended by alpha11, alpha12, alpha02).
 
 Usage::
@@ -23,6 +23,8 @@ Usage::
     from gearuq_plugins.mesh_oscillator.derivation import derive
     d = derive()          # dict of sympy expressions (about 5 s)
     d["Ga2"], d["Gg2"]    # second-order terms of da/dT and a dgamma/dT
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations

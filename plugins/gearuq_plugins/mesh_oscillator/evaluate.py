@@ -2,6 +2,8 @@
 
 Each group is computed only when one of its outputs is asked for; the frequency responses
 need no ``t`` (their grid is the ``frequency`` coordinate, set by options).
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -77,7 +79,7 @@ def backbone_shift(coefs: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
 
 def regions(amplitude: np.ndarray, separation: np.ndarray, coefs: np.ndarray,
             omega: np.ndarray, tolerance: float, onset: float) -> np.ndarray:
-    """Response regions of seed Fig. 4 (docs/theory/mesh_oscillator.md, section 9).
+    """Response regions of EP Fig. 4 (docs/theory/mesh_oscillator.md, section 9).
 
     1: in contact, the stiffness nonlinearity engaged by the vibration changes the linear
     amplitude by at most ``tolerance``; 2: in contact, by more (nonlinear stiffness,

@@ -19,6 +19,8 @@ Eritenel and Parker (2013) Eqs. 3-14, re-derived in docs/theory/mesh_oscillator.
 
 The expansion error is the largest difference between ``f`` and its truncated series over
 the vibration window in contact, relative to the mean load ``F_0``.
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -132,7 +134,7 @@ def _phases(force: ForceDeflection) -> np.ndarray:
 def mean_deflection(force: ForceDeflection, mean_force: np.ndarray,
                     values: Mapping[str, np.ndarray] | None = None,
                     phase: np.ndarray | None = None) -> np.ndarray:
-    """Seed Eq. 4: ``x_m`` with ``mean_phase f(x_m, phase) = F_0`` per sample [m].
+    """EP Eq. 4: ``x_m`` with ``mean_phase f(x_m, phase) = F_0`` per sample [m].
 
     Bisection on a bracket grown from the largest unloaded deflection (``f`` is increasing
     in ``x``), polished by Newton steps with the tangent stiffness.

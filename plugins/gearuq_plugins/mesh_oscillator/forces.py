@@ -3,7 +3,7 @@
 ``x`` is the mesh deflection (dynamic transmission error along the line of action) [m],
 ``phase`` the mesh phase in mesh cycles (``f`` has period 1 in it), ``f`` the mesh force [N].
 Contact exists for ``x >= g(phase)``, the unloaded transmission error, where ``f(g) = 0``
-(seed Eq. 2). Every function evaluates on batches: ``x`` of shape ``(n, n_phase, m)`` for
+(EP Eq. 2). Every function evaluates on batches: ``x`` of shape ``(n, n_phase, m)`` for
 ``n`` samples on a phase grid of ``n_phase`` points; the optional per-sample ``values``
 (a dict of arrays of length ``n``) select a member of a family (e.g. a relief amount).
 
@@ -19,6 +19,8 @@ Kinds:
 
 Each also gives its nondimensional block for the exact time-domain kernels
 (:mod:`.kernels`).
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Every kernel integrates ``u'' + 2 mu u' + C(u, theta) f(u, theta) = F(theta)`` i
 nondimensional time ``T = omega_n t`` with the mesh phase ``theta``; they differ only in how
 ``f`` is represented:
 
-``expanded`` (seed Eqs. 11-12)
+``expanded`` (EP Eqs. 11-12)
     ``f = sum_i [alpha_{i,0} + sum_r alpha_{i,r} cos(r theta - phi_{i,r})] u^i`` with contact
     while ``u >= u_c = -1 + sum_r e_r cos(r theta - psi_r)``; exact for polynomial forces.
 ``segments``
@@ -31,6 +31,8 @@ Common layout of the coefficient vector ``p`` (per sample)::
     kernel block (see ``*_layout`` functions)
     schedule: K, t_start[K], omega[K]
     frozen sides (n_switch values, appended by the integrator)
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -143,7 +145,7 @@ def _expanded_force(u: float, theta: float, p: np.ndarray) -> tuple[float, float
 
 @njit(cache=True)
 def rhs_expanded(t: float, y: np.ndarray, p: np.ndarray, dydt: np.ndarray) -> None:
-    """Seed Eq. 11 with the contact side frozen per step (``freeze_sides=True``)."""
+    """EP Eq. 11 with the contact side frozen per step (``freeze_sides=True``)."""
     om, theta = schedule(t, p)
     f, uc = _expanded_force(y[0], theta, p)
     side = p[p.size - 1]

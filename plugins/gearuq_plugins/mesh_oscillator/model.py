@@ -60,7 +60,8 @@ _NONDIMENSIONAL_PARAMETERS = (
 _DIMENSIONAL_PARAMETERS = (
     _P("mass", "kg", 1.0, 1e-9, 1e9,
        "equivalent mass of the mesh, I_p I_g / (I_p r_g^2 + I_g r_p^2) (Eritenel and Parker)"),
-    _P("damping_ratio", "1", 0.02, 0.0, 0.5, "damping ratio c / (2 m omega_n), seed: 2-5 %"),
+    _P("damping_ratio", "1", 0.02, 0.0, 0.5, "damping ratio c / (2 m omega_n), "
+       "Eritenel and Parker: 2-5 %"),
     _P("mean_force", "N", 1000.0, 1e-6, 1e9, "mean mesh force F_0 (torque / base radius)"),
     _P("load_harmonic", "N", 0.0, 0.0, 1e9,
        "first harmonic of the applied load at the mesh frequency F_1"),
@@ -237,7 +238,7 @@ class MeshOscillator(Model):
     ----------
     force : ForceDeflection, optional
         Force-deflection function (:mod:`gearuq_plugins.mesh_oscillator.forces`); ``None``:
-        the nondimensional model with the seed's coefficients as parameters.
+        the nondimensional model with Eritenel and Parker's coefficients as parameters.
     load_harmonic_scaling : {"constant", "frequency_squared"}
         The load harmonic has a constant amplitude, or one proportional to ``Omega^2``
         (inertial forcing, e.g. a transmission-error excitation seen in relative

@@ -3,7 +3,9 @@
 :func:`frequency_response` runs the compiled continuation of :mod:`.continuation` for every
 sample (blocks of samples in threads, the kernels release the GIL) and returns every branch
 at every grid frequency with its stability, the paths of upward and downward sweeps, the
-separation data and the points where contact loss starts (seed Eqs. 36-37).
+separation data and the points where contact loss starts (EP Eqs. 36-37).
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -100,9 +102,9 @@ def frequency_response(coefs: np.ndarray, grids: np.ndarray, *, order: int = 2,
     grids : ndarray, shape (n, K) or (K,)
         Strictly increasing excitation frequencies ``Omega`` per sample.
     order : {1, 2}
-        First order (seed Eq. 27) or reconstituted second order (seed Eq. 31).
+        First order (EP Eq. 27) or reconstituted second order (EP Eq. 31).
     separation : {"closed_form", "numerical"}
-        Harmonics of the separation function from seed Eqs. 34-35 (one contact loss per
+        Harmonics of the separation function from EP Eqs. 34-35 (one contact loss per
         period) or from the separation instants, Eqs. 32-33.
     parallel : bool
         Run blocks of samples in threads.
@@ -153,13 +155,13 @@ def frequency_response(coefs: np.ndarray, grids: np.ndarray, *, order: int = 2,
 
 
 def onset_first_order(coefs: np.ndarray) -> np.ndarray:
-    """Frequencies where total contact loss starts, first order (seed Eq. 37), shape (n, 2).
+    """Frequencies where total contact loss starts, first order (EP Eq. 37), shape (n, 2).
 
     With ``alpha_{2,0} = e_1 = 0`` at first order, contact is lost at ``a = 1``; Eq. 27 with
     ``a = 1``, ``Delta_0 = 0`` gives ``sigma = 3/8 alpha_{3,0} -+ sqrt(F^2/4 - mu^2)`` with
     ``F = |q_1 e^{-i rho_1} - alpha_{0,1}|`` (the load harmonic taken at ``Omega = 1``).
     NaN where the forcing cannot reach ``a = 1`` (``F/2 < mu``). The principal parametric
-    term ``alpha_{1,2}`` is not included (the seed's Eq. 37 has none).
+    term ``alpha_{1,2}`` is not included (EP's Eq. 37 has none).
     """
     c = np.atleast_2d(coefs)
     force = np.abs(c[:, sf.C_Q1] * np.exp(-1j * c[:, sf.C_R1]) - c[:, sf.C_A01])
@@ -175,7 +177,7 @@ def onset_amplitude(coefs: np.ndarray, gamma: np.ndarray) -> np.ndarray:
     Contact is lost when ``R = |a e^{i gamma} - e_1 e^{i psi_1}|`` reaches
     ``1 - alpha_{2,0} a^2 / 2`` (Eq. 35 at ``tau = pi``). With the quadratic mean shift of
     Eq. 28 this is the quartic ``alpha20^2/4 a^4 - (1 + alpha20) a^2 + 2 e1 cos(gamma - psi1)
-    a + 1 - e1^2 = 0`` (the seed prints ``alpha_{2,0} a / 2`` and a quadratic instead; see
+    a + 1 - e1^2 = 0`` (EP print ``alpha_{2,0} a / 2`` and a quadratic instead; see
     docs/theory/mesh_oscillator.md); the smallest positive root is returned (NaN if none).
     """
     c = np.atleast_2d(coefs)

@@ -9,13 +9,15 @@ obey the reconstituted slow flow
     da/dT       = Ga1(a, gamma) + Ga2(a, gamma)
     a dgamma/dT = Gg1(a, gamma) + Gg2(a, gamma)
 
-(first-order terms Ga1, Gg1 = seed Eq. 25 plus the principal parametric term alpha_{1,2};
-second-order terms Ga2, Gg2 = seed Eq. 30 plus the terms the seed drops or excludes; the
+(first-order terms Ga1, Gg1 = EP Eq. 25 plus the principal parametric term alpha_{1,2};
+second-order terms Ga2, Gg2 = EP Eq. 30 plus the terms the paper drops or excludes; the
 derivation is reproduced symbolically by ``gearuq_plugins.mesh_oscillator.derivation``).
-Steady states (seed Eqs. 26, 31) are the roots of ``G = 0``.
+Steady states (EP Eqs. 26, 31) are the roots of ``G = 0``.
 
 Everything here is numba-compiled (``cache=True``, ``nogil=True``) and scalar: the
 continuation in :mod:`.perturbation` calls these functions thousands of times per sample.
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import numpy as np
 from numba import njit
 
 # ----------------------------------------------------------------------------- coefficients
-# Layout of the per-sample coefficient vector ``c`` (nondimensional, seed Eq. 13 notation).
+# Layout of the per-sample coefficient vector ``c`` (nondimensional, EP Eq. 13 notation).
 C_MU = 0  # damping ratio mu
 C_A00 = 1  # alpha_{0,0}: mean load / (k d)
 C_A01 = 2  # alpha_{0,1}: first excitation harmonic (phase reference, phi_{0,1} = 0)
@@ -55,7 +57,7 @@ COEF_NAMES = (
     "phi_2_1", "e_1", "psi_1", "e_2", "psi_2",
 )
 
-#: Separation modes: seed Eqs. 34-35 (one contact loss per period) or Eqs. 32-33 (numerical).
+#: Separation modes: EP Eqs. 34-35 (one contact loss per period) or Eqs. 32-33 (numerical).
 SEP_CLOSED_FORM = 0
 SEP_NUMERICAL = 1
 #: Added to a mode: compute the contact margin but leave the separation harmonics at zero
@@ -95,9 +97,9 @@ def separation_closed_form(a: float, gam: float, c: np.ndarray, order: int,
     Contact holds where ``u - u_c = R cos(psi - nu') + m >= 0`` with ``u`` the first-order
     solution (fundamental plus the mean shift ``-alpha_{2,0} a^2 / 2`` of Eq. 28),
     ``u_c = -1 + e_1 cos(Omega T - psi_1)``, ``R = |a e^{i gamma} - e_1 e^{i psi_1}|`` and
-    ``m = 1 - alpha_{2,0} a^2 / 2``. The seed prints ``alpha_{2,0} a / 2`` in Eq. 35; the mean
+    ``m = 1 - alpha_{2,0} a^2 / 2``. EP print ``alpha_{2,0} a / 2`` in Eq. 35; the mean
     shift of Eq. 28 is quadratic in ``a`` (docs/theory/mesh_oscillator.md). At first order the
-    seed sets ``alpha_{2,0} = e_1 = 0`` (they give no secular term): contact loss at ``a = 1``.
+    EP set ``alpha_{2,0} = e_1 = 0`` (they give no secular term): contact loss at ``a = 1``.
     """
     if order == 1:
         re = a * math.cos(gam)
@@ -138,7 +140,7 @@ def separation_mean_shift(a: float, gam: float, c: np.ndarray, s: np.ndarray) ->
     Averaging the equation of motion over a period, ``mean(u) = -mean(H f~) - ...``; with
     ``H = Delta_0 + Delta_1 cos(theta - nu_1) + ...`` and ``f~ = alpha_{0,0} + a cos(theta -
     gamma) + ...`` the separation contributes ``-alpha_{0,0} Delta_0 - (a Delta_1 / 2)
-    cos(gamma - nu_1)``. Seed Eq. 28 keeps only the first term (``Delta_1`` is ordered one
+    cos(gamma - nu_1)``. EP Eq. 28 keeps only the first term (``Delta_1`` is ordered one
     order smaller); for a short separation ``Delta_1 ~ 2 |Delta_0|`` and the two nearly cancel
     (the force lost near the contact boundary is small), so the first alone has the wrong
     sign once ``a > alpha_{0,0}`` (docs/theory/mesh_oscillator.md, section 4).
@@ -151,7 +153,7 @@ def margin_phasors(a: float, gam: float, c: np.ndarray, shift: float,
                    z: np.ndarray) -> float:
     """Harmonics of the contact margin ``u(theta) - u_c(theta)`` of the approximate solution.
 
-    ``u`` is the first-order solution (seed Eq. 28 with every first-order term: fundamental,
+    ``u`` is the first-order solution (EP Eq. 28 with every first-order term: fundamental,
     alpha_{2,0} mean shift and second harmonic, alpha_{3,0} third harmonic, and the
     non-resonant responses to alpha_{1,1}, alpha_{1,2}, alpha_{0,2}) plus the separation's
     mean shift ``shift`` (:func:`separation_mean_shift`);
@@ -176,7 +178,7 @@ def margin_phasors(a: float, gam: float, c: np.ndarray, shift: float,
 @njit(cache=True, nogil=True)
 def approximate_solution(a: float, gam: float, c: np.ndarray, shift: float,
                          theta: float) -> float:
-    """First-order approximate solution ``u(theta)`` (seed Eq. 28 and the first-order terms
+    """First-order approximate solution ``u(theta)`` (EP Eq. 28 and the first-order terms
     listed in :func:`margin_phasors`, with the separation's mean shift ``shift`` from
     :func:`separation_mean_shift`), ``theta = Omega T``."""
     z = np.empty(3, dtype=np.complex128)
@@ -442,7 +444,7 @@ def separation(a: float, gam: float, omega: float, c: np.ndarray, order: int, mo
 @njit(cache=True, nogil=True)
 def first_order(a: float, gam: float, omega: float, c: np.ndarray, d0: float,
                 out: np.ndarray) -> None:
-    """First-order slow flow: ``out = (da/dT, a dgamma/dT)`` (seed Eq. 25 + alpha_{1,2})."""
+    """First-order slow flow: ``out = (da/dT, a dgamma/dT)`` (EP Eq. 25 + alpha_{1,2})."""
     sig = omega - 1.0
     q = load_harmonic(c, omega)
     a01 = c[C_A01]
@@ -458,10 +460,10 @@ def first_order(a: float, gam: float, omega: float, c: np.ndarray, d0: float,
 @njit(cache=True, nogil=True)
 def second_order(a: float, gam: float, omega: float, c: np.ndarray, s: np.ndarray,
                  out: np.ndarray) -> None:
-    """Second-order terms: ``out += (Ga2, Gg2)`` (seed Eq. 30 and the terms it omits).
+    """Second-order terms: ``out += (Ga2, Gg2)`` (EP Eq. 30 and the terms it omits).
 
     Grouped by physical origin; each line is one term of the symbolic derivation (the
-    harmonic pairs combined). The seed's Eq. 30 is the subset with alpha_{1,1} = alpha_{1,2} =
+    harmonic pairs combined). EP's Eq. 30 is the subset with alpha_{1,1} = alpha_{1,2} =
     alpha_{0,2} = 0 and without the two ``Delta_0 q_1`` terms.
     """
     sig = omega - 1.0
@@ -532,8 +534,8 @@ def slow_flow(a: float, gam: float, omega: float, c: np.ndarray, order: int, mod
               s: np.ndarray, out: np.ndarray) -> None:
     """``out = (da/dT, a dgamma/dT)`` at ``(a, gamma)``; ``s`` receives the separation data.
 
-    ``order`` 1: seed Eq. 25 (the separation enters through Delta_0 only); 2: reconstituted
-    first + second order (seed Eqs. 25 + 30). ``mode``: :data:`SEP_CLOSED_FORM` or
+    ``order`` 1: EP Eq. 25 (the separation enters through Delta_0 only); 2: reconstituted
+    first + second order (EP Eqs. 25 + 30). ``mode``: :data:`SEP_CLOSED_FORM` or
     :data:`SEP_NUMERICAL`.
     """
     separation(a, gam, omega, c, order, mode, s)

@@ -11,6 +11,8 @@ smallest sample and its neighbours), the fraction of the period out of contact a
 settling indicator (spread of the per-period amplitudes over the measured periods).
 
 All samples and both directions run in one call of :func:`gearuq.ode.solve_batch`.
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -229,7 +231,7 @@ def settle_periods(mu: np.ndarray, omega_max: np.ndarray, tolerance: float,
 def expanded_problem(alpha: np.ndarray, phi: np.ndarray, e: np.ndarray, psi: np.ndarray,
                      mu: np.ndarray, q: np.ndarray, rho: np.ndarray,
                      q_exponent: float = 0.0) -> OscillatorProblem:
-    """Rows of the expanded kernel (seed Eqs. 11-12).
+    """Rows of the expanded kernel (EP Eqs. 11-12).
 
     Parameters
     ----------

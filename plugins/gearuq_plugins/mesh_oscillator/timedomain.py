@@ -5,6 +5,8 @@
 forces, where the expansion is exact) or its truncated Taylor-Fourier expansion (Eq. 11).
 :func:`time_block` integrates every sample at its ``frequency_ratio`` and fills the
 time-dependent outputs.
+
+EP: Eritenel and Parker (2013), the paper this model follows (docs/models.md).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from gearuq_plugins.mesh_oscillator import sweeps
 
 
 def expanded_rows(system: Any) -> sweeps.OscillatorProblem:
-    """Kernel rows of the expanded equation of motion (seed Eq. 11)."""
+    """Kernel rows of the expanded equation of motion (EP Eq. 11)."""
     return sweeps.expanded_problem(system.alpha, system.phi, system.e, system.psi, system.mu,
                                    system.q, system.rho, system.q_exponent)
 
