@@ -286,3 +286,22 @@ def test_math_renders_offline_and_from_a_local_copy(tmp_path):
     finally:
         if old is not None:
             os.environ["GEARUQ_DOCS_MATHJAX"] = old
+
+
+def test_what_gearuq_models_prints_cites_papers_by_authors():
+    """Parameter, option and output descriptions (``gearuq models NAME``) and the model and
+    study docstrings never call a paper "the seed" or "seed NNN"."""
+    the_seed = re.compile(r"\bthe seed\b|\bseed(?:'s\b| (?:Eqs?\.|Figs?\.|Tables?\b|Secs?\.))",
+                          re.IGNORECASE)
+    texts = {}
+    for name in gearuq.list_models():
+        model = gearuq.get_model(name)
+        texts[f"{name} docstring"] = type(model).__doc__ or ""
+        for kind in ("parameters", "options", "outputs"):
+            for item in getattr(model, kind):
+                texts[f"{name} {kind[:-1]} {item.name}"] = item.description
+    for row in gearuq.registry.describe_studies():
+        texts[f"study {row.name}"] = row.description
+    bad = {k: v for k, v in texts.items() if the_seed.search(v) or _SEED_NUMBER.search(v)}
+    assert not bad, bad
+    assert len(texts) > 100

@@ -88,7 +88,7 @@ def _check_length_scale(value: Any) -> float | str:
 
 _O = Option
 _OPTIONS = (
-    _O("time", "tau", "unit of t: nondimensional tau = omega_n t (as the seed) or seconds",
+    _O("time", "tau", "unit of t: nondimensional tau = omega_n t (as Li, Hu and Han) or seconds",
        choices=("tau", "s")),
     _O("method", "dop853", "Runge-Kutta method of the batched integrator",
        choices=("dopri5", "dop853", "rk4")),
