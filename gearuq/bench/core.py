@@ -323,7 +323,8 @@ def render_startup(result: dict[str, Any]) -> str:
     pre = result["precompile"]
     lines = [
         f"Machine: {result['machine']}. helical_pair, tau in [0, 200], 101 instants, outputs "
-        "p1..p10, seed Table 2 samples; each row a fresh interpreter; wall (CPU) seconds.",
+        "p1..p10, Li, Hu and Han Table 2 samples; each row a fresh interpreter; "
+        "wall (CPU) seconds.",
         f"`HelicalPair.precompile()` into an empty cache: {pre['precompile_wall']:.2f} "
         f"({pre['precompile_cpu']:.2f}) s.",
         "",

@@ -1,8 +1,8 @@
 """``gearuq bench memory``: peak memory and wall time of Monte Carlo against sample count.
 
 Each configuration runs in a fresh subprocess (so peak RSS is its own) on the helical pair
-over the seed Table 2 space: all outputs or one output, with or without a chunk store. A run
-whose in-memory result would not fit is refused before it starts (that is the designed
+over the Li, Hu and Han Table 2 space: all outputs or one output, with or without a chunk
+store. A run whose in-memory result would not fit is refused before it starts (that is the designed
 behaviour and is reported as such). The model is compiled once before timing (numba cache).
 """
 
@@ -106,7 +106,7 @@ def _fmt(row: dict[str, Any]) -> str:
 def render_markdown(rows: list[dict[str, Any]], n_time: int) -> str:
     """The measured table as Markdown."""
     gb = 2**30
-    lines = [f"Machine: {machine_description()}. helical_pair, seed Table 2 space, "
+    lines = [f"Machine: {machine_description()}. helical_pair, Li, Hu and Han Table 2 space, "
              "tau in [0, 200] at "
              f"{n_time} instants; 'all' = every output (43 time series + 6 scalars).", "",
              "| samples | outputs | store | result | wall time | per sample | peak RSS |",

@@ -1,4 +1,4 @@
-"""Tooth compliance at the contact points of a helical pair (replaces the seed's FE matrix).
+"""Tooth compliance at the contact points of a helical pair (replaces the paper's FE matrix).
 
 Global (linear) part
     Per unit face width, each tooth of the transverse section is a variable-section cantilever

@@ -45,7 +45,7 @@ __all__ = [
 
 
 def pitch_deviations_from_cumulative(Fp: np.ndarray) -> np.ndarray:
-    """Return single pitch deviations ``f_pt,k = F_p,k - F_p,k-1`` (cyclic; seed Eq. 1)."""
+    """Return single pitch deviations ``f_pt,k = F_p,k - F_p,k-1`` (cyclic; Yuan et al. Eq. 1)."""
     Fp = np.asarray(Fp, dtype=float)
     return Fp - np.roll(Fp, 1)
 
@@ -77,7 +77,7 @@ def iso1328_pitch_tolerances(d: float, mn: float, accuracy_grade: int) -> tuple[
     ) * f * 1e-6
 
 
-#: Readings of the seed's "amplitude of the random cumulative pitch deviations".
+#: Readings of the paper's "amplitude of the random cumulative pitch deviations".
 AMPLITUDE_READINGS = ("sine", "largest")
 
 
@@ -102,7 +102,7 @@ def cumulative_pitch_from_germ(
     normals : ndarray, (z,)
         Standard-normal germ of the scatter.
     amplitude : float
-        The seed's "amplitude" [m], read as ``amplitude_reading`` says.
+        The paper's "amplitude" [m], read as ``amplitude_reading`` says.
     sigma : float
         Standard deviation of the scatter [m] (seed: 3 um).
     amplitude_reading : {"sine", "largest"}
@@ -216,7 +216,7 @@ def cumulative_pitch_from_normals(
 
     ``F_p,k = sum_c s_c xi_c phi_c(k)`` with ``phi = cos(2 pi m k / z), sin(2 pi m k / z)``
     for ``m = 1, 2, ...`` (:func:`pitch_germ_scales` gives ``s_c``). With ``xi`` independent
-    standard normals and all ``z - 1`` of them, ``F_p`` has the covariance of the seed's
+    standard normals and all ``z - 1`` of them, ``F_p`` has the covariance of the paper's
     sine-plus-scatter model with the sine phase randomised and the tooth mean removed (a
     common shift of all teeth of one gear turns it rigidly and changes no mesh quantity but
     the mean transmission error). Fewer normals truncate the expansion after the harmonic
@@ -229,7 +229,7 @@ def cumulative_pitch_from_normals(
     z : int
         Number of teeth.
     amplitude, sigma : float
-        Sine amplitude and scatter standard deviation of the seed's model [m].
+        Sine amplitude and scatter standard deviation of the paper's model [m].
     """
     xi = np.asarray(xi, dtype=float).ravel()
     full = pitch_germ_dimension(z)
@@ -366,7 +366,7 @@ def random_cumulative_pitch_deviations(
 def _relief(u: np.ndarray, amount: float, length: float) -> np.ndarray:
     """Parabolic relief ``amount ((length - u)/length)^2`` for ``0 <= u <= length``, else 0.
 
-    ``u`` is the distance from the end of the path of contact (seed Eq. 12).
+    ``u`` is the distance from the end of the path of contact (Yuan et al. Eq. 12).
     """
     if amount == 0.0 or length <= 0.0:
         return np.zeros_like(u)
@@ -466,7 +466,7 @@ class FlankDeviations:
         """
         cb = kin.cos_bb
         xi = np.zeros(np.broadcast_shapes(s.shape, np.shape(k1)))
-        conv = math.cos(pair.alpha_t) * cb  # seed Eq. 2
+        conv = math.cos(pair.alpha_t) * cb  # Yuan et al. Eq. 2
         if self.Fp1 is not None:
             xi = xi + np.asarray(self.Fp1, dtype=float)[k1] * conv
         if self.Fp2 is not None:

@@ -9,7 +9,8 @@ Main entry points
     Frozen dataclass built from the basic data of the pair; every derived quantity is a
     property, and construction validates the data (``ValueError`` naming the parameter).
 :func:`seed000_pair`, :func:`seed002_pair`, :func:`iso_tr_6336_30_example1`
-    The built-in pairs of the seed papers and of ISO/TR 6336-30:2017, Example 1.
+    The built-in pairs of the three papers gearuq's models follow and of ISO/TR 6336-30:2017,
+    Example 1.
 :func:`involute`, :func:`inverse_involute`
     ``inv(alpha) = tan(alpha) - alpha`` and its inverse on ``[0, pi/2)``.
 """
@@ -534,7 +535,7 @@ def seed000_pair() -> HelicalGearPair:
     """Return the helical pair of Li, Hu and Han, Table 1.
 
     z 34/84, mn 6 mm, beta 17 deg, alpha_n 25 deg (as Table 1 prints it), b1 = b2 = 70 mm,
-    x1 = x2 = 0, ISO 53 A basic rack (the seed gives no rack: ha* 1, hf* 1.25, rho* 0.38
+    x1 = x2 = 0, ISO 53 A basic rack (the paper gives no rack: ha* 1, hf* 1.25, rho* 0.38
     assumed), standard centre distance.
     """
     return HelicalGearPair(
@@ -551,7 +552,7 @@ def seed000_pair() -> HelicalGearPair:
 def seed002_pair() -> HelicalGearPair:
     """Return the helical pair of Yuan, Liu and Liu (2020), Table 1.
 
-    z 30/30, mn 6 mm, alpha_n 20 deg, beta 18 deg (the seed's +-18 is the hand of the two
+    z 30/30, mn 6 mm, alpha_n 20 deg, beta 18 deg (Yuan et al.'s +-18 is the hand of the two
     gears), b 40 mm, ha* 1, c* 0.25 (hf* 1.25), x = 0; rho_f* 0.38 assumed (not given).
     """
     return HelicalGearPair(

@@ -5,7 +5,7 @@ flexibility ``q'`` in mm um/N, stiffnesses per unit face width in N/(mm um) (= G
 pair's mesh stiffness is also given in SI, N/m:
 ``k_mesh [N/m] = c_gamma_alpha [N/(mm um)] * b [mm] * 1e3 [um/mm] * 1e3 [mm/m]``.
 
-Sources, the formulas and the seed-vs-standard choices are in ``docs/theory/gear_geometry.md``.
+Sources, the formulas and the paper-vs-standard choices are in ``docs/theory/gear_geometry.md``.
 """
 
 from __future__ import annotations

@@ -276,8 +276,8 @@ def mesh_summaries(
 ) -> dict[str, np.ndarray]:
     """Per-position mesh quantities of a solution (SI units).
 
-    Returns a dict of arrays over positions: ``lpms`` (secant, seed Eq. 4) and
-    ``lpms_tangent`` [N/m], ``cms`` (seed Eq. 5) [m], ``ste`` [m], ``kinematic_te`` [m],
+    Returns a dict of arrays over positions: ``lpms`` (secant, Yuan et al. Eq. 4) and
+    ``lpms_tangent`` [N/m], ``cms`` (Yuan et al. Eq. 5) [m], ``ste`` [m], ``kinematic_te`` [m],
     ``contact_length``, ``loaded_length`` [m], ``contact_loss_fraction`` (unloaded share of
     the design pattern ``reference_pattern``; of the geometric length when it is None),
     ``geometric_loss_fraction``, ``n_teeth_in_contact`` and ``complementarity_residual``.
@@ -419,13 +419,13 @@ def _dataset(setup: LtcaSetup, sol: LtcaSolution, ref: np.ndarray, keep_points: 
                            {"units": "um", "long_name": "STE along the transverse line of "
                             "action (base-circle arc of the pinion)"}),
         "lpms": (pos, summ["lpms"] * 1e-6, {"units": "N/um", "long_name": "long-period mesh "
-                                            "stiffness sum F_i/(STE - xi_i) (seed Eq. 4, "
+                                            "stiffness sum F_i/(STE - xi_i) (Yuan et al. Eq. 4, "
                                             "secant)"}),
         "lpms_tangent": (pos, summ["lpms_tangent"] * 1e-6, {
             "units": "N/um", "long_name": "tangent mesh stiffness dP/dSTE (linearised "
-            "dynamics); seed Eq. 4 gives the secant lpms"}),
+            "dynamics); Yuan et al. Eq. 4 gives the secant lpms"}),
         "cms": (pos, summ["cms"] * um, {"units": "um", "long_name": "composite mesh error "
-                                        "sum k_i xi_i / k_m (seed Eq. 5)"}),
+                                        "sum k_i xi_i / k_m (Yuan et al. Eq. 5)"}),
         "kinematic_te": (pos, summ["kinematic_te"] * um,
                          {"units": "um", "long_name": "no-load kinematic TE min(xi)"}),
         "n_teeth_in_contact": (pos, summ["n_teeth_in_contact"], {"units": "1"}),
@@ -624,14 +624,14 @@ def tip_relief_map(
     n_cycles: int = 1,
     **kw: object,
 ) -> xr.Dataset:
-    """Brute-force STE peak-to-peak over symmetric tip-relief amount x length (seed Fig. 14).
+    """Brute-force STE peak-to-peak over symmetric tip-relief amount x length (Yuan et al. Fig. 14).
 
     Parameters
     ----------
     pair : HelicalGearPair
         The gear pair.
     amounts, lengths : array_like
-        Relief amounts [m] and lengths along the path of contact [m] (seed Eq. 12, same on
+        Relief amounts [m] and lengths along the path of contact [m] (Yuan et al. Eq. 12, same on
         both gears).
     torque, normal_force : float
         The load (one of them).

@@ -48,7 +48,7 @@ gear_steel = Material("gear steel", E=206e9, G=206e9 / 2.6, rho=7850.0)
 SEED002_SECTIONS = ((0.100, 0.070), (0.110, 0.090), (0.220, 0.110), (0.110, 0.090),
                     (0.060, 0.070))
 
-#: Node positions [m] of shaft 1 (13 elements; ours, seed Fig. 5 is not legible): a 40 mm
+#: Node positions [m] of shaft 1 (13 elements; ours, Yuan et al. Fig. 5 is not legible): a 40 mm
 #: coupling stub, bearing 1 centred on its 60 mm seat at 0.070, the gear at the middle of the
 #: 220 mm seat (0.320), bearing 2 centred on the 60 mm seat at 0.570. Shaft 2 is the mirror
 #: image (seed: its section lengths are those of shaft 1 reversed).
@@ -98,7 +98,7 @@ def seed002_rotor(
     diameter ``sqrt((d_f^2 + d_a^2)/2)``: the body to the root circle plus half the tooth
     ring), four identical rolling-element bearings, and the 12-DOF mesh. Shaft 2 turns at
     ``-z1/z2`` times shaft 1; the centre line is along +x (pinion at the origin), so ``y`` is
-    the tangential direction of the seed's bearing accelerations.
+    the tangential direction of the paper's bearing accelerations.
 
     Parameters
     ----------
@@ -108,7 +108,7 @@ def seed002_rotor(
     pair : HelicalGearPair, optional
         Default: :func:`gearuq.gears.geometry.seed002_pair`.
     bearing_radial_stiffness, bearing_axial_stiffness : float
-        Per bearing [N/m] (the seed prints none; see docs/theory/geared_rotor.md).
+        Per bearing [N/m] (the paper prints none; see docs/theory/geared_rotor.md).
     bearing_damping : float
         Radial and axial damping per bearing [N s/m].
     mesh_damping : float
@@ -116,11 +116,11 @@ def seed002_rotor(
     material : Material
         Shaft and gear-body material.
     moment_arm : {"pitch_point", "base_circle"}
-        Mesh element arms (``"base_circle"``: seed Eq. 8 as printed).
+        Mesh element arms (``"base_circle"``: Yuan et al. Eq. 8 as printed).
     drive_inertia, load_inertia : float or None
         Polar inertia [kg m^2] on the free ends of shaft 1 (input) and shaft 2 (output), the
         part of the drive and of the load that turns with the shaft end (a coupling hub:
-        :func:`shaft_end_hub`); ``None``: none (the seed's rotor, Fig. 5); else > 0.
+        :func:`shaft_end_hub`); ``None``: none (the paper's rotor, Fig. 5); else > 0.
 
     Returns
     -------

@@ -2,14 +2,14 @@
 
 The LTCA (:func:`gearuq.gears.ltca.ltca`) gives, at each mesh position ``tau`` (in mesh cycles)
 over the long period of ``lcm(z1, z2)`` cycles, the static transmission error ``STE`` at the
-normal load ``P``, the secant stiffness (seed Eq. 4) and the tangent stiffness ``dP/dSTE``.
+normal load ``P``, the secant stiffness (Yuan et al. Eq. 4) and the tangent stiffness ``dP/dSTE``.
 The dynamics is a small perturbation about this quasi-static state, so the mesh force is
 linearised with the **tangent** stiffness::
 
     F = k_t(tau) (delta - e_t(tau)),    e_t = STE - P / k_t
 
 which passes through the static state (``F = P`` at ``delta = STE``) with the right slope.
-(The secant pair ``k_s, e_s`` of seed Eqs. 4-5 passes through the same point with the slope
+(The secant pair ``k_s, e_s`` of Yuan et al. Eqs. 4-5 passes through the same point with the slope
 of the chord to the origin; see docs/theory/geared_rotor.md.) The positions map to time by
 ``tau = f_mesh t``, ``f_mesh = z1 n / 60``.
 """
@@ -44,7 +44,7 @@ class MeshExcitation:
     ste : ndarray
         Static transmission error (normal) ``STE(tau)`` [m].
     secant_stiffness, secant_error : ndarray
-        Seed Eqs. 4-5 ``k_s``, ``e_s`` [N/m, m] (for comparison).
+        Yuan et al. Eqs. 4-5 ``k_s``, ``e_s`` [N/m, m] (for comparison).
     contact_loss_fraction : ndarray
         LTCA share of the geometric contact length left unloaded (partial contact loss).
     meta : dict

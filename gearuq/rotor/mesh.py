@@ -8,11 +8,11 @@ approach of the flanks along the normal line of action (the mesh deflection)::
 
 ``n`` is the unit normal of the flanks (the direction of the normal line of action):
 ``n = cos(beta_b) t - h sin(beta_b) e_z`` with ``t`` the transverse line of action and ``h``
-the helix sign (``h = +1`` gives the signs printed in seed Eq. 8); ``r_p`` and ``r_g`` go from
-the two nodes to the same contact point (the pitch point on the mid-face plane). The mesh
+the helix sign (``h = +1`` gives the signs printed in Yuan et al. Eq. 8); ``r_p`` and ``r_g`` go
+from the two nodes to the same contact point (the pitch point on the mid-face plane). The mesh
 force ``F = k_m (delta - e_m)`` acts as ``-v F`` on the generalised coordinates.
 
-Re-derivation (docs/theory/geared_rotor.md): seed Eq. 8 takes the moment arms to the
+Re-derivation (docs/theory/geared_rotor.md): Yuan et al. Eq. 8 takes the moment arms to the
 base-circle tangency points ``T1`` and ``T2``; these are two different points, so a rigid
 rotation of the whole gearbox about the axis normal to the plane of action would change
 ``delta`` by ``T1T2 sin(beta_b)`` per radian. With one contact point for both gears every
@@ -58,7 +58,7 @@ class HelicalMeshElement(Element):
         Direction psi of the line of centres from pinion to gear, measured from +x towards +y
         [rad] (seed: the phase angle, ``phi = alpha - psi``).
     helix_sign : {1, -1}
-        Sign of the axial component of ``n`` (+1: as printed in seed Eq. 8).
+        Sign of the axial component of ``n`` (+1: as printed in Yuan et al. Eq. 8).
     drive_sign : {1, -1}
         +1 when a positive pinion rotation about +z drives the gear (loads the flank).
     stiffness : float

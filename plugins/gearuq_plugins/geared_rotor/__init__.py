@@ -138,7 +138,7 @@ _OPTIONS = (
        "sit)", kind=int, lower=0, upper=14),
     _O("pitch_model", "germ", "random pitch deviations: 'germ' (smooth in the standard "
        "normals pitch_xi_p_*, pitch_xi_g_*: every engine can explore them) or 'seeded' "
-       "(the realisation of pitch_seed, as in the seed's figures)",
+       "(the realisation of pitch_seed, as in Yuan, Liu and Liu's figures)",
        choices=("germ", "seeded")),
     _O("pitch_harmonics", None, "tooth-index harmonics kept in each gear's germ (1-15; "
        "None: all 15, the exact germ of 29 normals per gear)", kind=int, lower=1, upper=15,

@@ -64,7 +64,7 @@ _PARAMETERS = (
     _P("span", "m", 0.1, 1e-3, 2.0, "bearing distance from gear centre (both sides; ours)"),
     _P("zeta_m", "1", 0.08, 0.0, 0.5, "mesh damping ratio, Li, Hu and Han Table 1 "
        "(range 0.03-0.17)"),
-    _P("zeta_s", "1", 0.05, 0.0, 0.5, "support damping ratio (ours; not in the seed)"),
+    _P("zeta_s", "1", 0.05, 0.0, 0.5, "support damping ratio (ours; not in Li, Hu and Han)"),
     _P("e_0", "m", 0.0, -1e-3, 1e-3, "constant static error e_0, Li, Hu and Han: 0"),
     _P("e_a", "m", 1.08e-5, 0.0, 2e-4, "static error amplitude (Li, Hu and Han's '108 um' "
        "read as 10.8 um)"),
