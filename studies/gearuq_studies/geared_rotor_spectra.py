@@ -110,7 +110,7 @@ def figure_pair(ds: xr.Dataset, cases: list[str], var_t: str, var_s: str, scale:
 
 def run(out: str | Path = "gearuq_geared_rotor_spectra", quick: bool = False,
         paper_rotor: bool = False) -> int:
-    """DTE and bearing-acceleration spectra of Yuan, Liu and Liu's geared rotor (Figs. 11-12, 15-16).
+    """DTE and bearing-acceleration spectra of Yuan, Liu and Liu's geared rotor, Figs. 11-12, 15-16.
 
     Parameters
     ----------
