@@ -127,10 +127,12 @@ class StudyInfo:
 def list_studies() -> list[str]:
     """Names of the studies registered under the ``gearuq.studies`` entry-point group.
 
-    A study is a packaged function ``run(out, **settings) -> int`` (exit code) that writes
-    its netCDF and PNG files into the folder ``out`` and prints its summary. Like models,
-    studies are found through entry points, so a plugin distribution can ship its own; the
-    scripts in the repository's ``studies/`` folder call them or the public API.
+    A study is a packaged function ``run(out, quick=False, **settings) -> int`` (exit code)
+    that writes its netCDF, PNG and markdown files into the folder ``out`` and prints its
+    summary; the first line of its docstring is its description, ``quick=True`` a smaller
+    version. Like models, studies are found through entry points, so a plugin distribution
+    can ship its own; ``gearuq study NAME`` runs one, ``python -m gearuq_studies.NAME`` is the
+    command line of a packaged study with all its settings.
     """
     return sorted(ep.name for ep in entry_points(group=STUDY_GROUP))
 

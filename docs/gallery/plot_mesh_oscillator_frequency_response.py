@@ -2,14 +2,15 @@
 Mesh-oscillator frequency response with contact loss
 ====================================================
 
-A quick version of ``studies/mesh_oscillator_regions.py``: the nondimensional frequency
-response of the ``mesh_oscillator`` model (single-degree-of-freedom gear mesh after Eritenel
-and Parker, *Nonlinear Vibration of Gears With Tooth Surface Modifications*, ASME Journal of
-Vibration and Acoustics 135, 2013) near primary resonance, with the parameters of the paper's
-Fig. 4, by the second-order multiple-scales solution. Upward and downward sweeps part where
-the teeth lose contact (softening jump); the linear time-invariant response is drawn for
-comparison. Five samples of the model's built-in random space (damping ratio and first
-excitation harmonic) show how the uncertain inputs move the resonance.
+A quick version of the study run by ``gearuq study mesh_oscillator_regions``: the
+nondimensional frequency response of the ``mesh_oscillator``
+model (single-degree-of-freedom gear mesh after Eritenel and Parker, *Nonlinear Vibration of
+Gears With Tooth Surface Modifications*, ASME Journal of Vibration and Acoustics 135, 2013)
+near primary resonance, with the parameters of the paper's Fig. 4, by the second-order
+multiple-scales solution. Upward and downward sweeps part where the teeth lose contact
+(softening jump); the linear time-invariant response is drawn for comparison. Five samples of
+the model's built-in random space (damping ratio and first excitation harmonic) show how the
+uncertain inputs move the resonance.
 """
 
 import matplotlib.pyplot as plt

@@ -2,14 +2,15 @@
 Sobol' ranking of the helical-pair parameters
 =============================================
 
-A quick version of ``studies/sensitivity_ranking.py``: first-order (S1) and total (ST) Sobol'
-indices of the pinion's radial vibration ``v1`` at the end of the run (nondimensional time 200)
-with respect to the six random parameters of the ``helical_pair`` model: the face widths B1 and
-B2, the half backlash b5, the density rho, the mesh-stiffness variation coefficient s and the
-speed n. Saltelli's design with Jansen's estimator (N = 1024, so 1024 x 8 = 8192 model runs);
-the error bars are 95 % bootstrap intervals. B1 and B2 act through the contact width min(B1,
-B2), so most of their effect is interaction (ST well above S1). The full study checks this
-ranking against polynomial chaos and Morris screening.
+A quick version of the study ``sensitivity_ranking`` (``gearuq study sensitivity_ranking``):
+first-order (S1) and total (ST) Sobol' indices of the pinion's radial vibration ``v1`` at the
+end of the run (nondimensional time 200) with respect to the six random parameters of the
+``helical_pair`` model: the face widths B1 and B2, the half backlash b5, the density rho, the
+mesh-stiffness variation coefficient s and the speed n. Saltelli's design with Jansen's
+estimator (N = 1024, so 1024 x 8 = 8192 model runs); the error bars are 95 % bootstrap
+intervals. B1 and B2 act through the contact width min(B1, B2), so most of their effect is
+interaction (ST well above S1). The full study checks this ranking against polynomial chaos and
+Morris screening.
 """
 
 import matplotlib.pyplot as plt

@@ -4,7 +4,7 @@ FE rotor.
 - Figs. 11-12: dynamic transmission error (DTE) and the y acceleration at bearing 1 at
   4000 rpm for 200, 350, 600 and 1000 N m, random cumulative pitch deviations (sine 15 um +
   N(0, 3 um), realisation 2020 as in the LTCA study), unmodified teeth.
-- Figs. 15-16: the same at 1000 N m (our choice: the seed does not print the load of these
+- Figs. 15-16: the same at 1000 N m (our choice: Yuan et al. do not print the load of these
   figures; it is the load of the tip-relief optimum), unmodified against modified (parabolic
   tip relief 42 um / 11.4 mm, the error-free STE optimum of the LTCA at 1000 N m).
 
@@ -12,9 +12,11 @@ Spectra are the exact harmonics of the periodic steady state over one revolution
 period of the 30/30 pair), so the shaft frequency f_s, the mesh harmonics k f_m and the
 sidebands k f_m +- i f_s fall on lines; no window, no leakage.
 
-Run: ``python studies/geared_rotor_spectra.py [--out DIR]`` (under a minute). Writes netCDF +
-PNG into ``studies/output/geared_rotor_spectra/`` and prints what the seed claims and what
-the model finds.
+Run: ``gearuq study geared_rotor_spectra [--quick] [--out DIR]`` (under a minute), or
+``python -m gearuq_studies.geared_rotor_spectra --paper-rotor`` for the rotor as printed (no
+drive and load inertias). Writes netCDF + PNG into the output folder and prints what Yuan et
+al. claim beside what the model finds. ``--quick`` uses a coarser LTCA (16 positions per mesh
+cycle, 12 points per line instead of 24 x 20) and 601 instants per revolution.
 """
 
 from __future__ import annotations
@@ -39,16 +41,6 @@ SIDEBANDS = 14  # sideband window +-14 f_s: every order nearer to f_m than to 0 
 OUTPUTS = ["dte", "bearing_acceleration_y", "dte_spectrum", "bearing1_acceleration_y_spectrum",
            "dte_rms", "bearing1_acceleration_y_rms", "contact_loss_fraction", "mesh_force_min",
            "dte_mean", "ste_ptp"]
-
-
-def geared_rotor() -> gearuq.Model:
-    """The registered plugin, or the package class before its entry point is installed."""
-    try:
-        return gearuq.get_model("geared_rotor")
-    except ValueError:
-        from gearuq_plugins.geared_rotor import GearedRotor
-
-        return GearedRotor()
 
 
 def order_groups(labels: np.ndarray) -> dict[str, np.ndarray]:
@@ -116,22 +108,37 @@ def figure_pair(ds: xr.Dataset, cases: list[str], var_t: str, var_s: str, scale:
     return fig
 
 
-def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="studies/output/geared_rotor_spectra")
-    ap.add_argument("--seed-rotor", action="store_true",
-                    help="no drive and load inertias (the seed's rotor as printed)")
-    args = ap.parse_args(argv)
-    out = Path(args.out)
-    seed_rotor = args.seed_rotor
+def run(out: str | Path = "gearuq_geared_rotor_spectra", quick: bool = False,
+        paper_rotor: bool = False) -> int:
+    """DTE and bearing-acceleration spectra of Yuan, Liu and Liu's geared rotor, Figs. 11-12, 15-16.
+
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``spectra_torques.nc``, ``spectra_relief.nc`` and the four
+        figure analogs (PNG).
+    quick : bool
+        Coarser LTCA (16 positions per mesh cycle, 12 points per line) and 601 instants per
+        revolution instead of 24 x 20 and 1201.
+    paper_rotor : bool
+        No drive and load inertias (the rotor as printed by Yuan et al.).
+
+    Returns
+    -------
+    int
+        0 when all six steady states converged, 1 otherwise.
+    """
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    model = geared_rotor()
+    model = gearuq.get_model("geared_rotor")
     period = 60.0 / SPEED
-    t = np.linspace(0.0, period, 1201)
+    t = np.linspace(0.0, period, 601 if quick else 1201)
     start = time.perf_counter()
-    seeded = {"pitch_model": "seeded"}  # the seed's realisation (pitch_seed 2020)
-    if seed_rotor:
-        seeded["end_inertias"] = "none"  # the seed's rotor as printed
+    seeded = {"pitch_model": "seeded"}  # Yuan et al.'s realisation (pitch_seed 2020)
+    if quick:
+        seeded |= {"positions_per_cycle": 16, "n_pts": 12}
+    if paper_rotor:
+        seeded["end_inertias"] = "none"  # the rotor as printed
     loads = model.response({"torque": list(TORQUES), "speed": [SPEED] * 4}, t, outputs=OUTPUTS,
                            **seeded)
     relief = model.response({"torque": [1000.0] * 2, "speed": [SPEED] * 2,
@@ -158,10 +165,23 @@ def main(argv: list[str] | None = None) -> None:
                             "Fig. 16 analog: bearing 1 acceleration along y, 1000 N m"),
                 out / "fig16_bearing1_acceleration_relief.png")
     report(loads, relief, wall)
+    print(f"written: {out}")
+    return int(np.any(loads["status"].values != 0) or np.any(relief["status"].values != 0))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.geared_rotor_spectra``."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("gearuq_geared_rotor_spectra"))
+    ap.add_argument("--quick", action="store_true", help="coarser LTCA and time grid")
+    ap.add_argument("--paper-rotor", action="store_true",
+                    help="no drive and load inertias (Yuan et al.'s rotor as printed)")
+    args = ap.parse_args(argv)
+    return run(args.out, quick=args.quick, paper_rotor=args.paper_rotor)
 
 
 def report(loads: xr.Dataset, relief: xr.Dataset, wall: float) -> None:
-    """Print the seed's claims beside what the model gives."""
+    """Print Yuan et al.'s claims beside what the model gives."""
     print(f"geared_rotor spectra: 6 steady states (LTCA + reduction + harmonic balance) in "
           f"{wall:.1f} s (shared machine; provisional)")
     print("status:", loads["status"].values.tolist(), relief["status"].values.tolist())
@@ -179,16 +199,18 @@ def report(loads: xr.Dataset, relief: xr.Dataset, wall: float) -> None:
               f"({a['side2_at']:+d}) | {loads['contact_loss_fraction'].values[i]:.3f}")
     d = [peaks(loads, "dte_spectrum", i) for i in range(4)]
     a = [peaks(loads, "bearing1_acceleration_y_spectrum", i) for i in range(4)]
-    print("  seed: DTE largest at f_s ->", all(x["max_non_dc_order"] == 1 for x in d))
-    print("  seed: A(f_m) < sidebands below 600 N m ->",
-          [x["f_m"] < x["side1"] for x in d[:2]], " above ->", d[3]["f_m"] > d[3]["side1"])
+    print("  Yuan et al.: DTE largest at f_s ->", all(x["max_non_dc_order"] == 1 for x in d))
+    print("  Yuan et al.: A(f_m) < sidebands below 600 N m ->",
+          [bool(x["f_m"] < x["side1"]) for x in d[:2]], " above ->",
+          bool(d[3]["f_m"] > d[3]["side1"]))
     print("  sidebands around 2 f_m larger than 2 f_m (DTE, acc) ->",
-          [(x["side2"] > x["2f_m"], y["side2"] > y["2f_m"]) for x, y in zip(d, a, strict=True)])
-    print("  seed: A(f_m) grows with torque ->",
+          [(bool(x["side2"] > x["2f_m"]), bool(y["side2"] > y["2f_m"]))
+           for x, y in zip(d, a, strict=True)])
+    print("  Yuan et al.: A(f_m) grows with torque ->",
           bool(np.all(np.diff([x["f_m"] for x in d]) > 0)))
-    print("  seed: bearing acc, f_m predominant at 1000 N m ->",
+    print("  Yuan et al.: bearing acc, f_m predominant at 1000 N m ->",
           a[3]["max_non_dc_order"] == 30, f"(largest at order {a[3]['max_non_dc_order']})")
-    print("  seed: bearing acc, f_s not predominant ->",
+    print("  Yuan et al.: bearing acc, f_s not predominant ->",
           all(x["max_non_dc_order"] != 1 for x in a))
     print("\nFig. 15/16 (1000 N m, 4000 rpm): unmodified vs tip relief 42 um / 11.4 mm")
     for var, scale, unit in (("dte_spectrum", 1e6, "um"),
@@ -205,4 +227,4 @@ def report(loads: xr.Dataset, relief: xr.Dataset, wall: float) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

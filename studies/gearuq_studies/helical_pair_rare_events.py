@@ -12,10 +12,10 @@ Engineering space (independent; docs/reliability.md gives the reasons):
 =========  ======================================  =======================================
 parameter  distribution                            why
 =========  ======================================  =======================================
-T          lognormal, mean 2600 N m, CoV 10 %      load spectrum about the seed's torque
-n          uniform 3000 .. 4400 rpm                operating range about the seed's 3600-4000
+T          lognormal, mean 2600 N m, CoV 10 %      load spectrum about Li, Hu and Han's torque
+n          uniform 3000 .. 4400 rpm                operating range about their 3600-4000 rpm
 e_a        lognormal, mean 10.8 um, CoV 20 %       manufacturing scatter of the error
-zeta_m     uniform 0.03 .. 0.17                    seed Table 1's range of mesh damping
+zeta_m     uniform 0.03 .. 0.17                    their Table 1 range of mesh damping
 b5         lognormal, mean 20 um, CoV 10 %         backlash tolerance
 =========  ======================================  =======================================
 
@@ -24,11 +24,15 @@ gap), output ``mesh_force`` at 801 instants in tau = [100, 200] (the start-up tr
 left out). Whether that grid resolves first passage is checked exactly on ``p1`` with its
 derivative ``dp1`` (Hermite reconstruction between instants, Rice rate).
 
-Run: ``python studies/helical_pair_rare_events.py [--out DIR] [--full]``. The default takes a
-few minutes (1e4 Monte Carlo runs, subset simulation with 500 samples per level, AK-MCS with at
-most 150 runs); ``--full`` runs 1e5 Monte Carlo runs, three subset seeds with 1000 per level
-and AK-MCS up to 400 runs (about half an hour on 2 cores). Writes netCDF reports, a JSON
-summary and ``pf_vs_model_runs.png`` into ``--out`` (and the Monte Carlo chunk store
+Run: ``gearuq study helical_pair_rare_events [--quick] [--out DIR]``, or
+``python -m gearuq_studies.helical_pair_rare_events [--full] [--seed S] [--replot]``. The
+default takes a few minutes (1e4 Monte Carlo runs, subset simulation with 500 samples per
+level, AK-MCS with at most 150 runs); ``--full`` runs 1e5 Monte Carlo runs, three subset seeds
+with 1000 per level and AK-MCS up to 400 runs (about half an hour on 2 cores); ``--quick``
+runs 2000 Monte Carlo runs, 200 per subset level, AK-MCS up to 80 runs on 10^4 candidates and
+the grid check on 500 samples (the Monte Carlo check then sees few failures at the check
+limit and none at the rare ones: its intervals say so). Writes netCDF reports, a JSON
+summary and ``pf_vs_model_runs.png`` into the output folder (and the Monte Carlo chunk store
 ``mc_store_N``, which a rerun reuses).
 """
 
@@ -221,51 +225,76 @@ def summary(mc: dict[str, Any], subset: dict[str, list], ak: Any, n_mc: int) -> 
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path,
-                        default=Path("studies/output/helical_pair_rare_events"))
-    parser.add_argument("--full", action="store_true",
-                        help="1e5 MC runs, 3 subset seeds x 1000 per level, AK-MCS 400 runs")
-    parser.add_argument("--seed", type=int, default=2024)
-    parser.add_argument("--replot", action="store_true",
-                        help="redraw the figure from the saved reports and the Monte Carlo store")
-    args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    n_mc = 100_000 if args.full else 10_000
-    seeds = [args.seed + i for i in range(3 if args.full else 1)]
+def run(out: str | Path = "gearuq_helical_pair_rare_events", quick: bool = False,
+        full: bool = False, seed: int = 2024, replot: bool = False) -> int:
+    """Rare peak mesh forces of Li, Hu and Han's helical pair: subset simulation, AK-MCS, MC.
+
+    P(peak dynamic mesh force over tau in [100, 200] >= F) at three limits F, over an
+    engineering space of torque, speed, error amplitude, mesh damping and backlash.
+
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``monte_carlo_reliability.nc``, ``subset_*.nc``,
+        ``akmcs_check.nc``, ``grid_check_p1.nc``, ``summary.json``, ``pf_vs_model_runs.png``
+        and the reusable Monte Carlo store ``mc_store_N``.
+    quick : bool
+        2000 Monte Carlo runs, 200 per subset level, AK-MCS up to 80 runs, grid check on 500.
+    full : bool
+        1e5 Monte Carlo runs, three subset seeds with 1000 per level, AK-MCS up to 400 runs.
+    seed : int
+        Seed of every random stage.
+    replot : bool
+        Only redraw the figure from the saved reports and the Monte Carlo store.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    if quick and full:
+        raise ValueError("quick=True and full=True: choose one")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    n_mc = 100_000 if full else 2_000 if quick else 10_000
+    seeds = [seed + i for i in range(3 if full else 1)]
+    n_level = 1000 if full else 200 if quick else 500
+    ak_runs, ak_mc = (400, 100_000) if full else (80, 10_000) if quick else (150, 50_000)
+    if quick:
+        print(f"quick run: {n_mc} Monte Carlo runs, {n_level} per subset level, AK-MCS up to "
+              f"{ak_runs} runs; a check of the machinery, not the answer", flush=True)
     model = gearuq.get_model("helical_pair")
     space = engineering_space()
     t0 = time.perf_counter()
     print(f"crude Monte Carlo, {n_mc} runs ...", flush=True)
-    mc = crude_monte_carlo(model, space, n_mc, args.seed, args.out / f"mc_store_{n_mc}")
-    if args.replot:
-        ss = {k: [gearuq.load(p) for p in sorted(args.out.glob(f"subset_{k}_*.nc"))]
+    mc = crude_monte_carlo(model, space, n_mc, seed, out / f"mc_store_{n_mc}")
+    if replot:
+        ss = {k: [gearuq.load(p) for p in sorted(out.glob(f"subset_{k}_*.nc"))]
               for k in MARGINS}
-        ak = gearuq.load(args.out / "akmcs_check.nc")
-        figure(mc, ss, ak, args.out / "pf_vs_model_runs.png")
-        print(f"redrawn: {args.out / 'pf_vs_model_runs.png'}")
+        ak = gearuq.load(out / "akmcs_check.nc")
+        figure(mc, ss, ak, out / "pf_vs_model_runs.png")
+        print(f"redrawn: {out / 'pf_vs_model_runs.png'}")
         return 0
     print("subset simulation ...", flush=True)
-    ss = subset_runs(model, space, seeds, 1000 if args.full else 500)
+    ss = subset_runs(model, space, seeds, n_level)
     print("AK-MCS ...", flush=True)
-    ak = akmcs_run(model, space, args.seed, 400 if args.full else 150,
-                   100_000 if args.full else 50_000)
+    ak = akmcs_run(model, space, seed, ak_runs, ak_mc)
     print("time-grid check ...", flush=True)
-    grid = grid_check(model, space, args.seed)
-    figure(mc, ss, ak, args.out / "pf_vs_model_runs.png")
-    gearuq.save(mc["rel"], args.out / "monte_carlo_reliability.nc")
-    gearuq.save(grid, args.out / "grid_check_p1.nc")
+    grid = grid_check(model, space, seed, n=500 if quick else 2000)
+    figure(mc, ss, ak, out / "pf_vs_model_runs.png")
+    gearuq.save(mc["rel"], out / "monte_carlo_reliability.nc")
+    gearuq.save(grid, out / "grid_check_p1.nc")
     for key in MARGINS:
         for i, rep in enumerate(ss[key]):
-            gearuq.save(rep, args.out / f"subset_{key}_{i}.nc")
-    gearuq.save(ak, args.out / "akmcs_check.nc")
+            gearuq.save(rep, out / f"subset_{key}_{i}.nc")
+    gearuq.save(ak, out / "akmcs_check.nc")
     info = summary(mc, ss, ak, n_mc)
     info["grid_check_p1"] = {k: float(grid[k]) for k in ("pf_grid", "pf_hermite", "pf_rice",
                                                           "points_per_period", "peak_loss")}
     info["grid_check_p1"]["verdict"] = grid.attrs["verdict"]
+    info["quick"] = quick
     info["total_wall"] = time.perf_counter() - t0
-    (args.out / "summary.json").write_text(json.dumps(info, indent=1))
+    (out / "summary.json").write_text(json.dumps(info, indent=1))
     print("\nhelical_pair rare events (peak mesh force over tau in [100, 200]):")
     print(f"{'limit':>8} {'method':<14} {'Pf':>10} {'interval':>24} {'runs':>8}")
     for key, limit in MARGINS.items():
@@ -279,9 +308,24 @@ def main(argv: list[str] | None = None) -> int:
     a = info["akmcs"]["check"]
     print(f"{MARGINS['check'] / 1e3:>6.0f}kN {'AK-MCS':<14} {a['pf']:>10.3g} "
           f"[{a['pf_lower']:.3g}, {a['pf_upper']:.3g}]".ljust(60) + f"{a['n_model_runs']:>8.0f}")
-    print(f"written: {args.out} (pf_vs_model_runs.png, *.nc, summary.json); "
+    print(f"written: {out} (pf_vs_model_runs.png, *.nc, summary.json); "
           f"{info['total_wall']:.0f} s")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.helical_pair_rare_events``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("gearuq_helical_pair_rare_events"))
+    parser.add_argument("--quick", action="store_true",
+                        help="2000 MC runs, 200 per subset level, AK-MCS 80 runs")
+    parser.add_argument("--full", action="store_true",
+                        help="1e5 MC runs, 3 subset seeds x 1000 per level, AK-MCS 400 runs")
+    parser.add_argument("--seed", type=int, default=2024)
+    parser.add_argument("--replot", action="store_true",
+                        help="redraw the figure from the saved reports and the Monte Carlo store")
+    args = parser.parse_args(argv)
+    return run(args.out, quick=args.quick, full=args.full, seed=args.seed, replot=args.replot)
 
 
 if __name__ == "__main__":

@@ -16,8 +16,13 @@ Compared, in one run:
   run stays near 3 minutes on 2 cores; ``--full`` uses 10^5).
 
 Error = |Pf - Pf_ref| of the series system and the mean relative error over the 10 DOFs.
-Writes ``comparison.nc``, ``table.md`` and ``speed_vs_error.png`` into
-``studies/output/mc_vs_surrogate/``.
+Writes ``comparison.nc``, ``table.md`` and ``speed_vs_error.png`` into the output folder.
+
+Run: ``gearuq study mc_vs_surrogate [--quick] [--out DIR]``, or
+``python -m gearuq_studies.mc_vs_surrogate [--full] [--n-ref N] [--replicates R]``.
+``--quick``: a 300-sample pilot, a reference of 2000 samples, Monte Carlo at 10^2 and 10^3,
+PCE least squares of degree 1..3 and one sparse fit, 10^5 surrogate samples, no extra
+designs (well under a minute; the reference interval is then wide).
 """
 
 from __future__ import annotations
@@ -49,20 +54,51 @@ def _pf(rel: xr.Dataset) -> dict[str, np.ndarray]:
     return {k: r[k].values for k in ("pf", "pf_lower", "pf_upper")}
 
 
-def main(out: Path, n_ref: int, full: bool, seed: int = 20240607, replicates: int = 3) -> int:
-    """Run the comparison; return 0."""
-    import matplotlib
+def run(out: str | Path = "gearuq_mc_vs_surrogate", quick: bool = False, full: bool = False,
+        n_ref: int | None = None, seed: int = 20240607, replicates: int | None = None) -> int:
+    """Monte Carlo against polynomial chaos for Li, Hu and Han's tolerance-band reliability.
 
-    matplotlib.use("Agg")
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``comparison.nc``, ``table.md``, ``speed_vs_error.png``.
+    quick : bool
+        Pilot 300, reference 2000, MC at 10^2 and 10^3, PCE degrees 1..3 and one sparse fit,
+        10^5 surrogate samples, no extra designs.
+    full : bool
+        Reference 10^5 and PCE degrees up to 6.
+    n_ref : int, optional
+        Reference Monte Carlo size (default 2 x 10^4; 10^5 with ``full``; 2000 ``quick``).
+    seed : int
+        Seed of every random stage.
+    replicates : int, optional
+        Extra designs of the sparse degree-5 fit (3; 0 with ``quick``).
+
+    Returns
+    -------
+    int
+        0.
+    """
+    import matplotlib
     import matplotlib.pyplot as plt
 
+    if quick and full:
+        raise ValueError("quick=True and full=True: choose one")
+    n_ref = n_ref or (100_000 if full else 2_000 if quick else 20_000)
+    if n_ref < 100:
+        raise ValueError(f"n_ref={n_ref}: the reference needs at least 100 samples")
+    replicates = (0 if quick else 3) if replicates is None else replicates
+    n_pilot = 300 if quick else N_PILOT
+    n_surrogate = 10**5 if quick else 10**6
+    matplotlib.use("Agg")
     wall0 = time.perf_counter()
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     model = gearuq.get_model("helical_pair")
     space = model.default_space()
     outs = OUTPUTS
 
-    pilot = gearuq.monte_carlo(model, space, TAU, n_samples=N_PILOT, rng=seed + 1,
+    pilot = gearuq.monte_carlo(model, space, TAU, n_samples=n_pilot, rng=seed + 1,
                                outputs=outs, executor="serial", progress=False)
     ok = pilot["status"].values == 0
     bands = []
@@ -83,20 +119,21 @@ def main(out: Path, n_ref: int, full: bool, seed: int = 20240607, replicates: in
     modes = list(ref["mode"].values)
     rows = [{"method": "MC reference", "n_eval": n_ref, "wall": t_ref, **_row(pf_ref, pf_ref),
              "loo": np.nan, "degree": np.nan}]
-    for k, n in enumerate([100, 1000, 10_000]):
+    for k, n in enumerate([100, 1000] if quick else [100, 1000, 10_000]):
         rel, w = run_mc(n, seed + 10 + k)
         rows.append({"method": "MC", "n_eval": n, "wall": w, **_row(_pf(rel), pf_ref),
                      "loo": np.nan, "degree": np.nan})
 
-    degrees = range(1, 7 if full else 5)
+    degrees = range(1, 7 if full else 4 if quick else 5)
     fits = [("PCE LS", p, "regression", None) for p in degrees]
-    fits += [("PCE sparse", 3, "sparse", 128), ("PCE sparse", 5, "sparse", 256),
-             ("PCE sparse", 7, "sparse", 512)]
+    fits += [("PCE sparse", 3, "sparse", 128)]
+    if not quick:
+        fits += [("PCE sparse", 5, "sparse", 256), ("PCE sparse", 7, "sparse", 512)]
     for label, p, method, n in fits:
         t0 = time.perf_counter()
         pce = polynomial_chaos(model, space, TAU, order=p, method=method, outputs=outs,
                                n_samples=n, rng=seed + 100 + p)
-        rel = pce.reliability(bands, n_samples=10**6, rng=seed + 200 + p)
+        rel = pce.reliability(bands, n_samples=n_surrogate, rng=seed + 200 + p)
         w = time.perf_counter() - t0
         rows.append({"method": label, "n_eval": pce.n_evaluations, "wall": w,
                      **_row(_pf(rel), pf_ref), "loo": float(np.mean(list(
@@ -107,7 +144,7 @@ def main(out: Path, n_ref: int, full: bool, seed: int = 20240607, replicates: in
         t0 = time.perf_counter()
         pce = polynomial_chaos(model, space, TAU, order=5, method="sparse", outputs=outs,
                                n_samples=256, rng=seed + 300 + r)
-        rel = pce.reliability(bands, n_samples=10**6, rng=seed + 400 + r)
+        rel = pce.reliability(bands, n_samples=n_surrogate, rng=seed + 400 + r)
         rows.append({"method": "PCE sparse (other design)", "n_eval": pce.n_evaluations,
                      "wall": time.perf_counter() - t0, **_row(_pf(rel), pf_ref),
                      "loo": float(np.mean(list(pce.loo_error.values()))), "degree": 5})
@@ -118,7 +155,7 @@ def main(out: Path, n_ref: int, full: bool, seed: int = 20240607, replicates: in
     lines = [
         "# Monte Carlo vs polynomial chaos: helical_pair tolerance-band reliability at tau=200",
         "",
-        f"Bands: v_i(200) within pilot mean +- {TOL_K} std ({N_PILOT}-sample pilot). "
+        f"Bands: v_i(200) within pilot mean +- {TOL_K} std ({n_pilot}-sample pilot). "
         f"Reference: MC n = {n_ref}, system Pf = {pf_ref['pf'][sys_i]:.4f} "
         f"[{lo:.4f}, {hi:.4f}] (95 % Wilson), {t_ref:.1f} s.",
         "",
@@ -206,14 +243,21 @@ def _row(pf: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> dict[str, flo
             "err_dof": float(np.nanmean(rel))}
 
 
-if __name__ == "__main__":
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.mc_vs_surrogate``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("studies/output/mc_vs_surrogate"))
+    parser.add_argument("--out", type=Path, default=Path("gearuq_mc_vs_surrogate"))
+    parser.add_argument("--quick", action="store_true",
+                        help="reference 2000, PCE degrees 1-3 (well under a minute)")
     parser.add_argument("--n-ref", type=int, default=None)
     parser.add_argument("--full", action="store_true",
                         help="reference MC 1e5 and PCE degrees up to 6 (about 5 minutes)")
-    parser.add_argument("--replicates", type=int, default=3,
-                        help="extra designs of the sparse degree-5 fit (robustness)")
-    args = parser.parse_args()
-    n = args.n_ref or (100_000 if args.full else 20_000)
-    raise SystemExit(main(args.out, n, args.full, replicates=args.replicates))
+    parser.add_argument("--replicates", type=int, default=None,
+                        help="extra designs of the sparse degree-5 fit (robustness; 3)")
+    args = parser.parse_args(argv)
+    return run(args.out, quick=args.quick, full=args.full, n_ref=args.n_ref,
+               replicates=args.replicates)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

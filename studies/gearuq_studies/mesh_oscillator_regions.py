@@ -1,13 +1,12 @@
 """Eritenel and Parker (2013) with the ``mesh_oscillator`` plugin: response regions, modified
-gears, speed
-against error, and a reliability use of the cheap model.
+gears, speed against error, and a reliability use of the cheap model.
 
-Writes PNG + netCDF into ``studies/output/mesh_oscillator_regions/`` and prints a summary:
+Writes PNG + netCDF into the output folder and prints a summary:
 
-1. ``regions.png`` - seed Fig. 4 analog: linear, first-order, second-order (stable solid,
-   unstable dashed) and numerical (up and down sweeps) frequency responses of the seed's
+1. ``regions.png`` - Eritenel and Parker's Fig. 4 analog: linear, first-order, second-order
+   (stable solid, unstable dashed) and numerical (up and down sweeps) frequency responses of their
    example system, with the four response regions coloured and numbered.
-2. ``gears.png`` - seed Figs. 1-3 analog: tangent mesh stiffness and mean-removed
+2. ``gears.png`` - their Figs. 1-3 analog: tangent mesh stiffness and mean-removed
    excitation over a mesh cycle at 50, 150, 250 N m, and the first excitation harmonic
    alpha_0,1 against torque, for an unmodified and a tip-relieved spur pair, both from the
    LTCA force-deflection function.
@@ -18,30 +17,29 @@ Writes PNG + netCDF into ``studies/output/mesh_oscillator_regions/`` and prints 
    helical pair exceeds a limit under random damping, torque and tip-relief amount (Monte
    Carlo on the perturbation model), checked on a subsample against numerical sweeps.
 
-Run: ``python studies/mesh_oscillator_regions.py [--quick]``.
+Run: ``gearuq study mesh_oscillator_regions [--quick] [--out DIR]``. ``--quick``: 111
+frequency points instead of 441, LTCA tables with 16 positions per mesh cycle and 10 points
+per line (32 x 20), 12 torques instead of 23, the benchmark's quick mode and 400 reliability
+samples instead of 4000, checked against numerical sweeps on at most 6 of them (30).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from pathlib import Path
 
 import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import xarray as xr  # noqa: E402
+import gearuq
+from gearuq.gears.deviations import FlankDeviations
+from gearuq.gears.geometry import HelicalGearPair
+from gearuq.gears.ltca import normal_force_from_torque
 
-import gearuq  # noqa: E402
-from gearuq.gears.deviations import FlankDeviations  # noqa: E402
-from gearuq.gears.geometry import HelicalGearPair  # noqa: E402
-from gearuq.gears.ltca import normal_force_from_torque  # noqa: E402
-
-OUT = Path(__file__).resolve().parent / "output" / "mesh_oscillator_regions"
 REGION_COLOURS = {1: "#4daf4a", 2: "#377eb8", 3: "#ff7f00", 4: "#e41a1c"}
 
 
@@ -59,11 +57,9 @@ def relief(pair: HelicalGearPair, amount: float) -> FlankDeviations:
 
 
 # ------------------------------------------------------------------------------ 1 regions
-def fig4_analog(quick: bool) -> dict:
-    """Seed Fig. 4 analog; returns the headline numbers."""
-    from gearuq_plugins.mesh_oscillator import MeshOscillator
-
-    model = MeshOscillator()
+def fig4_analog(out: Path, quick: bool) -> dict:
+    """Eritenel and Parker's Fig. 4 analog; returns the headline numbers."""
+    model = gearuq.get_model("mesh_oscillator")
     grid = np.linspace(0.86, 1.08, 111 if quick else 441)
     coarse = grid[::3]
     outs = ["branch_amplitude", "branch_stable", "n_branches", "amplitude_up", "amplitude_down",
@@ -85,7 +81,7 @@ def fig4_analog(quick: bool) -> dict:
             ms=4, label="numerical, downward sweep")
     ax.set_xlabel(r"frequency ratio $\Omega$ = mesh frequency / $\omega_n$ [-]")
     ax.set_ylabel(r"fundamental amplitude $a$ of $u = (x - x_m)/d$ [-]")
-    ax.set_title("Seed Fig. 4 analog: alpha01 = 2/75, alpha00 = 2/3, alpha20 = 1/4, "
+    ax.set_title("Eritenel and Parker Fig. 4 analog: alpha01 = 2/75, alpha00 = 2/3, alpha20 = 1/4, "
                  "alpha30 = -1/24, e1 = 0.1, mu = 0.0082", fontsize=9)
     handles, labels = ax.get_legend_handles_labels()
     for r, col in REGION_COLOURS.items():
@@ -95,15 +91,15 @@ def fig4_analog(quick: bool) -> dict:
     ax.set_ylim(0, 1.65)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(OUT / "regions.png", dpi=130)
+    fig.savefig(out / "regions.png", dpi=130)
     plt.close(fig)
     ds = xr.Dataset({f"second_{k}": second[k] for k in outs} | {f"first_{k}": first[k] for k in
                                                                ("amplitude_up",
                                                                 "amplitude_down")})
     gearuq.save(ds.drop_vars([v for v in ds.coords if v not in ("frequency", "branch",
                                                                 "sample")]),
-                OUT / "regions_perturbation.nc")
-    gearuq.save(num, OUT / "regions_numerical.nc")
+                out / "regions_perturbation.nc")
+    gearuq.save(num, out / "regions_numerical.nc")
     err = {}
     for w in ("up", "down"):
         ref = num[f"amplitude_{w}"].values[0]
@@ -163,9 +159,9 @@ def gear_tables(pair, amount, quick, torques=(5, 15, 30, 50, 75, 100, 150, 200, 
                                          n_pts=10 if quick else 20, deviations=dev)
 
 
-def gear_comparison(quick: bool) -> dict:
-    """Seed Figs. 1-3 analog; returns alpha_01 at 50 and 250 N m for both gears."""
-    from gearuq_plugins.mesh_oscillator import MeshOscillator, mean_deflection
+def gear_comparison(out: Path, quick: bool) -> dict:
+    """Eritenel and Parker's Figs. 1-3 analog; returns alpha_01 against torque, both gears."""
+    from gearuq_plugins.mesh_oscillator import mean_deflection
 
     pair = example_spur_pair()
     torques = np.linspace(40.0, 260.0, 12 if quick else 23)
@@ -174,7 +170,8 @@ def gear_comparison(quick: bool) -> dict:
     summary = {}
     for row, (name, amount) in enumerate((("unmodified", 0.0), ("10 um tip relief", 10e-6))):
         table = gear_tables(pair, amount, quick)
-        model = MeshOscillator(table, nominal={"mean_force": forces[0]})
+        model = gearuq.get_model("mesh_oscillator", force=table,
+                                 nominal={"mean_force": forces[0]})
         ds = model.response({"mean_force": forces}, outputs=["alpha", "mesh_stiffness",
                                                              "mean_deflection"],
                             harmonics=4)
@@ -199,7 +196,7 @@ def gear_comparison(quick: bool) -> dict:
         ax.plot(res["torque"], res["alpha01"], "o-", color=col, label=name)
     ax.set_xlabel("pinion torque [N m]")
     ax.set_ylabel(r"first excitation harmonic $\alpha_{0,1}$ [-]")
-    ax.set_title("seed Fig. 3 analog", fontsize=9)
+    ax.set_title("Eritenel and Parker Fig. 3 analog", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     axes[1, 2].axis("off")
@@ -207,14 +204,15 @@ def gear_comparison(quick: bool) -> dict:
                     "Relief: parabolic, 10 um over 30 %\nof the path of contact, both gears.\n"
                     "Force-deflection: gearuq.gears.ltca\n(one mesh cycle, LTCA tangent "
                     "stiffness).", fontsize=9, va="top")
-    fig.suptitle("Seed Figs. 1-3 analog: unmodified (top) and tip-relieved (bottom) gears")
+    fig.suptitle("Eritenel and Parker Figs. 1-3 analog: unmodified (top) and tip-relieved "
+                 "(bottom) gears")
     fig.tight_layout()
-    fig.savefig(OUT / "gears.png", dpi=120)
+    fig.savefig(out / "gears.png", dpi=120)
     plt.close(fig)
     gearuq.save(xr.Dataset({k.replace(" ", "_"): ("torque", v["alpha01"], {"units": "1"})
                             for k, v in summary.items()},
                            coords={"torque": ("torque", torques, {"units": "N m"})}),
-                OUT / "alpha01_vs_torque.nc")
+                out / "alpha01_vs_torque.nc")
     return summary
 
 
@@ -222,7 +220,7 @@ def gear_comparison(quick: bool) -> dict:
 def _relief_model(quick: bool):
     """mesh_oscillator of Yuan, Liu and Liu's helical pair with a tip-relief family (0-20 um)."""
     from gearuq.gears.geometry import seed002_pair
-    from gearuq_plugins.mesh_oscillator import MeshOscillator, TableFamily
+    from gearuq_plugins.mesh_oscillator import TableFamily
 
     pair = seed002_pair()
     amounts = np.linspace(0.0, 20e-6, 5)
@@ -231,8 +229,9 @@ def _relief_model(quick: bool):
                          tuple(amounts), name="relief", units="m",
                          description="tip relief amount")
     f300 = normal_force_from_torque(pair, 300.0)
-    model = MeshOscillator(family, nominal={"mean_force": f300, "mass": _mass(pair),
-                                            "relief": 10e-6, "damping_ratio": 0.03})
+    model = gearuq.get_model("mesh_oscillator", force=family,
+                             nominal={"mean_force": f300, "mass": _mass(pair),
+                                      "relief": 10e-6, "damping_ratio": 0.03})
     return model, f300
 
 
@@ -244,7 +243,7 @@ def _peaks(ds: xr.Dataset) -> dict[str, np.ndarray]:
                                                                      np.nanmax(down, axis=1))}
 
 
-def reliability(quick: bool) -> dict:
+def reliability(out: Path, quick: bool) -> dict:
     """P(resonant DTE amplitude > limit) of Yuan, Liu and Liu's helical pair under random damping,
     torque and tip relief; two questions: the peak met on a run-up (upward sweep) and the
     largest amplitude on either sweep. Checked on a subsample by numerical sweeps."""
@@ -252,7 +251,7 @@ def reliability(quick: bool) -> dict:
 
     model, f300 = _relief_model(quick)
     space = gearuq.ParameterSpace({
-        "damping_ratio": cp.Uniform(0.02, 0.05),              # seed: 2-5 %
+        "damping_ratio": cp.Uniform(0.02, 0.05),              # Yuan et al.: 2-5 %
         "mean_force": cp.Normal(f300, 0.1 * f300),             # torque 300 N m, CoV 10 %
         "relief": cp.Uniform(0.0, 20e-6),
     })
@@ -271,7 +270,7 @@ def reliability(quick: bool) -> dict:
         ds[var] = ("sample", peaks[key], {"units": "m", "role": "output"})
     rel = gearuq.reliability(ds, {v: (None, limit) for v in names.values()})
     # check: random samples plus, for each question, those nearest the limit
-    m_each = 6 if quick else 10
+    m_each = 2 if quick else 10  # a numerical sweep costs seconds per sample
     picks = [np.arange(m_each)] + [np.argsort(np.abs(np.where(valid, p, np.inf) - limit))[
         :m_each] for p in peaks.values()]
     pick = np.unique(np.concatenate(picks))
@@ -294,13 +293,13 @@ def reliability(quick: bool) -> dict:
             "disagree": int(np.sum((a_p > limit) != (a_n > limit))),
             "err_median": float(np.median(err)), "err_max": float(err.max()),
             "a_p": a_p, "a_n": a_n}
-    _reliability_plot(peaks, valid, limit, result)
-    gearuq.save(ds, OUT / "reliability_mc.nc")
-    gearuq.save(num, OUT / "reliability_check_sweeps.nc")
+    _reliability_plot(out, peaks, valid, limit, result)
+    gearuq.save(ds, out / "reliability_mc.nc")
+    gearuq.save(num, out / "reliability_check_sweeps.nc")
     return result
 
 
-def _reliability_plot(peaks, valid, limit, result) -> None:
+def _reliability_plot(out, peaks, valid, limit, result) -> None:
     fig, ax = plt.subplots(1, 2, figsize=(11.5, 4.5))
     styles = {"run-up": ("#377eb8", "o"), "either sweep": ("#ff7f00", "s")}
     lo, hi = np.inf, -np.inf
@@ -328,7 +327,7 @@ def _reliability_plot(peaks, valid, limit, result) -> None:
         a.grid(alpha=0.3)
         a.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(OUT / "reliability.png", dpi=120)
+    fig.savefig(out / "reliability.png", dpi=120)
     plt.close(fig)
 
 
@@ -341,23 +340,41 @@ def _mass(pair: HelicalGearPair, rho: float = 7850.0) -> float:
     return j1 * j2 / (j1 * r2**2 + j2 * r1**2)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="coarser grids, fewer samples")
-    args = parser.parse_args(argv)
-    OUT.mkdir(parents=True, exist_ok=True)
-    fig4 = fig4_analog(args.quick)
-    gears = gear_comparison(args.quick)
-    table = gearuq.registry.get_benchmark("mesh_oscillator")(out=OUT, quick=args.quick)
-    (OUT / "speed_error.md").write_text(table["markdown"] + "\n")
-    rel = reliability(args.quick)
-    print("\n== seed Fig. 4 analog")
+def run(out: str | Path = "gearuq_mesh_oscillator_regions", quick: bool = False) -> int:
+    """Response regions of Eritenel and Parker's mesh oscillator, modified gears, a reliability.
+
+    The four response regions of the frequency response (their Fig. 4), the excitation of
+    unmodified and tip-relieved gears against torque (their Figs. 1-3), perturbation speed
+    against error, and a resonant-amplitude reliability of Yuan, Liu and Liu's pair.
+
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``regions.png``, ``gears.png``, ``reliability.png``,
+        ``speed_error.md`` and the netCDF files behind them.
+    quick : bool
+        111 frequency points, coarser LTCA tables, 12 torques, 400 reliability samples.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    matplotlib.use("Agg")  # files only: no window, whatever backend the session has
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    fig4 = fig4_analog(out, quick)
+    gears = gear_comparison(out, quick)
+    table = gearuq.registry.get_benchmark("mesh_oscillator")(out=out, quick=quick)
+    (out / "speed_error.md").write_text(table["markdown"] + "\n")
+    rel = reliability(out, quick)
+    print("\n== Eritenel and Parker Fig. 4 analog")
     print(f"  multi-valued (hysteresis) band of the second order: Omega "
           f"{fig4['fold'][0]:.4f}-{fig4['fold'][1]:.4f}")
     print(f"  contact loss starts/ends on the response curve at Omega {fig4['onset']}")
     print("  largest |a_2nd - a_numerical| / a_numerical per region: "
           + ", ".join(f"{r}: {e:.3f}" for r, e in sorted(fig4["errors"].items())))
-    print("\n== seed Figs. 2-3 analog (alpha_0,1 at the lowest / highest torque)")
+    print("\n== Eritenel and Parker Figs. 2-3 analog (alpha_0,1 at the lowest / highest torque)")
     for name, res in gears.items():
         a = res["alpha01"]
         print(f"  {name:18s} alpha01 {a[0]:.4f} ({res['torque'][0]:.0f} N m) -> {a[-1]:.4f} "
@@ -371,9 +388,18 @@ def main(argv: list[str] | None = None) -> int:
               f"[{q['pf_interval'][0]:.4f}, {q['pf_interval'][1]:.4f}]; check: "
               f"{q['disagree']} classified differently, amplitude error median "
               f"{q['err_median']:.3f}, max {q['err_max']:.3f}")
-    print(f"\noutputs in {OUT}")
+    print(f"\noutputs in {out}")
     return 0
 
 
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.mesh_oscillator_regions``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("gearuq_mesh_oscillator_regions"))
+    parser.add_argument("--quick", action="store_true", help="coarser grids, fewer samples")
+    args = parser.parse_args(argv)
+    return run(args.out, quick=args.quick)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -4,45 +4,41 @@ One question: the amplitude of the dynamic transmission error (fundamental at th
 frequency) against mesh frequency near primary resonance, for Li, Hu and Han's helical pair at
 its nominal load (2600 N m). Answered side by side by
 
-- ``mesh_oscillator`` (SDOF, Eritenel and Parker (2013)): second-order perturbation and numerical
-sweeps, with
-  the force-deflection function from ISO 6336 (the mesh law of ``helical_pair``:
-  ``k_m (1 + s cos) `` with the error ``e_a sin`` and the half backlash as the unloaded
-  transmission error) or from the LTCA of the pair (plus the same error);
+- ``mesh_oscillator`` (SDOF, Eritenel and Parker (2013)): second-order perturbation and
+  numerical sweeps, with the force-deflection function from ISO 6336 (the mesh law of
+  ``helical_pair``: ``k_m (1 + s cos) `` with the error ``e_a sin`` and the half backlash as
+  the unloaded transmission error) or from the LTCA of the pair (plus the same error);
 - ``helical_pair`` (10 DOF, Li, Hu and Han): time integration at each speed.
 
-The SDOF needs an equivalent mass. Eritenel and Parker (2013) assume rigid bearings (torsional mass
-``m_e / n_y^2`` along the normal line of action); Li, Hu and Han's supports are soft next to the
-mesh (``k_r = 6e6`` vs ``k_m = 1.4e9 N/m``), so the mesh mode also moves the gear bodies:
-``1 / m = sum_i (d delta / d q_i)^2 / M_i`` over every DOF (supports free). Both are shown.
+The SDOF needs an equivalent mass. Eritenel and Parker (2013) assume rigid bearings
+(torsional mass ``m_e / n_y^2`` along the normal line of action); Li, Hu and Han's supports
+are soft next to the mesh (``k_r = 6e6`` vs ``k_m = 1.4e9 N/m``), so the mesh mode also moves
+the gear bodies: ``1 / m = sum_i (d delta / d q_i)^2 / M_i`` over every DOF (supports
+free). Both are shown.
 
 Two error amplitudes: ``e_a = 1 um`` (contact kept) and the nominal ``e_a = 10.8 um`` (the
-mesh separates for a third of the period at resonance). Writes PNG + netCDF into
-``studies/output/model_fidelity/`` and prints time per frequency point and the differences.
-The finite-element rotor (issue 11) joins when it exists.
+mesh separates for a third of the period at resonance). Writes PNG + netCDF into the output
+folder and prints time per frequency point and the differences.
 
-Run: ``python studies/model_fidelity.py [--quick]``.
+Run: ``gearuq study model_fidelity [--quick] [--out DIR]``. ``--quick``: 41 frequency points
+instead of 81, LTCA tables of 16 positions x 10 points (32 x 20), helical_pair integrated
+over tau in [0, 400] instead of [0, 800].
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from pathlib import Path
 
 import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import xarray as xr  # noqa: E402
-
-import gearuq  # noqa: E402
-from gearuq.gears.geometry import seed000_pair  # noqa: E402
-
-OUT = Path(__file__).resolve().parent / "output" / "model_fidelity"
+import gearuq
+from gearuq.gears.geometry import seed000_pair
 
 
 def pair_data() -> dict:
@@ -87,12 +83,11 @@ def forces(data: dict, e_a: float, quick: bool):
 
 def mesh_oscillator_curves(data, force, mass, f_mesh, with_sweep):
     """DTE amplitude (up/down) by perturbation (and sweeps), with the time per point."""
-    from gearuq_plugins.mesh_oscillator import MeshOscillator
-
     # mesh damping c = 2 zeta_m sqrt(k_m m_e) as in helical_pair: zeta = c / (2 sqrt(k m))
     zeta = data["zeta_m"] * math.sqrt(data["m_e"] / mass)
-    model = MeshOscillator(force, nominal={"mass": mass, "mean_force": data["force"],
-                                           "damping_ratio": zeta})
+    model = gearuq.get_model("mesh_oscillator", force=force,
+                             nominal={"mass": mass, "mean_force": data["force"],
+                                      "damping_ratio": zeta})
     opts = {"frequencies": f_mesh, "frequency_units": "Hz"}
     outs = ["dte_amplitude_up", "dte_amplitude_down", "separation_up", "separation_down",
             "mesh_stiffness", "natural_frequency"]
@@ -130,21 +125,38 @@ def helical_curve(e_a: float, f_mesh: np.ndarray, z1: float, quick: bool):
     return amp, wall, ds["status"].values
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="coarser grids")
-    args = parser.parse_args(argv)
-    OUT.mkdir(parents=True, exist_ok=True)
+def run(out: str | Path = "gearuq_model_fidelity", quick: bool = False) -> int:
+    """Resonant DTE of Li, Hu and Han's pair by the SDOF mesh oscillator and the 10-DOF model.
+
+    The same question at three fidelities: ``mesh_oscillator`` (Eritenel and Parker's
+    perturbation solution and numerical sweeps, ISO or LTCA stiffness) against
+    ``helical_pair`` time integration, with the wall time per frequency point.
+
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``dte_vs_mesh_frequency.png`` and ``.nc``.
+    quick : bool
+        41 frequency points, coarser LTCA tables, a shorter helical_pair integration.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    matplotlib.use("Agg")  # files only: no window, whatever backend the session has
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     data = pair_data()
     f_free = math.sqrt(data["k_m"] / data["mass_free"]) / (2 * math.pi)
     f_tors = math.sqrt(data["k_m"] / data["mass_torsional"]) / (2 * math.pi)
-    f_mesh = np.linspace(0.55 * f_tors, 1.25 * f_free, 41 if args.quick else 81)
+    f_mesh = np.linspace(0.55 * f_tors, 1.25 * f_free, 41 if quick else 81)
     fig, axes = plt.subplots(1, 2, figsize=(13, 5), sharex=True)
     lines, table = [], []
     store, verdict = {}, {}
     for ax, e_a in zip(axes, (1e-6, 10.8e-6), strict=True):
-        iso, ltca = forces(data, e_a, args.quick)
-        h_amp, h_time, h_status = helical_curve(e_a, f_mesh, data["z1"], args.quick)
+        iso, ltca = forces(data, e_a, quick)
+        h_amp, h_time, h_status = helical_curve(e_a, f_mesh, data["z1"], quick)
         ax.plot(f_mesh, h_amp * 1e6, "k-", lw=2.5, label="helical_pair (10 DOF)")
         variants = (("ISO, supports free", iso, data["mass_free"], True, "#d95f02"),
                     ("LTCA, supports free", ltca, data["mass_free"], False, "#7570b3"),
@@ -201,12 +213,12 @@ def main(argv: list[str] | None = None) -> int:
     fig.suptitle("Same question, three fidelities (dashed: downward sweep path of the "
                  "perturbation solution)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(OUT / "dte_vs_mesh_frequency.png", dpi=120)
+    fig.savefig(out / "dte_vs_mesh_frequency.png", dpi=120)
     plt.close(fig)
     gearuq.save(xr.Dataset({k.replace(" ", "_").replace(",", "").replace("(", "").replace(
         ")", "").replace("=", "_"): ("frequency", v, {"units": "um"}) for k, v in store.items()},
         coords={"frequency": ("frequency", f_mesh, {"units": "Hz"})}),
-        OUT / "dte_vs_mesh_frequency.nc")
+        out / "dte_vs_mesh_frequency.nc")
     print(f"SDOF resonance: torsional {f_tors:.0f} Hz (mass {data['mass_torsional']:.2f} kg), "
           f"supports free {f_free:.0f} Hz (mass {data['mass_free']:.2f} kg)")
     print(f"{'e_a':>5} {'model':58s} {'ms/point':>9} {'peak um':>8} {'at Hz':>7} "
@@ -225,9 +237,18 @@ def main(argv: list[str] | None = None) -> int:
           f"{verdict[(10.8e-6, 'perturbation')]:.0%} and the SDOF numerical sweep "
           f"({verdict[(10.8e-6, 'numerical sweep')]:.0%}) or helical_pair is needed; the "
           "rigid-bearing (torsional) SDOF misplaces the resonance of these soft supports.")
-    print(f"outputs in {OUT}")
+    print(f"outputs in {out}")
     return 0
 
 
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.model_fidelity``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("gearuq_model_fidelity"))
+    parser.add_argument("--quick", action="store_true", help="coarser grids")
+    args = parser.parse_args(argv)
+    return run(args.out, quick=args.quick)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -1,5 +1,5 @@
-"""Yuan et al. (2020) Figs. 8, 9, 10, 14 analogs: LTCA of the 30/30 helical pair with random pitch
-errors.
+"""Yuan et al. (2020) Figs. 8, 9, 10, 14 analogs: LTCA of the 30/30 helical pair with random
+pitch errors.
 
 - Fig. 8: random cumulative pitch deviations (sine 15 um + N(0, 3 um)) and pitch deviations
   of pinion and wheel.
@@ -14,10 +14,14 @@ errors.
 - LTCA mean mesh stiffness over ISO 6336-1 method B for tooth numbers 17-120, shifts and
   basic racks A and D, before and after the root-circle correction.
 - Sensitivity of the STE and mesh stiffness to the face-width coupling length.
-- Both readings of the seed's "amplitude 15 um" (sine amplitude, largest deviation).
+- Both readings of Yuan et al.'s "amplitude 15 um" (sine amplitude, largest deviation).
 
-Run: ``python studies/pitch_deviation_excitation.py [--out DIR] [--seed N]`` (about a minute).
-Writes netCDF + PNG into ``studies/output/pitch_deviation_excitation/`` and prints a summary.
+Run: ``gearuq study pitch_deviation_excitation [--quick] [--out DIR]`` (about a minute), or
+``python -m gearuq_studies.pitch_deviation_excitation --seed N`` for another realisation.
+Writes netCDF + PNG into the output folder and prints a summary. ``--quick`` runs the LTCA
+with 12 positions per mesh cycle and 10 points per line (24 x 20 otherwise), the tip-relief
+map on 8 x 8 instead of 21 x 20, the ISO chart at 5 tooth numbers instead of 12 and the
+coupling-length sensitivity at 4 lengths instead of 8.
 """
 
 from __future__ import annotations
@@ -53,7 +57,7 @@ COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red")
 
 def realisation(pair: HelicalGearPair, seed: int,
                 reading: str = "sine") -> tuple[np.ndarray, np.ndarray]:
-    """Pinion and wheel cumulative pitch deviations of the seed's random model [m]."""
+    """Pinion and wheel cumulative pitch deviations of Yuan et al.'s random model [m]."""
     rng = np.random.default_rng(seed)
     return (random_cumulative_pitch_deviations(pair.z1, seed=rng, amplitude_reading=reading),
             random_cumulative_pitch_deviations(pair.z2, seed=rng, amplitude_reading=reading))
@@ -80,7 +84,7 @@ def fig09(runs: list[xr.Dataset], out: Path) -> None:
         axs[1].plot(r["tau"], r["lpms_tangent"], lw=0.8, color=c)
         axs[2].plot(r["tau"], r["ste"], lw=0.8, color=c)
         axs[3].plot(r["tau"], r["cms"], lw=0.8, color=c)
-    for ax, lab in zip(axs, ("LPMS secant (seed Eq. 4) [N/um]", "LPMS tangent [N/um]",
+    for ax, lab in zip(axs, ("LPMS secant (Yuan et al. Eq. 4) [N/um]", "LPMS tangent [N/um]",
                              "STE (normal) [um]", "CMS [um]"), strict=True):
         ax.set_ylabel(lab)
     axs[3].set_xlabel("mesh position [mesh cycles]")
@@ -112,14 +116,14 @@ def fig10(runs: list[xr.Dataset], out: Path) -> int:
     return worst
 
 
-def face_load(pair, comp, dev, out: Path, tau: float) -> dict[str, float]:
+def face_load(pair, comp, dev, out: Path, tau: float, n_pts: int = 40) -> dict[str, float]:
     """Face-load picture at one position: three flanks, lines coloured by line load."""
     cases = (("error-free, 1000 N m", 1000.0, None),
              ("pitch deviations, 350 N m", 350.0, dev),
              ("tip relief 20 um / 10 mm + pitch dev., 350 N m", 350.0,
               FlankDeviations(Fp1=dev.Fp1, Fp2=dev.Fp2, tip_relief1=(20e-6, 10e-3),
                               tip_relief2=(20e-6, 10e-3))))
-    runs = [ltca(pair, torque=T, deviations=d, compliance=comp, tau=[tau], n_pts=40)
+    runs = [ltca(pair, torque=T, deviations=d, compliance=comp, tau=[tau], n_pts=n_pts)
             for _, T, d in cases]
     qmax = max(float(r["line_load"].max()) for r in runs)
     norm = Normalize(0.0, qmax)
@@ -169,9 +173,10 @@ def _zone(kin: dict):
                      kin["face_width_m"] * 1e3, fill=False, ls="--", color="grey")
 
 
-def iso_chart(out: Path) -> xr.Dataset:
+def iso_chart(out: Path, quick: bool = False) -> xr.Dataset:
     """LTCA / ISO 6336-1 mean mesh stiffness over tooth numbers, shifts and racks."""
-    zs = np.array([17, 21, 25, 30, 35, 42, 50, 60, 75, 90, 105, 120])
+    zs = np.array([17, 30, 50, 75, 120] if quick else
+                  [17, 21, 25, 30, 35, 42, 50, 60, 75, 90, 105, 120])
     variants = {"rack A, x = 0": (1.25, 0.38, 0.0), "rack A, x = +0.5": (1.25, 0.38, 0.5),
                 "rack A, x = -0.3": (1.25, 0.38, -0.3), "rack D, x = 0": (1.4, 0.39, 0.0)}
     ratio = np.full((len(variants) + 1, zs.size), np.nan)
@@ -212,15 +217,19 @@ def iso_chart(out: Path) -> xr.Dataset:
     return ds
 
 
-def coupling_sensitivity(pair, dev, out: Path) -> xr.Dataset:
+def coupling_sensitivity(pair, dev, out: Path, grid: dict | None = None) -> xr.Dataset:
     """Mean mesh stiffness and STE peak-to-peak against the coupling length."""
+    grid = grid or {}
     lam_plate = plate_coupling_length(pair)
-    lams = np.array([0.0, 0.5, 1.0, 1.5, lam_plate / pair.mn, 2.0, 2.5, 3.0])
+    lams = np.array([0.0, 1.0, lam_plate / pair.mn, 3.0] if grid else
+                    [0.0, 0.5, 1.0, 1.5, lam_plate / pair.mn, 2.0, 2.5, 3.0])
     rows = []
     for lam in lams:
         comp = ComplianceModel(pair, coupling_length=lam * pair.mn)
-        perfect = ltca(pair, torque=1000.0, compliance=comp, n_cycles=1, keep_points=False)
-        rough = ltca(pair, torque=600.0, deviations=dev, compliance=comp, keep_points=False)
+        perfect = ltca(pair, torque=1000.0, compliance=comp, n_cycles=1, keep_points=False,
+                       **grid)
+        rough = ltca(pair, torque=600.0, deviations=dev, compliance=comp, keep_points=False,
+                     **grid)
         rows.append((float(perfect["lpms"].mean()), float(np.ptp(perfect["ste"].values)),
                      float(perfect["lpms_tangent"].mean()), float(np.ptp(rough["ste"].values))))
     rows = np.array(rows)
@@ -240,7 +249,7 @@ def coupling_sensitivity(pair, dev, out: Path) -> xr.Dataset:
     ax1b.set_ylabel("STE peak-to-peak with pitch deviations [um]", color="tab:red")
     ax1.legend(loc="lower left", fontsize=8)
     ax1b.legend(loc="center left", fontsize=8)
-    ax2.plot(lams, rows[:, 0], "o-", color="tab:green", label="secant (seed Eq. 4)")
+    ax2.plot(lams, rows[:, 0], "o-", color="tab:green", label="secant (Yuan et al. Eq. 4)")
     ax2.plot(lams, rows[:, 2], "s-", color="tab:purple", label="tangent")
     ax2.set(xlabel="coupling length lam / m_n [-]", ylabel="mean mesh stiffness [N/um]")
     ax2.legend(fontsize=8)
@@ -251,11 +260,12 @@ def coupling_sensitivity(pair, dev, out: Path) -> xr.Dataset:
     return ds
 
 
-def fig14(pair, comp, out: Path, torque: float = 1000.0) -> xr.Dataset:
-    amounts = np.linspace(0.0, 60e-6, 21)
-    lengths = np.linspace(0.5e-3, 0.5 * pair.g_alpha, 20)
+def fig14(pair, comp, out: Path, torque: float = 1000.0, quick: bool = False) -> xr.Dataset:
+    """STE peak-to-peak over symmetric tip-relief amount and length, optimum marked."""
+    amounts = np.linspace(0.0, 60e-6, 8 if quick else 21)
+    lengths = np.linspace(0.5e-3, 0.5 * pair.g_alpha, 8 if quick else 20)
     rmap = tip_relief_map(pair, amounts, lengths, torque=torque, compliance=comp,
-                          positions_per_cycle=24, n_cycles=1)
+                          positions_per_cycle=12 if quick else 24, n_cycles=1)
     fig = Figure(figsize=(6, 4.5), layout="constrained")
     ax = fig.subplots()
     cs = ax.contourf(rmap["length"], rmap["amount"], rmap["ste_ptp"], levels=20, cmap="viridis")
@@ -268,15 +278,16 @@ def fig14(pair, comp, out: Path, torque: float = 1000.0) -> xr.Dataset:
     return rmap
 
 
-def readings(pair, comp, seed: int) -> dict[str, list]:
-    """The long period at the seed's torques for both readings of the 15 um amplitude."""
+def readings(pair, comp, seed: int, grid: dict | None = None) -> dict[str, list]:
+    """The long period at Yuan et al.'s torques for both readings of the 15 um amplitude."""
+    grid = grid or {}
     res = {}
     for reading in ("sine", "largest"):
         Fp1, Fp2 = realisation(pair, seed, reading)
         dev = FlankDeviations(Fp1=Fp1, Fp2=Fp2)
         rows = []
         for T in TORQUES:
-            r = ltca(pair, torque=T, deviations=dev, compliance=comp, keep_points=False)
+            r = ltca(pair, torque=T, deviations=dev, compliance=comp, keep_points=False, **grid)
             cyc = r["partial_contact_loss"].groupby("mesh_cycle").any().values
             rows.append((T, float(np.ptp(r["ste"].values)), float(r["lpms"].mean()),
                          int(cyc.sum()), float(np.abs(Fp1).max() * 1e6),
@@ -285,18 +296,41 @@ def readings(pair, comp, seed: int) -> dict[str, list]:
     return res
 
 
-def main(out: Path, seed: int = 2020) -> None:
-    """Run the study and write results into ``out``."""
+def run(out: str | Path = "gearuq_pitch_deviation_excitation", quick: bool = False,
+        seed: int = 2020) -> int:
+    """LTCA of Yuan, Liu and Liu's helical pair with random pitch deviations (Figs. 8-10, 14).
+
+    LPMS, STE and CMS over the long period at four torques, load distribution, tip-relief
+    map, LTCA against ISO 6336-1 stiffness and the coupling-length sensitivity.
+
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``ltca_long_period.nc``, ``tip_relief_map.nc``,
+        ``ltca_vs_iso.nc``, ``coupling_length_sensitivity.nc`` and the PNG figures.
+    quick : bool
+        LTCA with 12 positions per mesh cycle and 10 points per line, an 8 x 8 relief map,
+        5 tooth numbers and 4 coupling lengths.
+    seed : int
+        Seed of the pitch-deviation realisation (2020 as in the rotor studies).
+
+    Returns
+    -------
+    int
+        0.
+    """
     t_start = time.perf_counter()
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    grid = {"positions_per_cycle": 12, "n_pts": 10} if quick else {}
     pair = seed002_pair()
     comp = ComplianceModel(pair)
     Fp1, Fp2 = realisation(pair, seed)
     dev = FlankDeviations(Fp1=Fp1, Fp2=Fp2)
     fig08(pair, Fp1, Fp2, out)
     t0 = time.perf_counter()
-    runs = [ltca(pair, torque=T, deviations=dev, compliance=comp, positions_per_cycle=24,
-                 n_pts=20) for T in TORQUES]
+    runs = [ltca(pair, torque=T, deviations=dev, compliance=comp,
+                 **({"positions_per_cycle": 24, "n_pts": 20} | grid)) for T in TORQUES]
     t_run = (time.perf_counter() - t0) / len(TORQUES)
     res = xr.concat(runs, dim="torque", combine_attrs="drop_conflicts")
     res = res.assign_coords(torque=("torque", np.array(TORQUES), {"units": "N m"}))
@@ -307,32 +341,36 @@ def main(out: Path, seed: int = 2020) -> None:
     worst = fig10(runs, out)
     loss = runs[1]["contact_loss_fraction"].values
     tau_face = float(runs[1]["tau"][int(np.argmax(loss))])
-    peak_loads = face_load(pair, comp, dev, out, tau_face)
+    peak_loads = face_load(pair, comp, dev, out, tau_face, n_pts=20 if quick else 40)
     t0 = time.perf_counter()
-    rmap = fig14(pair, comp, out)
+    rmap = fig14(pair, comp, out, quick=quick)
     t_map = time.perf_counter() - t0
     gearuq.save(rmap, out / "tip_relief_map.nc")
-    iso = iso_chart(out)
+    iso = iso_chart(out, quick)
     gearuq.save(iso, out / "ltca_vs_iso.nc")
-    sens = coupling_sensitivity(pair, dev, out)
+    sens = coupling_sensitivity(pair, dev, out, grid)
     gearuq.save(sens, out / "coupling_length_sensitivity.nc")
-    both = readings(pair, comp, seed)
+    both = readings(pair, comp, seed, grid)
     summary(pair, comp, runs, rmap, iso, sens, both, worst, tau_face, peak_loads,
-            (t_run, t_map, time.perf_counter() - t_start))
+            (t_run, t_map, time.perf_counter() - t_start), grid)
+    print(f"written: {out}")
+    return 0
 
 
 def summary(pair, comp, runs, rmap, iso, sens, both, worst, tau_face, peak_loads,
-            times) -> None:
+            times, res: dict | None = None) -> None:
     """Print the numbers quoted in docs/theory/ltca.md."""
+    res = res or {}
     t_run, t_map, total = times
     iso_k = mesh_stiffness(pair)
-    perfect = ltca(pair, torque=1000.0, compliance=comp)
+    perfect = ltca(pair, torque=1000.0, compliance=comp, **res)
     km = float(perfect["lpms"].mean())
     cb2 = math.cos(pair.beta_b) ** 2
     print(f"Yuan et al.'s pair: eps_alpha {pair.eps_alpha:.4f}, eps_beta {pair.eps_beta:.4f}; "
           f"coupling length {comp.coupling_length * 1e3:.2f} mm "
           f"({comp.coupling_length / pair.mn:.2f} mn); LTCA {t_run:.2f} s per load "
-          f"(720 positions x 20 points)")
+          f"({30 * res.get('positions_per_cycle', 24)} positions x "
+          f"{res.get('n_pts', 20)} points)")
     print(f"perfect gears, 1000 N m: mean LPMS {km:.1f} N/um secant, "
           f"{float(perfect['lpms_tangent'].mean()):.1f} N/um tangent (normal), "
           f"{km * cb2:.1f} N/um (transverse); ISO 6336-1 c_gamma_alpha b = "
@@ -374,10 +412,16 @@ def summary(pair, comp, runs, rmap, iso, sens, both, worst, tau_face, peak_loads
     print(f"total {total:.1f} s")
 
 
-if __name__ == "__main__":
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.pitch_deviation_excitation``."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path,
-                    default=Path(__file__).parent / "output" / "pitch_deviation_excitation")
-    ap.add_argument("--seed", type=int, default=2020)
-    args = ap.parse_args()
-    main(args.out, seed=args.seed)
+    ap.add_argument("--out", type=Path, default=Path("gearuq_pitch_deviation_excitation"))
+    ap.add_argument("--quick", action="store_true", help="coarser LTCA and maps")
+    ap.add_argument("--seed", type=int, default=2020,
+                    help="seed of the pitch-deviation realisation")
+    args = ap.parse_args(argv)
+    return run(args.out, quick=args.quick, seed=args.seed)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

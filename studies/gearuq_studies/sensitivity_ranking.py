@@ -12,10 +12,12 @@ of the reliability study act on -- rather than an amplitude
 over the last mesh periods, so the ranking answers "which parameter moves the quantity the
 bands judge". Its variance across the Table 2 scatter is what the indices split.
 
-Run: ``python studies/sensitivity_ranking.py [--out DIR] [--n-base N] [--quick]``. Writes
-``indices_tau200.nc``, ``indices_time_mc.nc``, ``indices_time_pce.nc``, ``morris.nc``,
-``ranking.md`` and PNG figures into
-``studies/output/sensitivity_ranking/``.
+Run: ``gearuq study sensitivity_ranking [--quick] [--out DIR]``, or
+``python -m gearuq_studies.sensitivity_ranking [--n-base N]``. Writes ``indices_tau200.nc``,
+``indices_time_mc.nc``, ``indices_time_pce.nc``, ``morris.nc``, ``ranking.md`` and PNG
+figures into the output folder. ``--quick``: Sobol' base 64 (1024 otherwise), a PCE of degree
+at most 3 on 128 points, 10 Morris trajectories, 11 instants; the small indices are then not
+distinguishable from zero (their intervals say so).
 """
 
 from __future__ import annotations
@@ -42,20 +44,43 @@ def _rank(v: np.ndarray) -> np.ndarray:
     return np.argsort(np.argsort(-np.nan_to_num(v, nan=-np.inf))) + 1
 
 
-def main(out: Path, n_base: int, quick: bool, seed: int = 2024) -> int:
-    """Run the study; return 0."""
-    import matplotlib
+def run(out: str | Path = "gearuq_sensitivity_ranking", quick: bool = False,
+        n_base: int | None = None, seed: int = 2024) -> int:
+    """Which of Li, Hu and Han's Table 2 parameters drives the vibration: Sobol', PCE, Morris.
 
-    matplotlib.use("Agg")
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``indices_tau200.nc``, ``indices_time_mc.nc``,
+        ``indices_time_pce.nc``, ``morris.nc``, ``ranking.md``, ``sobol_over_time.png``,
+        ``ranking_tau200.png``.
+    quick : bool
+        Sobol' base 64, PCE degree <= 3 on 128 points, 10 Morris trajectories, 11 instants.
+    n_base : int, optional
+        Sobol' base sample size (1024; 64 with ``quick``), >= 8.
+    seed : int
+        Seed of every random stage.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    import matplotlib
     import matplotlib.pyplot as plt
 
+    n_base = n_base or (64 if quick else 1024)
+    if n_base < 8:
+        raise ValueError(f"n_base={n_base}: the Sobol' base sample size must be >= 8")
+    matplotlib.use("Agg")
     wall0 = time.perf_counter()
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     model = gearuq.get_model("helical_pair")
     space = model.default_space()
     names = space.names
     outs = OUTPUTS
-    n_time = 21 if quick else 41
+    n_time = 11 if quick else 41
     tau = np.linspace(0.0, TAU_END, n_time)
     end = [TAU_END]
 
@@ -68,14 +93,15 @@ def main(out: Path, n_base: int, quick: bool, seed: int = 2024) -> int:
     t0 = time.perf_counter()
     # sparse (hybrid LARS) so that terms the data do not support are dropped rather than
     # soaking up the misfit of the min(B1, B2) kink
-    pce = polynomial_chaos(model, space, tau, order="auto", max_order=4, method="sparse",
-                           outputs=outs, n_samples=512, rng=seed + 1,
+    pce = polynomial_chaos(model, space, tau, order="auto", max_order=3 if quick else 4,
+                           method="sparse", outputs=outs, n_samples=128 if quick else 512,
+                           rng=seed + 1,
                            n_holdout=0 if quick else 200)
     t_pce = time.perf_counter() - t0
     pce_end = [pce.sobol(o).isel(time=-1) for o in outs]
     # ---------------------------------------------------------------- Morris
     t0 = time.perf_counter()
-    mor = morris_screening(model, space, end, n_trajectories=20 if quick else 40,
+    mor = morris_screening(model, space, end, n_trajectories=10 if quick else 40,
                            outputs=outs, rng=seed + 2)
     t_mor = time.perf_counter() - t0
     mc.attrs["response"] = "v_i = p_i - static p_i at tau = 200"
@@ -84,7 +110,8 @@ def main(out: Path, n_base: int, quick: bool, seed: int = 2024) -> int:
 
     # ---------------------------------------------------------------- over time (MC + PCE)
     t0 = time.perf_counter()
-    mc_t = sobol_indices(model, space, tau, n_base=max(64, n_base // 4), outputs=outs,
+    mc_t = sobol_indices(model, space, tau, n_base=max(32 if quick else 64, n_base // 4),
+                         outputs=outs,
                          rng=seed + 3, estimator="jansen", n_bootstrap=100)
     t_mct = time.perf_counter() - t0
     pce_t = [pce.sobol(o) for o in outs]
@@ -104,7 +131,7 @@ def main(out: Path, n_base: int, quick: bool, seed: int = 2024) -> int:
         "Response: v_i(tau = 200) = p_i - static p_i (the reliability study's quantity).",
         f"Sobol' MC: SALib Saltelli, N = {n_base}, {mc.attrs['n_model_evaluations']} runs, "
         f"{t_mc:.1f} s. PCE: order {pce.order} (sparse LARS, degree chosen by corrected LOO "
-        "of 1..4), "
+        f"of 1..{3 if quick else 4}), "
         f"{pce.n_evaluations} runs incl. hold-out, {t_pce:.1f} s, LOO error "
         f"{np.mean(list(pce.loo_error.values())):.2e} (mean over DOFs). Morris: "
         f"{mor.attrs['n_model_evaluations']} runs, {t_mor:.1f} s.",
@@ -227,10 +254,15 @@ def main(out: Path, n_base: int, quick: bool, seed: int = 2024) -> int:
     return 0
 
 
-if __name__ == "__main__":
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.sensitivity_ranking``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("studies/output/sensitivity_ranking"))
-    parser.add_argument("--n-base", type=int, default=1024)
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args()
-    raise SystemExit(main(args.out, 256 if args.quick else args.n_base, args.quick))
+    parser.add_argument("--out", type=Path, default=Path("gearuq_sensitivity_ranking"))
+    parser.add_argument("--n-base", type=int, default=None, help="Sobol' base (1024)")
+    parser.add_argument("--quick", action="store_true", help="Sobol' base 64, coarser PCE")
+    args = parser.parse_args(argv)
+    return run(args.out, quick=args.quick, n_base=args.n_base)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -5,8 +5,8 @@ Yuan et al. (2020) shows one realisation of random cumulative pitch deviations (
 per gear). This study asks what the realisations do as a population, with the
 ``mesh_excitation`` plugin (one long-period LTCA per sample):
 
-1. Relief maps at the design torque 1000 N m (seed Fig. 14 extended): STE peak-to-peak of the
-   error-free flank (the seed's criterion) and the mesh-band RMS of the STE (content within
+1. Relief maps at the design torque 1000 N m (Yuan et al. Fig. 14 extended): STE peak-to-peak of the
+   error-free flank (Yuan et al.'s criterion) and the mesh-band RMS of the STE (content within
    +-0.5 mesh orders of mesh orders 1-3, sidebands included) averaged over pitch-deviation
    realisations. Optima of both.
 2. Distributions over realisations of the STE peak-to-peak, the first mesh-order amplitude
@@ -20,11 +20,14 @@ per gear). This study asks what the realisations do as a population, with the
    (uniform over 2^32 labels: each label is one draw of the random germ), so its indices
    measure the nuisance variance of the random field itself.
 
-Run: ``python studies/transmission_error_uq.py [--out DIR] [--full]``. The default run takes
-about 3-5 minutes on 2 shared cores (24 positions per mesh cycle, 10 points per line, 100
-realisations per case, 9 x 9 relief grid x 12 realisations, Sobol base 256); ``--full`` uses
-20 points per line, 400 realisations, 13 x 13 x 40 and base 512 (about 15-25 minutes).
-Writes netCDF + PNG into ``studies/output/transmission_error_uq/`` and prints a summary.
+Run: ``gearuq study transmission_error_uq [--quick] [--out DIR]``, or
+``python -m gearuq_studies.transmission_error_uq --full``. The default run takes about 3-5
+minutes on 2 shared cores (24 positions per mesh cycle, 10 points per line, 100 realisations
+per case, 9 x 9 relief grid x 12 realisations, Sobol base 256); ``--full`` uses 20 points per
+line, 400 realisations, 13 x 13 x 40 and base 512 (about 15-25 minutes); ``--quick`` uses 12
+positions per mesh cycle, 6 points per line, 20 realisations per case, a 4 x 4 relief grid x 3
+realisations and Sobol base 64 (the indices' bootstrap intervals are then wide). Writes netCDF
++ PNG into the output folder and prints a summary.
 """
 
 from __future__ import annotations
@@ -42,7 +45,6 @@ import gearuq
 from gearuq.gears.deviations import iso1328_pitch_tolerances
 from gearuq.model import Output
 from gearuq.plot import save_figure
-from gearuq_plugins.mesh_excitation import MeshExcitation
 
 TORQUES = (200.0, 350.0, 600.0, 1000.0)
 DESIGN_TORQUE = 1000.0
@@ -50,8 +52,11 @@ COLOURS = {"unmodified": "tab:red", "error-free optimum": "tab:blue",
            "robust optimum": "tab:green"}
 
 
-def settings(full: bool) -> dict:
-    """Sample sizes and resolution of the default and the ``--full`` run."""
+def settings(full: bool, quick: bool = False) -> dict:
+    """Sample sizes and resolution of the default, the ``--full`` and the ``--quick`` run."""
+    if quick:
+        return {"opts": {"positions_per_cycle": 12, "n_pts": 6, "pitch_model": "seeded"},
+                "n_real": 20, "grid": 4, "grid_real": 3, "n_base": 64}
     if full:
         return {"opts": {"positions_per_cycle": 24, "n_pts": 20, "pitch_model": "seeded"},
                 "n_real": 400, "grid": 13, "grid_real": 40, "n_base": 512}
@@ -206,7 +211,8 @@ def sensitivity(model, cfg: dict) -> xr.Dataset:
 def plot_maps(maps: xr.Dataset, opt_clean, opt_ptp, opt_robust, out: Path) -> None:
     fig = Figure(figsize=(15, 4.4), layout="constrained")
     axs = fig.subplots(1, 3)
-    panels = (("ste_ptp_error_free", "error-free STE peak-to-peak [um] (seed Fig. 14)", opt_ptp),
+    panels = (("ste_ptp_error_free", "error-free STE peak-to-peak [um] (Yuan et al. Fig. 14)",
+               opt_ptp),
               ("mesh_band_rms_error_free", "error-free mesh-band RMS [um]", opt_clean),
               ("mesh_band_rms_mean", "mean mesh-band RMS over realisations [um]", opt_robust))
     for ax, (var, title, opt) in zip(axs, panels, strict=True):
@@ -292,12 +298,36 @@ def plot_spectrum(dist: xr.Dataset, out: Path, torque: float = 600.0) -> None:
     save_figure(fig, out / "ste_spectrum.png")
 
 
-def main(out: Path, full: bool = False) -> None:
-    """Run the study and write results into ``out``."""
+def run(out: str | Path = "gearuq_transmission_error_uq", quick: bool = False,
+        full: bool = False) -> int:
+    """Transmission-error uncertainty of Yuan, Liu and Liu's pair under random pitch deviations.
+
+    Relief maps averaged over realisations, STE distributions and exceedance probabilities
+    at four torques, and Sobol' indices with the realisation as a nuisance input.
+
+    Parameters
+    ----------
+    out : path
+        Output folder (created): ``relief_maps.nc``, ``ste_distributions.nc``,
+        ``ste_exceedance.nc``, ``sobol_indices.nc`` and four PNG figures.
+    quick : bool
+        12 positions per mesh cycle, 6 points per line, 20 realisations per case, a 4 x 4
+        relief grid x 3 realisations, Sobol' base 64.
+    full : bool
+        20 points per line, 400 realisations, 13 x 13 x 40, Sobol' base 512.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    if quick and full:
+        raise ValueError("quick=True and full=True: choose one")
     t_start = time.perf_counter()
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    cfg = settings(full)
-    model = MeshExcitation()
+    cfg = settings(full, quick)
+    model = gearuq.get_model("mesh_excitation")
     limit = ste_limit_um(model.pair)
 
     t0 = time.perf_counter()
@@ -327,6 +357,8 @@ def main(out: Path, full: bool = False) -> None:
     plot_sobol(sob, out)
     summary(maps, opt_ptp, opt_clean, opt_robust, dist, exc, sob, limit, cfg,
             (t_maps, t_dist, t_sob, time.perf_counter() - t_start))
+    print(f"written: {out}")
+    return 0
 
 
 def summary(maps, opt_ptp, opt_clean, opt_robust, dist, exc, sob, limit, cfg, times) -> None:
@@ -375,10 +407,15 @@ def summary(maps, opt_ptp, opt_clean, opt_robust, dist, exc, sob, limit, cfg, ti
           f"{t_sob:.1f} s ({sob.attrs['n_model_evaluations']} runs), total {total:.1f} s")
 
 
-if __name__ == "__main__":
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.transmission_error_uq``."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path,
-                    default=Path(__file__).parent / "output" / "transmission_error_uq")
+    ap.add_argument("--out", type=Path, default=Path("gearuq_transmission_error_uq"))
+    ap.add_argument("--quick", action="store_true", help="coarse LTCA, few realisations")
     ap.add_argument("--full", action="store_true", help="larger samples, 20 points per line")
-    args = ap.parse_args()
-    main(args.out, full=args.full)
+    args = ap.parse_args(argv)
+    return run(args.out, quick=args.quick, full=args.full)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
