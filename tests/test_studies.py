@@ -22,8 +22,6 @@ from gearuq import cli, registry
 
 STUDY_DIR = Path(gearuq_studies.__file__).parent
 MODULES = sorted(p.stem for p in STUDY_DIR.glob("*.py") if p.stem != "__init__")
-#: Studies without a quick mode yet (their owner adds it; strict, so the entry must go then).
-NO_QUICK = {"helical_pair_reliability": "the gearuq demo study has n_samples, not quick"}
 
 
 def _entry_points() -> dict[str, str]:
@@ -59,8 +57,6 @@ def test_study_run_signature_and_description(name):
     default = params["out"].default
     assert isinstance(default, str | Path) and not Path(default).is_absolute(), default
     assert Path(default).name.startswith("gearuq_"), default
-    if name in NO_QUICK:
-        pytest.xfail(NO_QUICK[name])
     assert "quick" in params and params["quick"].default is False, name
 
 
@@ -82,7 +78,7 @@ def test_study_writes_nothing_into_the_source_tree_and_gets_models_from_the_regi
                     f"{name} imports the model class {alias.name}: use gearuq.get_model")
 
 
-@pytest.mark.parametrize("name", [m for m in MODULES if m not in NO_QUICK])
+@pytest.mark.parametrize("name", MODULES)
 def test_study_command_line_has_out_and_quick(name, capsys):
     module = __import__(f"gearuq_studies.{name}", fromlist=["main"])
     with pytest.raises(SystemExit) as exc:
