@@ -4,7 +4,8 @@ method for multi degree of freedom helical gear driven system").
 
 The study that ``gearuq demo`` runs (registered as ``helical_pair_reliability`` in the
 ``gearuq.studies`` entry-point group; ``gearuq study helical_pair_reliability [--quick]`` and
-``python -m gearuq_studies.helical_pair_reliability`` run it too). It uses only the public API (the model comes from the registry), so it is
+``python -m gearuq_studies.helical_pair_reliability`` run it too). It uses only the public
+API (the model comes from the registry), so it is
 also the worked example of a reliability study:
 
 1. the paper's Table 2 parameter space (six independent normals), 10^4 samples;
