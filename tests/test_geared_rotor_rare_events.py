@@ -49,8 +49,18 @@ def test_exceedance_counts_failed_runs_in_the_interval_not_the_estimate():
     assert e["lower"] == pytest.approx(float(lo)) and e["upper"] == pytest.approx(float(up))
 
 
-def test_study_cli_refuses_quick_for_a_study_without_it(capsys):
-    from gearuq import cli
+def test_study_cli_refuses_quick_for_a_study_without_it(capsys, monkeypatch, tmp_path):
+    """Every packaged study has a quick mode; a third-party study without one is refused
+    with a reason, before it runs."""
+    from gearuq import cli, registry
 
-    rc = cli.main(["study", "helical_pair_reliability", "--quick", "--out", "unused"])
-    assert rc == 2 and "no quick mode" in capsys.readouterr().err
+    ran = []
+
+    def no_quick(out: str = "gearuq_x") -> int:
+        """A study without a quick mode."""
+        ran.append(out)
+        return 0
+
+    monkeypatch.setattr(registry, "get_study", lambda name: no_quick)
+    rc = cli.main(["study", "third_party", "--quick", "--out", str(tmp_path / "x")])
+    assert rc == 2 and "no quick mode" in capsys.readouterr().err and not ran
