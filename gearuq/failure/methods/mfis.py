@@ -26,6 +26,7 @@ apart (``n_model_runs`` counts the expensive model only).
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Mapping
@@ -46,7 +47,11 @@ from gearuq.failure.methods.vmfn import VMFNMixture, fit_vmfn
 from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Model, Option
 
-__all__ = ["SETTINGS", "run_mfis", "fit_mixture", "informative_directions"]
+#: Progress of the cheap-model exploration (one line per level, at INFO).
+LOG = logging.getLogger("gearuq.failure.mfis")
+
+__all__ = ["SETTINGS", "run_mfis", "fit_mixture", "informative_directions",
+           "weighted_directions"]
 
 
 def _check_model(value: Any) -> Any:
@@ -99,6 +104,9 @@ SETTINGS = (
            "Straub, RESS 2019: direction and radius apart, for shell-like failure domains such "
            "as the RMS of a response linear in a random germ)", kind="str",
            choices=("gaussian", "vmfn")),
+    Option("whiten", False, "biasing='vmfn': fit each component in coordinates scaled by "
+           "the square root of the failing draws' second moment (an elliptical shell, for a "
+           "failure set {u^T A u > c} with unequal eigenvalues of A)"),
     Option("lf_refine", 0, "cross-entropy steps of the biasing density on the cheap model "
            "after the fit to subset simulation's samples (each n_refine cheap runs: the "
            "density is refitted to the importance-weighted failing draws)", lower=0, upper=10),
@@ -130,6 +138,26 @@ def informative_directions(u: np.ndarray, chain_factor: float = 10.0) -> np.ndar
     keep = vec[:, val > edge]
     if keep.shape[1] == 0:
         mean = u.mean(axis=0)
+        norm = float(np.linalg.norm(mean))
+        keep = (mean / norm)[:, None] if norm > 0 else np.eye(d)[:, :1]
+    return keep
+
+
+def weighted_directions(u: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Orthonormal directions (``d x r``) along which importance-weighted points ``u`` differ
+    from standard normal draws by more than sampling noise: the eigenvectors of their weighted
+    second moment above the Marchenko-Pastur edge ``(1 + sqrt(d / n_eff))^2``, ``n_eff`` the
+    weights' effective sample size (independent draws, unlike subset simulation's chains);
+    with none above it, the direction of the weighted mean."""
+    d = u.shape[1]
+    w = np.asarray(weights, dtype=float)
+    w = w / w.sum()
+    n_eff = 1.0 / float(np.sum(w**2))
+    second = (u * w[:, None]).T @ u
+    val, vec = np.linalg.eigh(0.5 * (second + second.T))
+    keep = vec[:, val > (1.0 + math.sqrt(d / n_eff)) ** 2]
+    if keep.shape[1] == 0:
+        mean = w @ u
         norm = float(np.linalg.norm(mean))
         keep = (mean / norm)[:, None] if norm > 0 else np.eye(d)[:, :1]
     return keep
@@ -253,7 +281,8 @@ def _fit(u: np.ndarray, weights: np.ndarray | None, s: Mapping[str, Any], seed: 
     if basis is None:
         d = u.shape[1]
         basis = informative_directions(u) if s["subspace"] == "auto" else np.eye(d)
-    return fit_vmfn(u, weights, basis, s["defensive"], s["max_components"], seed)
+    return fit_vmfn(u, weights, basis, s["defensive"], s["max_components"], seed,
+                    whiten=s["whiten"])
 
 
 def _cross_entropy(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
@@ -287,6 +316,8 @@ def _cross_entropy(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
         c = np.where(g <= gamma, w, 0.0)
         pos = c[c > 0]
         levels.append({"p": float(c.mean()), "threshold": gamma})
+        LOG.info("cross-entropy level %d: threshold %.4g, %d elite draws, %d cheap runs", t,
+                 gamma, pos.size, ev_lf.n_runs)
         if gamma <= 0.0:
             pf = float(c.mean())
             info = {"pf": pf, "cov": float(c.std(ddof=1) / math.sqrt(n) / pf) if pf > 0
@@ -296,7 +327,9 @@ def _cross_entropy(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
             reasons.append((8, f"cross-entropy level {t}: too few finite cheap-model values "
                             "to go on; the density may miss part of the failure domain"))
             break
-        mix = fit_vmfn(u, c, mix.basis, s["defensive"], s["max_components"], seed + t)
+        basis = weighted_directions(u, c) if s["subspace"] == "auto" else mix.basis
+        mix = fit_vmfn(u, c, basis, s["defensive"], s["max_components"], seed + t,
+                       whiten=s["whiten"])
         if gamma <= 0.0:
             break
     else:

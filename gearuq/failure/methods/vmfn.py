@@ -103,10 +103,15 @@ class VMFNMixture:
     basis : ndarray (d, r)
         Orthonormal columns: the directions in which the mixture lives (standard normal
         across them).
+    scale : ndarray (r, r), optional
+        Symmetric positive definite ``S``: the mixture is one of ``v = S^-1 z`` and
+        ``z = S v`` (an elliptical shell; ``q_z(z) = q_v(S^-1 z) / det S``). ``None``: the
+        identity.
     """
 
     def __init__(self, mu: np.ndarray, kappa: np.ndarray, m: np.ndarray, omega: np.ndarray,
-                 shares: np.ndarray, defensive: float, basis: np.ndarray) -> None:
+                 shares: np.ndarray, defensive: float, basis: np.ndarray,
+                 scale: np.ndarray | None = None) -> None:
         self.mu = np.atleast_2d(np.asarray(mu, dtype=float))
         self.kappa = np.asarray(kappa, dtype=float)
         self.m = np.asarray(m, dtype=float)
@@ -115,6 +120,11 @@ class VMFNMixture:
         self.defensive = float(defensive)
         self.basis = np.asarray(basis, dtype=float)
         self.n_directions = self.basis.shape[1]
+        self.scale = None if scale is None else np.asarray(scale, dtype=float)
+        if self.scale is not None:
+            val, vec = np.linalg.eigh(self.scale)
+            self._inv_scale = (vec / val) @ vec.T
+            self._log_det = float(np.sum(np.log(val)))
         if not 0.0 < self.defensive < 1.0:
             raise ValueError(f"defensive: must lie in (0, 1), got {defensive!r}")
 
@@ -125,6 +135,11 @@ class VMFNMixture:
 
     def component_log_pdf_r(self, z: np.ndarray) -> np.ndarray:
         """``log pi_k q_k(z)`` (n, K) in the ``r``-dimensional space."""
+        if self.scale is not None:
+            return self._component_log_pdf_v(z @ self._inv_scale) - self._log_det
+        return self._component_log_pdf_v(z)
+
+    def _component_log_pdf_v(self, z: np.ndarray) -> np.ndarray:
         r = self.n_directions
         rad = np.maximum(np.linalg.norm(z, axis=1), 1e-300)
         a = z / rad[:, None]
@@ -155,7 +170,7 @@ class VMFNMixture:
             rad = np.sqrt(rng.gamma(self.m[k], self.omega[k] / self.m[k], sel.size))
             out[sel] = rad[:, None] * sample_vmf(self.mu[k], float(self.kappa[k]), sel.size,
                                                  rng)
-        return out
+        return out if self.scale is None else out @ self.scale
 
     def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
         """``n`` draws of ``h`` in ``R^d``."""
@@ -220,7 +235,8 @@ def _weighted_log_lik(mix: VMFNMixture, z: np.ndarray, w: np.ndarray) -> tuple[f
 
 
 def fit_vmfn(u: np.ndarray, weights: np.ndarray | None, basis: np.ndarray, defensive: float,
-             max_components: int, seed: int, n_iter: int = 200) -> VMFNMixture:
+             max_components: int, seed: int, n_iter: int = 200, whiten: bool = False
+             ) -> VMFNMixture:
     """Fit a von Mises-Fisher-Nakagami mixture to (weighted) points of the failure domain.
 
     Parameters
@@ -240,6 +256,11 @@ def fit_vmfn(u: np.ndarray, weights: np.ndarray | None, basis: np.ndarray, defen
     seed : int
     n_iter : int
         Largest number of EM iterations.
+    whiten : bool
+        Fit in ``v = S^-1 z`` with ``S`` the square root of the points' weighted second
+        moment (eigenvalues kept in ``[1, 100]``, then scaled to determinant 1): an
+        ellipsoidal shell ``{z^T A z > c}`` becomes nearly a round one, which a single
+        uniform-direction component covers.
 
     Returns
     -------
@@ -251,6 +272,13 @@ def fit_vmfn(u: np.ndarray, weights: np.ndarray | None, basis: np.ndarray, defen
     sel = w > 0
     z, w = u[sel] @ basis, w[sel] / w[sel].sum()
     n, r = z.shape
+    scale = None
+    if whiten and n > 1:
+        val, vec = np.linalg.eigh((z * w[:, None]).T @ z)
+        val = np.clip(val, 1.0, 100.0)
+        val /= np.exp(np.mean(np.log(val)))  # the radius carries the overall size
+        scale = (vec * np.sqrt(val)) @ vec.T
+        z = z @ ((vec / np.sqrt(val)) @ vec.T)
     if n == 0:
         raise ValueError("fit_vmfn: no point with a positive weight")
     ess = 1.0 / float(np.sum(w**2))
@@ -285,4 +313,7 @@ def fit_vmfn(u: np.ndarray, weights: np.ndarray | None, basis: np.ndarray, defen
         if bic < best_bic:
             best, best_bic = mix, bic
     assert best is not None
+    if scale is not None:  # the same parameters, now of v = S^-1 z
+        best = VMFNMixture(best.mu, best.kappa, best.m, best.omega, best.shares, defensive,
+                           basis, scale)
     return best
