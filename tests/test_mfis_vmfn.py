@@ -103,3 +103,76 @@ def test_cross_entropy_exploration_needs_the_vmfn_family():
         failure_probability(hf, space, "g", method="mfis", low_fidelity=lf, explore="ce")
     with pytest.raises(ValueError, match="biasing"):
         failure_probability(hf, space, "g", method="mfis", low_fidelity=lf, biasing="nope")
+
+
+# --------------------------------------------------------------- quadratic tilting
+from gearuq.failure.methods.quadratic import fit_quadratic, tilted_gaussian  # noqa: E402
+
+#: Eigenvalues of the ellipsoidal shell: a few dominant directions (as the rotor's pitch
+#: germ, whose failing samples' second moment has eigenvalues 26, 8, 6, 5, 3.9, ...) and 50
+#: minor ones.
+_LAM = np.r_[[26.0, 8.0, 6.0, 5.0, 3.9, 3.9, 3.1, 2.8, 2.0, 1.9], np.full(50, 0.5)]
+_C = 680.0
+
+
+def _ellipsoid(**x: np.ndarray) -> np.ndarray:
+    return _C - sum(lam * np.asarray(x[f"x{i}"], dtype=float) ** 2
+                    for i, lam in enumerate(_LAM))
+
+
+def _ellipsoid_pf(n: int = 400_000) -> float:
+    """``P(sum lam_i u_i^2 >= C)``: the 50 equal minor terms are ``0.5 chi2_50`` exactly
+    (scipy), the 10 dominant ones integrated by importance sampling (CoV about 0.5 %)."""
+    rng = np.random.default_rng(0)
+    lam = _LAM[:10]
+    s = np.sqrt(np.maximum(lam / 3.0, 1.0))
+    z = rng.standard_normal((n, 10)) * s
+    log_w = -0.5 * np.sum(z**2, axis=1) + 0.5 * np.sum((z / s) ** 2, axis=1) + np.log(s).sum()
+    rest = _C - np.sum(lam * z**2, axis=1)
+    p = np.where(rest <= 0, 1.0, stats.chi2.sf(np.maximum(rest, 0.0) / 0.5, 50))
+    return float(np.mean(p * np.exp(log_w)))
+
+
+def test_quadratic_fit_and_tilt_recover_the_form_and_the_saddle_point():
+    rng = np.random.default_rng(1)
+    d = 6
+    a = rng.standard_normal((d, d))
+    a = a @ a.T / d
+    b = rng.standard_normal(d)
+    u = 1.5 * rng.standard_normal((400, d))
+    q = np.einsum("ni,ij,nj->n", u, a, u) + u @ b + 0.7
+    a_fit, b_fit, c0, r2 = fit_quadratic(u, q, ridge=0.0)
+    assert np.allclose(a_fit, a, atol=1e-8) and np.allclose(b_fit, b, atol=1e-8)
+    assert c0 == pytest.approx(0.7) and r2 == pytest.approx(1.0)
+    mu, sigma, t = tilted_gaussian(a, b, 0.7, 40.0)
+    # the tilted Gaussian is N((I - 2tA)^-1 t b, (I - 2tA)^-1) and puts E[Q] on the level
+    assert np.allclose(np.linalg.inv(sigma), np.eye(d) - 2 * t * a)
+    assert np.allclose(mu, t * sigma @ b)
+    assert np.trace(a @ sigma) + mu @ a @ mu + b @ mu + 0.7 == pytest.approx(40.0, rel=1e-6)
+
+
+@pytest.mark.slow
+def test_tilted_gaussian_holds_an_ellipsoidal_shell_at_1e_6_in_60_dimensions():
+    """The shell ``sum lam_i u_i^2 >= C`` with unequal ``lam`` (Pf 1.19e-6): the
+    von Mises-Fisher-Nakagami family fails here in 60 dimensions (measured: degenerate
+    weights), the tilted Gaussian of the fitted quadratic does not. Over 20 seeds with a
+    cheap model whose shell is 5 % too small: at least 17 of the 95 % intervals hold the
+    reference, the mean is within 3 standard errors, no run has heavy-tailed weights."""
+    ref = _ellipsoid_pf()
+    names = [f"x{i}" for i in range(60)]
+    hf = gearuq.FunctionModel(_ellipsoid, names, ["g"], name="ellipsoid")
+    lf = gearuq.FunctionModel(lambda **x: _ellipsoid(**x) - 0.05 * _C, names, ["g"],
+                              name="ellipsoid_lf")
+    space = gearuq.ParameterSpace.normal(**{n: (0.0, 1.0) for n in names})
+    reps = [failure_probability(hf, space, "g", method="mfis", low_fidelity=lf, rng=seed,
+                                executor="serial", biasing="quadratic", n_fit=2400,
+                                n_samples=250, max_samples=1000, target_cov=0.15,
+                                defensive=0.05) for seed in range(20)]
+    pf = np.array([float(r["pf"]) for r in reps])
+    holds = [float(r["pf_lower"]) <= ref <= float(r["pf_upper"]) for r in reps]
+    assert sum(holds) >= 17, (holds, pf / ref)
+    assert abs(pf.mean() - ref) <= 3.0 * pf.std(ddof=1) / math.sqrt(pf.size)
+    for r in reps:
+        assert float(r["pareto_k"]) < 0.7
+        assert int(r["n_model_runs"]) <= 1000
+        assert float(r.attrs["quadratic_fit_r2"]) > 0.999

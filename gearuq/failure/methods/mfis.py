@@ -43,6 +43,7 @@ from gearuq.failure.methods.importance import (
     weight_diagnostics,
     weight_status,
 )
+from gearuq.failure.methods.quadratic import fit_quadratic, tilted_gaussian
 from gearuq.failure.methods.vmfn import VMFNMixture, fit_vmfn
 from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Model, Option
@@ -103,7 +104,14 @@ SETTINGS = (
            "mixture) or 'vmfn' (a von Mises-Fisher-Nakagami mixture, Papaioannou, Geyer and "
            "Straub, RESS 2019: direction and radius apart, for shell-like failure domains such "
            "as the RMS of a response linear in a random germ)", kind="str",
-           choices=("gaussian", "vmfn")),
+           choices=("gaussian", "vmfn", "quadratic")),
+    Option("n_fit", 2400, "biasing='quadratic': cheap runs for the quadratic fit (half on a "
+           "widened standard normal, half on the first tilted density)", lower=50),
+    Option("fit_std", 1.5, "biasing='quadratic': standard deviation of the first fit design",
+           lower=0.5, upper=5.0),
+    Option("response_offset", None, "biasing='quadratic': a with the response a - g (e.g. the "
+           "limit X of g = X - y); its square is fitted as the quadratic form (an RMS "
+           "response), or g itself when None", kind="any", allow_none=True),
     Option("whiten", False, "biasing='vmfn': fit each component in coordinates scaled by "
            "the square root of the failing draws' second moment (an elliptical shell, for a "
            "failure set {u^T A u > c} with unequal eigenvalues of A)"),
@@ -241,6 +249,14 @@ def run_mfis(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
     if s["explore"] == "ce" and s["biasing"] != "vmfn":
         raise ValueError(f"explore: 'ce' needs biasing='vmfn', got biasing={s['biasing']!r}")
     ev_lf = _low_fidelity(ev, s, seed)
+    if s["biasing"] == "quadratic":
+        mix, refine, reasons = _quadratic(ev_lf, s, seed)
+        t_lf = time.perf_counter() - t0
+        est = sample_until(ev, mix, s, confidence, np.random.SeedSequence([seed, 31]), "mfis")
+        walk = subset.Walk([{"p": refine.get("pf", math.nan)}], np.empty((0, ev.dim)),
+                           np.empty(0))
+        return _report(ev, s, seed, confidence, est, mix, walk, ev_lf, reasons, t0, t_lf,
+                       refine)
     if s["explore"] == "ce":
         mix, walk, refine, reasons = _cross_entropy(ev_lf, s, seed)
         t_lf = time.perf_counter() - t0
@@ -283,6 +299,48 @@ def _fit(u: np.ndarray, weights: np.ndarray | None, s: Mapping[str, Any], seed: 
         basis = informative_directions(u) if s["subspace"] == "auto" else np.eye(d)
     return fit_vmfn(u, weights, basis, s["defensive"], s["max_components"], seed,
                     whiten=s["whiten"])
+
+
+def _quadratic(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
+               ) -> tuple[Mixture, dict[str, float], list[Reason]]:
+    """Fit ``Q(u)`` on the cheap model, tilt, refit with the tilted draws, tilt again
+    (:mod:`gearuq.failure.methods.quadratic`); the second stage's draws also give the cheap
+    model's importance estimate with this density."""
+    d = ev_lf.dim
+    off = s["response_offset"]
+    if off is not None and not (isinstance(off, (int, float)) and math.isfinite(off)):
+        raise ValueError(f"response_offset: expected a finite number or None, got {off!r}")
+
+    def target(g: np.ndarray) -> tuple[np.ndarray, float]:
+        return ((float(off) - g) ** 2, float(off) ** 2) if off is not None else (-g, 0.0)
+
+    n1 = s["n_fit"] // 2
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 53]))
+    u1 = s["fit_std"] * rng.standard_normal((n1, d))
+    g1 = ev_lf.evaluate(u1, "mfis/quadratic_fit0")["g"]
+    ok = np.isfinite(g1)
+    q1, level = target(g1[ok])
+    a, b, c0, r2 = fit_quadratic(u1[ok], q1)
+    mu, sigma, t = tilted_gaussian(a, b, c0, level)
+    mix = Mixture(mu[None], sigma[None], np.ones(1), s["defensive"])
+    u2 = mix.sample(s["n_fit"] - n1, rng)
+    res = ev_lf.evaluate(u2, "mfis/quadratic_fit1")
+    w = np.exp(mix.log_weights(u2))
+    c = np.where((res["status"] == 0) & (res["g"] <= 0.0), w, 0.0)
+    pf = float(c.mean())
+    pos = c[c > 0]
+    u_all = np.vstack([u1[ok], u2[np.isfinite(res["g"])]])
+    q_all, _ = target(np.concatenate([g1[ok], res["g"][np.isfinite(res["g"])]]))
+    a, b, c0, r2 = fit_quadratic(u_all, q_all)
+    mu, sigma, t = tilted_gaussian(a, b, c0, level)
+    LOG.info("quadratic fit R^2 %.4f, tilt %.4g, largest variance %.3g, cheap pf %.3g",
+             r2, t, float(np.linalg.eigvalsh(sigma).max()), pf)
+    info = {"pf": pf, "cov": float(c.std(ddof=1) / math.sqrt(c.size) / pf) if pf > 0
+            else math.inf, "ess": float(pos.sum() ** 2 / np.sum(pos**2)) if pos.size else 0.0,
+            "n_fail": float(pos.size), "r2": r2, "tilt": t}
+    mix = Mixture(mu[None], sigma[None], np.ones(1), s["defensive"])
+    mix.n_directions = d
+    return mix, info, []
 
 
 def _cross_entropy(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
@@ -416,4 +474,6 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
         extra=extra, extra_attrs={"low_fidelity_model": ev_lf.model.name,
                                   "defensive_share": float(mix.defensive),
                                   "biasing_density": mix.describe() if isinstance(
-                                      mix, VMFNMixture) else "Gaussian mixture"})
+                                      mix, VMFNMixture) else "Gaussian mixture",
+                                  **({"quadratic_fit_r2": refine["r2"], "tilt": refine["tilt"]}
+                                     if "r2" in refine else {})})
