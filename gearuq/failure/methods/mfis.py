@@ -17,11 +17,35 @@ one is run only on draws from a density fitted there (Peherstorfer, Cui, Marzouk
 3. **Estimate on the high-fidelity model**: ``pf = mean(1_F w)`` over draws of the mixture, in
    batches until the CoV reaches ``target_cov`` or ``max_samples``; interval ``pf +- z se``.
 
+**Biasing families** (``biasing``), each with the defensive component above:
+
+* ``"gaussian"`` (default): the Gaussian mixture of step 2.
+* ``"vmfn"``: a von Mises-Fisher-Nakagami mixture (:mod:`gearuq.failure.methods.vmfn`;
+  Papaioannou, Geyer and Straub, "Improved cross entropy-based importance sampling with a
+  flexible mixture model", RESS 2019): direction and radius apart, for shell-like failure
+  sets. With ``explore="ce"`` it is fitted by multi-level cross-entropy on ``LF`` from the
+  standard normal (independent weighted draws; subset simulation's few Markov-chain seeds
+  crowd a shell into one direction). Measured: round shells ``|u|^2 >= c`` at Pf 1e-6 in 20
+  and 60 dimensions at 200-400 expensive runs, CoV <= 0.1, 38 of 40 intervals holding; an
+  ellipsoidal shell with unequal axes in 60 dimensions is *not* covered (one vMF direction
+  per component cannot spread unevenly across 59 others: degenerate weights, status 3, or
+  no failure reached in 25 levels).
+* ``"quadratic"``: the exponentially tilted Gaussian of a quadratic form fitted on ``LF``
+  (:mod:`gearuq.failure.methods.quadratic`), ``N((I - 2tA)^-1 t b, (I - 2tA)^-1)`` with
+  ``E_t[Q]`` on the failure level: for a response that is the RMS of something linear in
+  the germ (``response_offset``: its square is the form). Weights are bounded on the
+  failure set whatever the number of directions the shell spans; ``n_fit`` cheap runs (half
+  on a widened standard normal, half on the first tilt) fit the ``(d + 1)(d + 2) / 2``
+  coefficients, so it needs ``n_fit`` above that. Measured on the 60-dimensional ellipsoidal
+  shell at Pf 1.2e-6: CoV 0.16 at 1000 expensive runs, every interval holding.
+
 The same checks as importance sampling set the status: degenerate or heavy-tailed weights
 (3), invalid runs (6, interval over both readings); ``LF`` finding no failure gives
 a density of the defensive component alone, i.e. crude Monte Carlo on the expensive model,
 with status 8 said in words. High- and low-fidelity runs and their wall times are reported
-apart (``n_model_runs`` counts the expensive model only).
+apart (``n_model_runs`` counts the expensive model only); the cheap model's own
+importance-sampling estimate with the fitted density (``pf_low_fidelity_is``, its CoV and
+effective sample size) says how well the density fits before the expensive runs are judged.
 """
 
 from __future__ import annotations
