@@ -32,8 +32,9 @@ What the study does:
 1. **Moderate level** (``X`` at Pf ~ 1e-3): crude Monte Carlo through a chunk store (a rerun
    reuses it) against multi-fidelity importance sampling.
 2. **Rare level** (``X`` at Pf ~ 1e-6): two independent methods, multi-fidelity importance
-   sampling (the cheap model explores, the rotor is run only on the fitted density) and
-   subset simulation on the rotor itself; their intervals should overlap.
+   sampling (the cheap model fits the quadratic form of ``dte_rms_max^2``, the rotor is run
+   only on the exponentially tilted Gaussian of that form: :func:`mfis`) and subset
+   simulation on the rotor itself; their intervals should overlap.
 3. **What drives it**: grouped Sobol' indices (pinion germ, wheel germ, tip relief, torque;
    SALib, Saltelli design) on the cheap model, whose values differ from the rotor's by at
    most 0.2 um (measured, below).

@@ -255,7 +255,7 @@ def sample_until(ev: LimitStateEvaluator, mix: Mixture, s: Mapping[str, Any], co
         b += 1
         est = weighted_estimate(batches, z)
         logging.getLogger("gearuq.failure").info(
-            "%s batch %d: pf %.4g, CoV %.3f, %d failing, ESS %.1f, %d runs", tag, b, est["pf"],
+            "%s batch %d: pf %.4g, CoV %.3f, %d failing, ESS %.1f, %d runs", tag, b - 1, est["pf"],
             est["cov"], est["n_fail"], est["ess"], ev.n_runs)
         if est["cov"] <= s["target_cov"]:
             break
