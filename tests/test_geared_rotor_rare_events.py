@@ -64,3 +64,30 @@ def test_study_cli_refuses_quick_for_a_study_without_it(capsys, monkeypatch, tmp
     monkeypatch.setattr(registry, "get_study", lambda name: no_quick)
     rc = cli.main(["study", "third_party", "--quick", "--out", str(tmp_path / "x")])
     assert rc == 2 and "no quick mode" in capsys.readouterr().err and not ran
+
+
+
+@pytest.mark.parametrize("quick", [False, True])
+def test_study_mfis_settings_are_valid_and_the_full_study_tilts_the_fitted_quadratic(
+        monkeypatch, quick):
+    """The study's MFIS call passes settings the method accepts (checked without a run); the
+    full study fits the quadratic form of dte_rms_max^2 (the response is X - g, so the
+    offset is X in metres) and the quick one keeps the Gaussian mixture."""
+    from gearuq.failure.api import validate_settings
+
+    seen = {}
+
+    def capture(model, space, limit, **kw):
+        seen.update(kw)
+        return "report"
+
+    monkeypatch.setattr(study, "failure_probability", capture)
+    assert study.mfis(62.0, 3, quick) == "report"
+    assert seen.pop("method") == "mfis" and seen.pop("rng") == 3
+    settings = validate_settings("mfis", seen)
+    if quick:
+        assert settings["biasing"] == "gaussian"
+    else:
+        assert settings["biasing"] == "quadratic"
+        assert settings["response_offset"] == pytest.approx(62e-6)
+        assert settings["n_fit"] >= (60 + 1) * (60 + 2) // 2  # the form's coefficients

@@ -34,6 +34,7 @@ What the estimate cannot vouch for is said in its status (:mod:`gearuq.failure.r
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Mapping
@@ -253,6 +254,9 @@ def sample_until(ev: LimitStateEvaluator, mix: Mixture, s: Mapping[str, Any], co
         n_est += m
         b += 1
         est = weighted_estimate(batches, z)
+        logging.getLogger("gearuq.failure").info(
+            "%s batch %d: pf %.4g, CoV %.3f, %d failing, ESS %.1f, %d runs", tag, b - 1, est["pf"],
+            est["cov"], est["n_fail"], est["ess"], ev.n_runs)
         if est["cov"] <= s["target_cov"]:
             break
     return est
