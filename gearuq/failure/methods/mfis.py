@@ -125,9 +125,11 @@ SETTINGS = (
     Option("max_components", 4, "largest number of mixture components (chosen by BIC)",
            lower=1, upper=20),
     Option("biasing", "gaussian", "family of the biasing density: 'gaussian' (a Gaussian "
-           "mixture) or 'vmfn' (a von Mises-Fisher-Nakagami mixture, Papaioannou, Geyer and "
-           "Straub, RESS 2019: direction and radius apart, for shell-like failure domains such "
-           "as the RMS of a response linear in a random germ)", kind="str",
+           "mixture), 'vmfn' (a von Mises-Fisher-Nakagami mixture, Papaioannou, Geyer and "
+           "Straub, RESS 2019: direction and radius apart, for round shell-like failure "
+           "domains) or 'quadratic' (the standard normal exponentially tilted by a quadratic "
+           "form fitted on the cheap model: for an RMS response nearly linear in a random "
+           "germ, whose failure set is the outside of an ellipsoid)", kind="str",
            choices=("gaussian", "vmfn", "quadratic")),
     Option("n_fit", 2400, "biasing='quadratic': cheap runs for the quadratic fit (half on a "
            "widened standard normal, half on the first tilted density)", lower=50),
