@@ -438,10 +438,10 @@ HELICAL_PAIR_GRID_PF_INTERVAL = (9.49e-5, 1.04e-4)
 
 
 _PEAK_SOURCE = ("importance sampling with weights <= 2, 1.2 x 10^5 runs (CoV 2.1 %); crude MC "
-                "on independent draws: 6.5 x 10^5 runs, 51 failures, 7.85e-5 [5.84e-5, 1.03e-4]")
+                "on independent draws: 2 x 10^6 runs, 178 failures, 8.90e-5 [7.64e-5, 1.03e-4]")
 _GRID_SOURCE = ("importance sampling with weights <= 2, 1.2 x 10^5 runs (CoV 2.3 %); crude MC: "
                 "2 x 10^6 runs, 222 failures, 1.11e-4 [9.69e-5, 1.27e-4]; on the peak case's "
-                "6.5 x 10^5 draws 63 failures, 9.69e-5 [7.45e-5, 1.24e-4]")
+                "2 x 10^6 draws 216 failures, 1.08e-4 [9.41e-5, 1.23e-4]")
 
 
 def helical_pair_problem(variant: str = "peak") -> dict[str, Any]:
