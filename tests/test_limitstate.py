@@ -131,3 +131,73 @@ def test_ambiguous_and_bad_input():
     np.testing.assert_array_equal(sel.sample_values(extra), [1.0, 1.0, 1.0])
     assert isinstance(as_limit_state("a"), LimitState)
     assert isinstance(as_limit_state(Band("a", upper=1.0)), LimitState)
+
+
+# =========================================================================== between instants
+def test_first_passage_parabola_is_exact_for_a_parabola_and_never_above_the_grid():
+    from gearuq.failure.modes import first_passage_min
+
+    t = np.array([0.0, 0.3, 1.0, 1.2, 2.0, 3.5])  # uneven spacing
+    centre = np.array([0.55, 1.1, 2.6])
+    g = (t[None, :] - centre[:, None]) ** 2 * np.array([[1.0], [3.0], [0.5]]) - 1.0
+    np.testing.assert_allclose(first_passage_min(g, t, "parabola"), -1.0, atol=1e-12)
+    assert np.all(first_passage_min(g, t, "grid") > -1.0 + 1e-3)
+    rng = np.random.default_rng(3)
+    noisy = rng.standard_normal((500, 40))
+    tt = np.sort(rng.uniform(0, 10, 40))
+    assert np.all(first_passage_min(noisy, tt, "parabola") <= noisy.min(axis=1))
+    # a minimum on the first or last instant stays as sampled (nothing known beyond it)
+    edge = np.array([[0.0, 1.0, 3.0, 2.0, 5.0], [4.0, 3.0, 2.0, 1.5, -1.0]])
+    np.testing.assert_array_equal(first_passage_min(edge, np.arange(5.0), "parabola"),
+                                  [0.0, -1.0])
+    with_nan = np.array([[1.0, np.nan, 0.0, 2.0]])
+    assert np.isnan(first_passage_min(with_nan, np.arange(4.0), "parabola")[0])
+    with pytest.raises(ValueError, match="first_passage"):
+        first_passage_min(g, t, "cubic")
+    with pytest.raises(ValueError, match="increase"):
+        first_passage_min(g, t[::-1], "parabola")
+    with pytest.raises(ValueError, match="first_passage"):
+        LimitState.upper("y", 1.0, first_passage="spline")
+
+
+def test_first_passage_parabola_recovers_a_harmonic_peak_between_instants():
+    """y = a cos t + b sin t over two periods on 13 instants per period: the grid misses up to
+    A (1 - cos(h / 2)) = 2.9 % of the amplitude A, the parabola's vertex at most 0.13 %
+    (its error falls as h^4 on a peak where g''' = 0)."""
+    t = np.linspace(0.0, 4 * np.pi, 27)
+    ds = _ds(2000, seed=4, time=t)
+    amp = np.hypot(ds["a"].values, ds["b"].values)  # exact peak: the window holds a period
+    grid = LimitState.upper("y", 0.0).sample_values(ds)
+    par = LimitState.upper("y", 0.0, first_passage="parabola")
+    refined = par.sample_values(ds)
+    assert np.max(np.abs(-grid - amp) / amp) > 0.02
+    assert np.max(np.abs(-refined - amp) / amp) < 1.5e-3
+    assert par.to_dict()["first_passage"] == "parabola"
+    assert "first_passage" not in LimitState.upper("y", 0.0).to_dict()
+    system = SeriesSystem([par, LimitState.upper("y", 0.0, name="g2")],
+                          first_passage="parabola")
+    np.testing.assert_allclose(system.sample_values(ds), refined)
+    assert system.to_dict()["first_passage"] == "parabola"
+
+
+def test_evaluator_refines_the_full_and_the_half_grid():
+    """The evaluator's first-passage value and its half-grid check both follow the limit
+    state: on a grid that resolves the peak with the parabola, the half grid loses (almost)
+    nothing, while the plain grid max loses failures."""
+    from gearuq.failure.evaluator import LimitStateEvaluator
+    from gearuq.testing.reliability_problems import random_phase_model
+
+    model = random_phase_model()
+    space = {"X1": {"dist": "normal", "mean": 0.0, "std": 1.0},
+             "X2": {"dist": "normal", "mean": 0.0, "std": 1.0}}
+    t = np.linspace(0.0, 4 * np.pi, 49)  # 24 instants per period; the half grid 12
+    u = np.random.default_rng(8).standard_normal((4000, 2))
+    amp = np.hypot(u[:, 0], u[:, 1])
+    level = 2.0
+    for how, worst in (("grid", 0.02), ("parabola", 1e-3)):
+        ev = LimitStateEvaluator(model, space, LimitState.upper("y", level, first_passage=how),
+                                 t, executor="serial")
+        res = ev.evaluate(u, "x")
+        assert np.max(np.abs((level - res["g"]) - amp)) < worst * amp.max()
+        assert np.all(res["g"] <= res["g_half"] + 1e-12) or how == "parabola"
+    assert ev.grid_gap_fraction < 0.01  # the refined half grid keeps the failures

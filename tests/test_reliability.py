@@ -710,3 +710,25 @@ def test_runs_to_ten_percent_is_runs_times_squared_cov_ratio():
     assert row["gain_vs_mc"] == pytest.approx(99_900.0 / 4000.0)
     assert row["lf_runs"] == 50 and row["coverage_all"] == 1.0
     assert "| p | 0.001 | m |" in bench.runs_markdown([row], 3)
+
+
+def test_rejudge_compares_stored_intervals_with_the_current_reference(tmp_path):
+    """Stored runs are judged again against the problem's reference as it is now: an
+    interval is held exactly when it contains the reference, whatever the stored flag."""
+    import json
+
+    from gearuq.bench import reliability as bench
+    from gearuq.testing.reliability_problems import OFFSET_PF
+
+    runs = [{"problem": "offset", "method": "m", "seed": k, "pf": OFFSET_PF * f,
+             "lower": OFFSET_PF * f * 0.9, "upper": OFFSET_PF * f * 1.1, "cov": 0.05,
+             "covered": False, "runs": 100, "wall": 0.1, "status": 0, "bound": 0}
+            for k, f in enumerate((0.95, 1.05, 1.3, 0.7))]
+    (tmp_path / "reliability_coverage_runs.json").write_text(json.dumps(runs))
+    doc = tmp_path / "benchmarks.md"
+    doc.write_text("# Benchmarks\n")
+    res = bench.rejudge(tmp_path, docs=doc)
+    row = res["rows"][0]
+    assert row["coverage_status0"] == 0.5 and row["seeds"] == 4
+    assert row["pf_mean"] == pytest.approx(OFFSET_PF)
+    assert "| offset |" in doc.read_text()

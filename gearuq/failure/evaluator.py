@@ -215,9 +215,10 @@ class LimitStateEvaluator:
         g_t = self.limit_state.values(ds)
         if "time" in g_t.dims and g_t.sizes["time"] > 1:
             self.time_dependent = True
-            g = np.asarray(g_t.min("time", skipna=False).transpose("sample").values, float)
-            g_half = np.asarray(g_t.isel(time=slice(0, None, 2)).min("time", skipna=False)
-                                .transpose("sample").values, float)
+            # refined between instants as the limit state says, on the half grid alike: the
+            # difference is what the grid (and its interpolation) may still miss
+            g = self.limit_state.reduce_time(g_t)
+            g_half = self.limit_state.reduce_time(g_t, step=2)
         else:
             if "time" in g_t.dims:
                 g_t = g_t.isel(time=0)
