@@ -105,3 +105,17 @@ def test_informative_directions_find_the_shifted_and_widened_ones_only():
     across = full[:, 2:]
     np.testing.assert_allclose(across.T @ mix.covs[0] @ across, np.eye(d - 2), atol=1e-9)
     np.testing.assert_allclose(mix.means @ across, 0.0, atol=1e-9)
+
+
+def test_the_cheap_side_is_chunked_like_the_expensive_one():
+    """``chunk_size`` reaches the cheap model too (unchunked, its designs of a few thousand
+    runs were one chunk, so a process executor ran the cheap phase on one worker)."""
+    sizes: list[int] = []
+
+    def recording(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+        sizes.append(np.size(x1))
+        return _shifted_branches(x1, x2)
+
+    rep = _run(recording, 3, chunk_size=64, n_per_level=500, n_samples=200, max_samples=400)
+    assert sizes and max(sizes) <= 64, max(sizes)
+    assert int(rep["n_low_fidelity_runs"]) == sum(sizes)

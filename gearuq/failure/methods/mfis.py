@@ -262,8 +262,11 @@ def _low_fidelity(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
             "in a fidelity link that maps the space onto its inputs")
     limit = s["low_fidelity_limit_state"] or ev.limit_state
     t = ev.request.t
+    # the cheap side runs on the same executor and chunking as the expensive one (without
+    # chunk_size a design of a few thousand runs is one chunk, i.e. one worker)
     return LimitStateEvaluator(lf, ev.space, limit, t,
                                model_options=s["low_fidelity_options"], executor=ev.executor,
+                               chunk_size=ev.chunk_size,
                                store=None if ev.store is None else ev.store / "low_fidelity",
                                engine="failure_probability/mfis/low_fidelity", seed=seed)
 
