@@ -330,6 +330,16 @@ def _fit(u: np.ndarray, weights: np.ndarray | None, s: Mapping[str, Any], seed: 
                     whiten=s["whiten"])
 
 
+def _cheap_estimate(c: np.ndarray) -> dict[str, float]:
+    """The cheap model's importance estimate from ``c`` (the weight of each failing draw, 0
+    elsewhere): pf, its CoV, the effective sample size and the number of failing draws."""
+    pf = float(c.mean())
+    pos = c[c > 0]
+    return {"pf": pf, "cov": float(c.std(ddof=1) / math.sqrt(c.size) / pf) if pf > 0
+            else math.inf, "ess": float(pos.sum() ** 2 / np.sum(pos**2)) if pos.size else 0.0,
+            "n_fail": float(pos.size)}
+
+
 def _quadratic(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
                ) -> tuple[Mixture, dict[str, float], list[Reason]]:
     """Fit ``Q(u)`` on the cheap model, tilt, refit with the tilted draws, tilt again
@@ -356,17 +366,13 @@ def _quadratic(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
     res = ev_lf.evaluate(u2, "mfis/quadratic_fit1")
     w = np.exp(mix.log_weights(u2))
     c = np.where((res["status"] == 0) & (res["g"] <= 0.0), w, 0.0)
-    pf = float(c.mean())
-    pos = c[c > 0]
     u_all = np.vstack([u1[ok], u2[np.isfinite(res["g"])]])
     q_all, _ = target(np.concatenate([g1[ok], res["g"][np.isfinite(res["g"])]]))
     a, b, c0, r2 = fit_quadratic(u_all, q_all)
     mu, sigma, t = tilted_gaussian(a, b, c0, level)
+    info = {**_cheap_estimate(c), "r2": r2, "tilt": t}
     LOG.info("quadratic fit R^2 %.4f, tilt %.4g, largest variance %.3g, cheap pf %.3g",
-             r2, t, float(np.linalg.eigvalsh(sigma).max()), pf)
-    info = {"pf": pf, "cov": float(c.std(ddof=1) / math.sqrt(c.size) / pf) if pf > 0
-            else math.inf, "ess": float(pos.sum() ** 2 / np.sum(pos**2)) if pos.size else 0.0,
-            "n_fail": float(pos.size), "r2": r2, "tilt": t}
+             r2, t, float(np.linalg.eigvalsh(sigma).max()), info["pf"])
     mix = Mixture(mu[None], sigma[None], np.ones(1), s["defensive"])
     mix.n_directions = d
     return mix, info, []
@@ -406,10 +412,7 @@ def _cross_entropy(ev_lf: LimitStateEvaluator, s: Mapping[str, Any], seed: int
         LOG.info("cross-entropy level %d: threshold %.4g, %d elite draws, %d cheap runs", t,
                  gamma, pos.size, ev_lf.n_runs)
         if gamma <= 0.0:
-            pf = float(c.mean())
-            info = {"pf": pf, "cov": float(c.std(ddof=1) / math.sqrt(n) / pf) if pf > 0
-                    else math.inf, "ess": float(pos.sum() ** 2 / np.sum(pos**2)) if pos.size
-                    else 0.0, "n_fail": float(pos.size)}
+            info = _cheap_estimate(c)
         if not np.isfinite(gamma) or pos.size < 2:
             reasons.append((8, f"cross-entropy level {t}: too few finite cheap-model values "
                             "to go on; the density may miss part of the failure domain"))
@@ -445,12 +448,8 @@ def _refine(ev_lf: LimitStateEvaluator, mix: Mixture | VMFNMixture, s: Mapping[s
         res = ev_lf.evaluate(u, f"mfis/refine{step}")
         w = np.exp(mix.log_weights(u))
         c = np.where((res["status"] == 0) & (res["g"] <= 0.0), w, 0.0)
-        pf = float(c.mean())
-        pos = c[c > 0]
-        info = {"pf": pf, "cov": float(c.std(ddof=1) / math.sqrt(c.size) / pf) if pf > 0
-                else math.inf, "ess": float(pos.sum() ** 2 / np.sum(pos**2)) if pos.size
-                else 0.0, "n_fail": float(pos.size)}
-        if pos.size < 10:
+        info = _cheap_estimate(c)
+        if info["n_fail"] < 10:
             break  # too few failing draws to refit: keep the density
         if isinstance(mix, VMFNMixture):
             mix = _fit(u, c, s, seed + step + 1, basis=mix.basis)
