@@ -91,3 +91,25 @@ def test_study_mfis_settings_are_valid_and_the_full_study_tilts_the_fitted_quadr
         assert settings["biasing"] == "quadratic"
         assert settings["response_offset"] == pytest.approx(62e-6)
         assert settings["n_fit"] >= (60 + 1) * (60 + 2) // 2  # the form's coefficients
+
+
+def test_every_stage_of_the_study_runs_on_the_cores_it_is_given(monkeypatch):
+    """The study's executor and chunking reach MFIS, subset simulation and crude Monte Carlo
+    (serial, a batch of 200 rotor runs was one chunk: one core of two); by default worker
+    processes, 100 samples a chunk."""
+    execution = {"executor": "processes", "chunk_size": 100}
+    assert study.DEFAULT_EXECUTION == execution
+    seen = []
+
+    def capture(*args, **kw):
+        seen.append({k: kw.get(k) for k in execution})
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(study, "failure_probability", capture)
+    monkeypatch.setattr(study.gearuq, "monte_carlo", capture)
+    for stage in (lambda: study.mfis(62.0, 3, False, execution),
+                  lambda: study.subset(62.0, 3, False, execution),
+                  lambda: study.crude_monte_carlo(10, 3, None, execution)):
+        with pytest.raises(RuntimeError, match="captured"):
+            stage()
+    assert seen == [execution] * 3

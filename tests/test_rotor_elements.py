@@ -221,9 +221,12 @@ def _rigid_motion(mesh: HelicalMeshElement, translation, rotation) -> np.ndarray
     return np.array(u)
 
 
-@pytest.mark.parametrize("helix_sign,drive_sign", [(1, 1), (-1, 1), (1, -1)])
-def test_mesh_direction_is_unit_and_rigid_motions_give_no_deflection(helix_sign, drive_sign):
-    mesh = _mesh(helix_sign=helix_sign, drive_sign=drive_sign)
+@pytest.mark.parametrize("helix_sign,drive_sign,offset",
+                         [(1, 1, 0.0), (-1, 1, 0.0), (1, -1, 0.0), (1, 1, 0.02), (-1, -1, -0.03)])
+def test_mesh_direction_is_unit_and_rigid_motions_give_no_deflection(helix_sign, drive_sign,
+                                                                       offset):
+    # a contact point off the mid-face plane (contact_offset) moves both arms alike
+    mesh = _mesh(helix_sign=helix_sign, drive_sign=drive_sign, contact_offset=offset)
     v = mesh.direction_vector()
     assert np.linalg.norm(v[:3]) == pytest.approx(1.0, abs=1e-15)
     assert np.linalg.norm(v[6:9]) == pytest.approx(1.0, abs=1e-15)

@@ -49,9 +49,12 @@ importance sampling stays unbiased whatever its quality.
 
 Run: ``gearuq study geared_rotor_rare_events [--quick] [--out DIR]``. ``--quick`` answers
 smaller questions (Pf ~ 1e-1 against 60 crude Monte Carlo runs, and ~ 1e-2; about 330 rotor
-runs, a few minutes on 2 cores) and says so; the full study takes about 40 minutes on 2
-cores, most of it the crude Monte Carlo check and subset simulation on the rotor (the
-multi-fidelity answer alone takes a fraction of that: see the printed table).
+runs, a few minutes on 2 cores) and says so. The full study ran end to end in 77 minutes on
+a 2-core machine shared with another job (about 45 on a quiet one, by the per-run costs),
+most of it the two checks, crude Monte Carlo and subset simulation on the rotor; the answer
+at Pf ~ 1e-6 alone took 11 minutes there and 7.2 on the quiet machine (docs/benchmarks.md).
+Model runs go to worker processes, 100 samples a chunk (``--executor``, ``--chunk-size``);
+the answers do not depend on how they are spread.
 """
 
 from __future__ import annotations
@@ -66,9 +69,15 @@ from typing import Any
 import numpy as np
 
 import gearuq
+from gearuq.execution import evaluate_chunks
 from gearuq.failure.api import failure_probability
 from gearuq.failure.intervals import clopper_pearson_interval
 from gearuq.failure.modes import LimitState
+from gearuq.testing.reliability_problems import (
+    GEARED_ROTOR_OPTIONS,
+    geared_rotor_model,
+    geared_rotor_space,
+)
 
 #: Limits on ``dte_rms_max`` [um] (full study): Pf ~ 1e-2 and ~ 1e-3 (checked against crude
 #: Monte Carlo) and ~ 1e-6, read off a pilot subset simulation on the cheap model (500 per
@@ -78,7 +87,7 @@ LEVELS_UM = {"1e-2": 34.0, "1e-3": 45.0, "1e-6": 62.0}
 #: Quick study: limits at Pf ~ 1e-1 (against crude MC) and ~ 1e-2.
 QUICK_LEVELS_UM = {"1e-1": 25.0, "1e-2": 34.0}
 #: Options of the cheap model (the same rotor, coarser over speed).
-LOW_FIDELITY_OPTIONS = {"n_speeds": 40, "range_mesh_harmonics": 2}
+LOW_FIDELITY_OPTIONS = GEARED_ROTOR_OPTIONS
 OUTPUTS = ["dte_rms_max", "speed_at_dte_rms_max"]
 #: Cheap-model runs of the quadratic fit (the form has 1891 coefficients in 60 inputs).
 QUADRATIC_FIT_RUNS = 2400
@@ -86,17 +95,12 @@ QUADRATIC_FIT_RUNS = 2400
 
 def study_model() -> gearuq.Model:
     """The rotor at ISO 1328-1 grade 6 (the germ's amplitude and scatter)."""
-    return gearuq.get_model("geared_rotor").with_nominal(iso_grade=6)
+    return geared_rotor_model()
 
 
 def study_space() -> gearuq.ParameterSpace:
     """Pitch germ of both gears, tip-relief tolerance and torque spread (module docstring)."""
-    germ = {f"pitch_xi_{gear}_{k}": {"dist": "normal", "mean": 0.0, "std": 1.0}
-            for gear in ("p", "g") for k in range(1, 30)}
-    return gearuq.ParameterSpace({
-        "torque": {"dist": "lognormal", "mean": 1000.0, "std": 100.0},
-        "tip_relief_amount": {"dist": "uniform", "lower": 37.0, "upper": 47.0},
-        **germ})
+    return geared_rotor_space()
 
 
 def limit_state(x_um: float) -> LimitState:
@@ -104,10 +108,18 @@ def limit_state(x_um: float) -> LimitState:
     return LimitState.upper("dte_rms_max", x_um * 1e-6, name=f"dte_rms_max >= {x_um:g} um")
 
 
-def crude_monte_carlo(n: int, seed: int, store: Path | None) -> dict[str, np.ndarray]:
+#: How the study's model runs are spread over the cores: worker processes, 100 samples a
+#: chunk (every batch of 200 rotor runs, and every cheap design, then fills two workers; a
+#: single chunk would run in one process). Results do not depend on it (bit-identical).
+DEFAULT_EXECUTION: dict[str, Any] = {"executor": "processes", "chunk_size": 100}
+
+
+def crude_monte_carlo(n: int, seed: int, store: Path | None,
+                      execution: dict[str, Any] | None = None) -> dict[str, np.ndarray]:
     """``n`` rotor runs (through ``store`` when given: a rerun reuses its chunks)."""
     ds = gearuq.monte_carlo(study_model(), study_space(), None, n_samples=n, rng=seed,
-                            outputs=OUTPUTS, store=store, progress=False)
+                            outputs=OUTPUTS, store=store, progress=False,
+                            **(execution or {}))
     return {"y": ds["dte_rms_max"].values * 1e6, "speed": ds["speed_at_dte_rms_max"].values,
             "ok": ds["status"].values == 0, "wall": float(ds.attrs.get("wall_time", math.nan))}
 
@@ -124,7 +136,7 @@ def exceedance(mc: dict[str, np.ndarray], x_um: float) -> dict[str, float]:
             "invalid": bad}
 
 
-def mfis(x_um: float, seed: int, quick: bool) -> Any:
+def mfis(x_um: float, seed: int, quick: bool, execution: dict[str, Any] | None = None) -> Any:
     """Multi-fidelity importance sampling with the coarse rotor as the cheap model.
 
     The full study's density is the exponentially tilted Gaussian of a quadratic form
@@ -137,16 +149,18 @@ def mfis(x_um: float, seed: int, quick: bool) -> Any:
     draw carried 31 % of the estimate at 62 um). The quick run keeps the mixture: a few hundred
     cheap runs cannot fit the 1891 coefficients of the form.
 
-    Measured at 62 um (two seeds, serial, shared 2-core machine at load 4-8): the form fits
-    the cheap model with R^2 = 1.0000; Pf 3.37e-7 [2.41e-7, 4.33e-7] and 2.96e-7
-    [2.09e-7, 3.82e-7], CoV 0.145 and 0.149, status 0, Pareto k -0.7, largest weight share
-    4 %, each 1000 rotor and 2400 cheap runs (wall 37 and 25 min on that machine, about 14
-    min of one core by the per-run costs); subset simulation on the rotor (2560 runs) gave
-    4.4e-7 [4.4e-8, 4.3e-6].
+    Measured at 62 um (four random seeds, each 1000 rotor and 2400 cheap runs): the form fits
+    the cheap model with R^2 = 1.0000; Pf 3.37e-7, 2.96e-7, 3.01e-7 and 2.19e-7, CoV
+    0.14-0.16, status 0 (the last: 1, CoV 0.157 at the 1000-run cap), Pareto k -0.4 to -0.7,
+    largest weight share at most 4 %; every pair of intervals overlaps and subset simulation
+    on the rotor (2560 runs, 4.4e-7 [4.4e-8, 4.3e-6]) holds all four. Wall on 2 cores with
+    worker processes and 100 samples a chunk: 7.2 min on a quiet machine (serially: 25-37
+    min on a shared one). Over 20 seeds on the rotor's benchmark case (40 speeds):
+    docs/benchmarks.md.
     """
     model = study_model()
     common = {"method": "mfis", "rng": seed, "low_fidelity": model,
-              "low_fidelity_options": LOW_FIDELITY_OPTIONS}
+              "low_fidelity_options": LOW_FIDELITY_OPTIONS, **(execution or {})}
     if quick:
         return failure_probability(model, study_space(), limit_state(x_um), **common,
                                    n_per_level=150, n_samples=60, max_samples=60,
@@ -157,13 +171,15 @@ def mfis(x_um: float, seed: int, quick: bool) -> Any:
                                target_cov=0.15, defensive=0.05)
 
 
-def subset(x_um: float, seed: int, quick: bool) -> Any:
+def subset(x_um: float, seed: int, quick: bool, execution: dict[str, Any] | None = None) -> Any:
     """Subset simulation on the rotor itself."""
     return failure_probability(study_model(), study_space(), limit_state(x_um),
-                               method="subset", rng=seed, n_per_level=80 if quick else 400)
+                               method="subset", rng=seed, n_per_level=80 if quick else 400,
+                               **(execution or {}))
 
 
-def grouped_sobol(n_base: int, seed: int) -> dict[str, Any]:
+def grouped_sobol(n_base: int, seed: int,
+                  execution: dict[str, Any] | None = None) -> dict[str, Any]:
     """First-order and total Sobol' indices of ``dte_rms_max`` with the germ grouped per gear.
 
     SALib's Saltelli design with groups (``n_base (G + 2)`` runs) on the cheap model, through
@@ -182,7 +198,10 @@ def grouped_sobol(n_base: int, seed: int) -> dict[str, Any]:
     unit = sobol_sample.sample(problem, n_base, calc_second_order=False, seed=seed)
     unit = np.clip(unit, 1e-12, 1 - 1e-12)
     x = space.transform(unit)
-    ds = study_model().response(x, None, outputs=["dte_rms_max"], **LOW_FIDELITY_OPTIONS)
+    model = study_model()
+    request = model.prepare(None, outputs=["dte_rms_max"], **LOW_FIDELITY_OPTIONS)
+    ds = evaluate_chunks(model, x, request,
+                         progress=False, **(execution or {}))
     y = ds["dte_rms_max"].values * 1e6
     if not np.all(ds["status"].values == 0) or not np.all(np.isfinite(y)):
         raise RuntimeError("grouped Sobol': some cheap-model runs failed; indices not computed")
@@ -277,6 +296,10 @@ def figures(out: Path, mc: dict[str, np.ndarray], rows: list[dict[str, Any]],
                capsize=3, label="first order")
         ax.bar(k + 0.18, sobol["ST"], 0.36, yerr=sobol["ST_conf"], color="tab:orange",
                capsize=3, label="total")
+        for i, (s1, st) in enumerate(zip(sobol["S1"], sobol["ST"], strict=True)):
+            if max(abs(s1), abs(st)) < 0.01:  # bars too short to see: say what they are
+                ax.annotate(f"first {s1:.0e}\ntotal {st:.0e}", (i, 0.0), xytext=(0, 6),
+                            textcoords="offset points", ha="center", fontsize=7)
         ax.set_xticks(k, sobol["groups"])
         ax.set_ylabel("Sobol' index of dte_rms_max [-]")
         ax.set_title(f"What drives the worst RMS DTE ({sobol['runs']} cheap-model runs, "
@@ -290,7 +313,8 @@ def figures(out: Path, mc: dict[str, np.ndarray], rows: list[dict[str, Any]],
 
 
 def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False,
-        seed: int = 2020) -> int:
+        seed: int = 2020, executor: Any = DEFAULT_EXECUTION["executor"],
+        chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"]) -> int:
     """Headline: P(largest RMS DTE of the geared rotor over 25-8000 rpm >= X) at ISO grade 6.
 
     Pf ~ 1e-3 checked against crude Monte Carlo, Pf ~ 1e-6 by two methods, grouped Sobol'
@@ -304,6 +328,9 @@ def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False
         Smaller questions (Pf ~ 1e-2 and ~ 1e-3) with few runs: a check, not the answer.
     seed : int
         Seed of every random stage.
+    executor, chunk_size :
+        How model runs are spread over the cores (:func:`gearuq.execution.evaluate_chunks`):
+        by default worker processes, 100 samples a chunk. The answers do not depend on them.
 
     Returns
     -------
@@ -318,12 +345,13 @@ def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False
         print("quick run: Pf ~ 1e-1 and ~ 1e-2 with a few hundred rotor runs; the full study "
               "answers Pf ~ 1e-2, 1e-3 and 1e-6", flush=True)
     t0 = time.perf_counter()
+    execution = {"executor": executor, "chunk_size": chunk_size}
     rows, reps = [], {}
     for x_um in (*moderates, rare):
         for method in ("mfis", "subset"):
             if method == "subset" and x_um != rare:
                 continue  # the moderate levels' check is crude Monte Carlo
-            rep = (mfis if method == "mfis" else subset)(x_um, seed + 1, quick)
+            rep = (mfis if method == "mfis" else subset)(x_um, seed + 1, quick, execution)
             reps[(method, x_um)] = rep
             rows.append(_row(method, x_um, rep))
             r = rows[-1]
@@ -338,14 +366,15 @@ def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False
         p = np.cumprod(walk["level_probability"].values)
         walk_levels = [(rare - 1e6 * float(b), float(pk)) for b, pk in
                        zip(walk["level_threshold"].values, p, strict=True) if float(b) > 0]
-    sobol = None if quick else grouped_sobol(256, seed + 2)
+    sobol = None if quick else grouped_sobol(256, seed + 2, execution)
     # the check last: its store may already hold the runs (a rerun, or a run started apart)
     n_mc = 60 if quick else 4000
     print(f"crude Monte Carlo, {n_mc} rotor runs (store {out / 'mc_store'}) ...", flush=True)
-    mc = crude_monte_carlo(n_mc, seed, out / "mc_store")
+    mc = crude_monte_carlo(n_mc, seed, out / "mc_store", execution)
     checks = [{"X_um": x, **exceedance(mc, x)} for x in moderates]
     paths = figures(out, mc, rows, walk_levels, sobol)
-    info = {"levels_um": levels, "quick": quick, "crude_mc": checks, "rows": rows,
+    info = {"levels_um": levels, "quick": quick, "execution": execution, "seed": seed,
+            "crude_mc": checks, "rows": rows,
             "sobol": sobol, "total_wall": time.perf_counter() - t0}
     (out / "summary.json").write_text(json.dumps(info, indent=1, default=float))
     lines = ["| X [um] | method | Pf | 95 % interval | CoV | status | rotor runs | "
@@ -372,8 +401,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("gearuq_geared_rotor_rare_events"))
     parser.add_argument("--quick", action="store_true", help="a quick check, not the answer")
     parser.add_argument("--seed", type=int, default=2020)
+    parser.add_argument("--executor", default=DEFAULT_EXECUTION["executor"],
+                        help="serial, processes (default) or a dask scheduler address")
+    parser.add_argument("--chunk-size", type=int, default=DEFAULT_EXECUTION["chunk_size"],
+                        help="samples per chunk of model runs (default %(default)s)")
     args = parser.parse_args(argv)
-    return run(args.out, quick=args.quick, seed=args.seed)
+    return run(args.out, quick=args.quick, seed=args.seed, executor=args.executor,
+               chunk_size=args.chunk_size)
 
 
 if __name__ == "__main__":
