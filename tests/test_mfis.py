@@ -119,3 +119,56 @@ def test_the_cheap_side_is_chunked_like_the_expensive_one():
     rep = _run(recording, 3, chunk_size=64, n_per_level=500, n_samples=200, max_samples=400)
     assert sizes and max(sizes) <= 64, max(sizes)
     assert int(rep["n_low_fidelity_runs"]) == sum(sizes)
+
+
+def test_the_cheap_model_can_run_on_fewer_instants():
+    """``low_fidelity_t``: the cheap side of a first-passage problem runs on 21 instants, the
+    expensive side on 401, and the answer holds the exact first-passage probability of the
+    random-phase harmonic (``exp(-a^2 / 2)`` over a window longer than its period)."""
+    from gearuq.failure.modes import LimitState
+
+    seen: dict[str, set[int]] = {"cheap": set(), "expensive": set()}
+
+    def recorder(kind: str):
+        def fn(X1, X2, t):  # noqa: N803 - the problem's names
+            seen[kind].add(np.size(t))
+            return rp.random_phase(X1, X2, t)
+        return gearuq.FunctionModel(fn, ["X1", "X2"], ["y", "dy"], name=f"phase_{kind}",
+                                    time_dependent=True)
+
+    level = 3.5
+    exact = np.exp(-level**2 / 2)  # 2.19e-3
+    limit = LimitState.upper("y", level, first_passage="parabola")
+    space = gearuq.ParameterSpace({n: {"dist": "normal", "mean": 0.0, "std": 1.0}
+                                   for n in ("X1", "X2")})
+    rep = failure_probability(recorder("expensive"), space, limit, np.linspace(0.0, 10.0, 401),
+        method="mfis", low_fidelity=recorder("cheap"), low_fidelity_t=np.linspace(0, 10, 21),
+        rng=5, executor="serial", n_per_level=500, n_samples=400)
+    assert seen == {"cheap": {21}, "expensive": {401}}
+    assert int(rep["status"]) == 0
+    assert float(rep["pf_lower"]) <= exact <= float(rep["pf_upper"])
+    with pytest.raises(ValueError, match="low_fidelity_t"):
+        failure_probability(recorder("expensive"), space, limit, np.linspace(0.0, 10.0, 401),
+                            method="mfis", low_fidelity=recorder("cheap"),
+                            low_fidelity_t=[0.0, 2.0, 1.0])
+
+
+def test_the_geared_rotor_benchmark_case_is_well_posed():
+    """The rotor's rare-event case (``gearuq bench reliability --coverage --problems
+    geared_rotor``): its MFIS settings are valid, its cheap model is the same rotor on a
+    coarser grid, its limit is on a declared output and its reference lies in its own
+    interval (checked without a rotor run)."""
+    from gearuq.bench.reliability import geared_rotor_mfis_settings
+    from gearuq.failure.api import validate_settings
+
+    p = rp.geared_rotor_problem()
+    s = validate_settings("mfis", geared_rotor_mfis_settings())
+    assert s["biasing"] == "quadratic" and s["response_offset"] == rp.GEARED_ROTOR_LEVEL
+    assert s["low_fidelity"].name == p["model"].name == "geared_rotor"
+    fine, coarse = p["model_options"], s["low_fidelity_options"]
+    assert coarse["n_speeds"] < fine["n_speeds"]
+    assert coarse["range_mesh_harmonics"] <= fine["range_mesh_harmonics"]
+    assert "dte_rms_max" in p["model"].output_names
+    assert p["space"].dim == 60
+    lo, up = p["pf_interval"]
+    assert 0.0 < lo <= p["pf"] <= up < 1e-4

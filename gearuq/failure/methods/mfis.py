@@ -95,12 +95,25 @@ def _check_mapping(value: Any) -> Any:
     return value
 
 
+def _check_times(value: Any) -> Any:
+    if value is None:
+        return None
+    t = np.asarray(value, dtype=float)
+    if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError("low_fidelity_t: expected finite, strictly increasing output instants "
+                         f"(1-D), got {value!r}")
+    return t
+
+
 SETTINGS = (
     Option("low_fidelity", None, "the cheap model (Model or registered name) that explores the "
            "failure domain; its parameters must include every random parameter of the space",
            kind="any", check=_check_model, allow_none=True),
     Option("low_fidelity_options", None, "declared model options of the cheap model",
            kind="any", check=_check_mapping, allow_none=True),
+    Option("low_fidelity_t", None, "output instants of the cheap model (default: the "
+           "expensive model's); fewer instants make a time-dependent cheap model cheaper",
+           kind="any", check=_check_times, allow_none=True),
     Option("low_fidelity_limit_state", None, "limit state on the cheap model's outputs "
            "(default: the same as the expensive model's)", kind="any", allow_none=True),
     Option("n_per_level", 2000, "samples per level of the exploration on the cheap model",
@@ -261,7 +274,7 @@ def _low_fidelity(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
             f" of the parameter space; its parameters: {', '.join(lf.parameter_names)}. Wrap it "
             "in a fidelity link that maps the space onto its inputs")
     limit = s["low_fidelity_limit_state"] or ev.limit_state
-    t = ev.request.t
+    t = ev.request.t if s["low_fidelity_t"] is None else s["low_fidelity_t"]
     # the cheap side runs on the same executor and chunking as the expensive one (without
     # chunk_size a design of a few thousand runs is one chunk, i.e. one worker)
     return LimitStateEvaluator(lf, ev.space, limit, t,
