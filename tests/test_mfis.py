@@ -172,3 +172,22 @@ def test_the_geared_rotor_benchmark_case_is_well_posed():
     assert p["space"].dim == 60
     lo, up = p["pf_interval"]
     assert 0.0 < lo <= p["pf"] <= up < 1e-4
+
+
+def test_a_stored_run_with_cheap_instants_resumes_to_the_same_answer(tmp_path):
+    """``low_fidelity_t`` (an array) enters the store's fingerprint: a second call with the
+    same arguments reuses the stored stages and gives the identical estimate."""
+    from gearuq.failure.modes import LimitState
+
+    space = gearuq.ParameterSpace({n: {"dist": "normal", "mean": 0.0, "std": 1.0}
+                                   for n in ("X1", "X2")})
+    model = rp.random_phase_model()
+    kw = dict(method="mfis", low_fidelity=model, low_fidelity_t=np.linspace(0.0, 10.0, 21),
+              rng=5, executor="serial", n_per_level=300, n_samples=200, max_samples=400,
+              store=tmp_path / "run")
+    limit = LimitState.upper("y", 3.0)
+    first = failure_probability(model, space, limit, np.linspace(0.0, 10.0, 201), **kw)
+    again = failure_probability(model, space, limit, np.linspace(0.0, 10.0, 201), **kw)
+    assert float(first["pf"]) == float(again["pf"])
+    exact = np.exp(-4.5)  # first passage of the random-phase harmonic over a long window
+    assert float(first["pf_lower"]) <= exact <= float(first["pf_upper"])

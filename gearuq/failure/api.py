@@ -30,6 +30,7 @@ import os
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
+import numpy as np
 import xarray as xr
 
 from gearuq.engines.common import resolve_seed
@@ -184,5 +185,6 @@ def failure_probability(
 
 def _jsonable(settings: Mapping[str, Any]) -> dict[str, Any]:
     """Settings for a store's fingerprint: a model by its name and version, not its repr."""
-    return {k: (f"{v.name} {v.version}" if isinstance(v, Model) else v)
+    return {k: (f"{v.name} {v.version}" if isinstance(v, Model)
+                else np.asarray(v).tolist() if isinstance(v, np.ndarray) else v)
             for k, v in settings.items()}
