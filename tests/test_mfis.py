@@ -158,11 +158,10 @@ def test_the_geared_rotor_benchmark_case_is_well_posed():
     geared_rotor``): its MFIS settings are valid, its cheap model is the same rotor on a
     coarser grid, its limit is on a declared output and its reference lies in its own
     interval (checked without a rotor run)."""
-    from gearuq.bench.reliability import geared_rotor_mfis_settings
     from gearuq.failure.api import validate_settings
 
     p = rp.geared_rotor_problem()
-    s = validate_settings("mfis", geared_rotor_mfis_settings())
+    s = validate_settings("mfis", rp.geared_rotor_mfis_settings())
     assert s["biasing"] == "quadratic" and s["response_offset"] == rp.GEARED_ROTOR_LEVEL
     assert s["low_fidelity"].name == p["model"].name == "geared_rotor"
     fine, coarse = p["model_options"], s["low_fidelity_options"]

@@ -303,6 +303,8 @@ HELICAL_PAIR_LOW_FIDELITY_T = np.linspace(100.0, 200.0, 501)
 
 def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]:
     """``(problem, method, settings)`` of the coverage benchmark."""
+    from gearuq.testing.reliability_problems import geared_rotor_mfis_settings
+
     rows: list[tuple[str, str, dict[str, Any]]] = []
     for problem in ("offset", "resistance_load", "oscillator", "four_branch", "parabola",
                     "jump", "linear_100d", "exponential_sum", "nan_tail"):
@@ -331,22 +333,6 @@ def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]
         # the geared rotor at Pf ~ 1e-6 in 60 inputs, as the headline study runs it
         rows.append(("geared_rotor", "mfis", geared_rotor_mfis_settings()))
     return rows
-
-
-def geared_rotor_mfis_settings() -> dict[str, Any]:
-    """MFIS on the geared-rotor case as the headline study runs it: the cheap model's
-    ``dte_rms_max^2`` fitted as a quadratic form (2400 cheap runs), then up to 1000 rotor
-    runs in batches of 200 from its tilted normal, to a CoV of 0.15."""
-    from gearuq.testing.reliability_problems import (
-        GEARED_ROTOR_LEVEL,
-        GEARED_ROTOR_LOW_FIDELITY_OPTIONS,
-        geared_rotor_model,
-    )
-
-    return {"low_fidelity": geared_rotor_model(),
-            "low_fidelity_options": dict(GEARED_ROTOR_LOW_FIDELITY_OPTIONS),
-            "biasing": "quadratic", "response_offset": GEARED_ROTOR_LEVEL, "n_fit": 2400,
-            "n_samples": 200, "max_samples": 1000, "target_cov": 0.15, "defensive": 0.05}
 
 
 @functools.lru_cache(maxsize=1)

@@ -186,5 +186,5 @@ def failure_probability(
 def _jsonable(settings: Mapping[str, Any]) -> dict[str, Any]:
     """Settings for a store's fingerprint: a model by its name and version, not its repr."""
     return {k: (f"{v.name} {v.version}" if isinstance(v, Model)
-                else np.asarray(v).tolist() if isinstance(v, np.ndarray) else v)
+                else v.tolist() if isinstance(v, np.ndarray) else v)
             for k, v in settings.items()}

@@ -75,6 +75,7 @@ from gearuq.failure.intervals import clopper_pearson_interval
 from gearuq.failure.modes import LimitState
 from gearuq.testing.reliability_problems import (
     GEARED_ROTOR_OPTIONS,
+    geared_rotor_mfis_settings,
     geared_rotor_model,
     geared_rotor_space,
 )
@@ -89,8 +90,6 @@ QUICK_LEVELS_UM = {"1e-1": 25.0, "1e-2": 34.0}
 #: Options of the cheap model (the same rotor, coarser over speed).
 LOW_FIDELITY_OPTIONS = GEARED_ROTOR_OPTIONS
 OUTPUTS = ["dte_rms_max", "speed_at_dte_rms_max"]
-#: Cheap-model runs of the quadratic fit (the form has 1891 coefficients in 60 inputs).
-QUADRATIC_FIT_RUNS = 2400
 
 
 def study_model() -> gearuq.Model:
@@ -165,10 +164,8 @@ def mfis(x_um: float, seed: int, quick: bool, execution: dict[str, Any] | None =
         return failure_probability(model, study_space(), limit_state(x_um), **common,
                                    n_per_level=150, n_samples=60, max_samples=60,
                                    target_cov=0.2)
-    return failure_probability(model, study_space(), limit_state(x_um), **common,
-                               biasing="quadratic", response_offset=x_um * 1e-6,
-                               n_fit=QUADRATIC_FIT_RUNS, n_samples=200, max_samples=1000,
-                               target_cov=0.15, defensive=0.05)
+    return failure_probability(model, study_space(), limit_state(x_um), **{
+        **common, **geared_rotor_mfis_settings(x_um * 1e-6, LOW_FIDELITY_OPTIONS)})
 
 
 def subset(x_um: float, seed: int, quick: bool, execution: dict[str, Any] | None = None) -> Any:
