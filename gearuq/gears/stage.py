@@ -21,7 +21,7 @@ import math
 import re
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from decimal import Decimal
 from importlib import resources
 from pathlib import Path
@@ -667,12 +667,14 @@ class GearStage:
                 f"({d_lo:.4f}, {d_hi:.4f}) mm")
         return length
 
-    def profile_relief(self, s_mm: Any) -> Any:
+    def profile_relief(self, s_mm: Any, amounts: Mapping[str, float] | None = None) -> Any:
         """Total profile relief [um] of both gears at path positions ``s`` [mm] from T1.
 
         ``s`` is the pinion's roll length (gearuq.gears.contact: contact runs from
         ``s_A = g_f1`` to ``s_E = s_A + g_alpha``); the wheel's roll length is
-        ``T1T2 - s``.
+        ``T1T2 - s``. ``amounts`` replaces relief amounts [um] by key
+        ``"pinion_tip"``, ``"wheel_root"``, ... (a sampled amount; the shape, start and
+        length stay the drawing's).
         """
         import numpy as np
 
@@ -689,9 +691,22 @@ class GearStage:
                     continue
                 start = relief.start_roll(db)
                 length = self.relief_length(gear, kind)
+                if amounts and f"{gear}_{kind}" in amounts:
+                    relief = replace(relief, amount=float(amounts[f"{gear}_{kind}"]),
+                                     amount_tolerance=0.0)
                 v = roll - start if kind == "tip" else start - roll
                 total = total + np.where(v > 0.0, relief.profile(v, length), 0.0)
         return total
+
+    def relief_clearance(self, amounts: Mapping[str, float] | None = None) -> Any:
+        """The reliefs as ``FlankDeviations.user``: ``f(s, y, k1, k2)`` -> normal clearance [m].
+
+        ``None`` when the stage has no relief; ``amounts`` as in :meth:`profile_relief`.
+        """
+        if not any(getattr(g, f"{k}_relief") is not None
+                   for g in (self.pinion, self.wheel) for k in ("tip", "root")):
+            return None
+        return _ProfileClearance(self, math.cos(self.pair.beta_b), amounts)
 
     def flank_deviations(self) -> Any:
         """The stage's designed flank modifications as a :class:`FlankDeviations`.
@@ -701,12 +716,8 @@ class GearStage:
         """
         from gearuq.gears.deviations import FlankDeviations
 
-        cos_bb = math.cos(self.pair.beta_b)
-        has_relief = any(getattr(g, f"{k}_relief") is not None
-                         for g in (self.pinion, self.wheel) for k in ("tip", "root"))
         crowning = to_si(self.pinion.lead_crowning + self.wheel.lead_crowning, "1e-6")
-        user = _ProfileClearance(self, cos_bb) if has_relief else None
-        return FlankDeviations(crowning=crowning, user=user)
+        return FlankDeviations(crowning=crowning, user=self.relief_clearance())
 
     # ------------------------------------------------------------------ random inputs
     @property
@@ -850,13 +861,14 @@ class GearStage:
 class _ProfileClearance:
     """``user(s, y, k1, k2)`` of FlankDeviations: the stage's reliefs as normal clearance."""
 
-    def __init__(self, stage: GearStage, cos_bb: float) -> None:
-        self.stage, self.cos_bb = stage, cos_bb
+    def __init__(self, stage: GearStage, cos_bb: float,
+                 amounts: Mapping[str, float] | None = None) -> None:
+        self.stage, self.cos_bb, self.amounts = stage, cos_bb, amounts
 
     def __call__(self, s: Any, y: Any, k1: Any, k2: Any) -> Any:
         import numpy as np
 
-        relief = self.stage.profile_relief(np.asarray(s) * 1e3) * 1e-6
+        relief = self.stage.profile_relief(np.asarray(s) * 1e3, self.amounts) * 1e-6
         return np.broadcast_to(relief * self.cos_bb, np.broadcast_shapes(
             np.shape(s), np.shape(k1), np.shape(k2)))
 
@@ -1008,6 +1020,10 @@ class StageMeshStiffness:
         LTCA: mean over the cycle of ``P / STE``, normal direction [N/um].
     iso_c_gamma_b : float
         ISO 6336-1 method B ``c_gamma_alpha b`` [N/um] (solid blanks, transverse).
+    tangent_ptp : float
+        LTCA: peak-to-peak of the tangent stiffness over the cycle [N/um].
+    ste_ptp : float
+        LTCA: peak-to-peak static transmission error over the cycle [um] (normal).
     ratio : float
         ``secant_mean cos^2(beta_b) / iso_c_gamma_b``: LTCA over ISO like for like (secant,
         transverse convention), the quantity whose band was measured.
@@ -1023,6 +1039,8 @@ class StageMeshStiffness:
     source: str
     tangent_mean: float
     secant_mean: float
+    tangent_ptp: float
+    ste_ptp: float
     iso_c_gamma_b: float
     ratio: float
     band: tuple[float, float]
@@ -1088,6 +1106,8 @@ def _stage_mesh_stiffness(stage: GearStage, positions_per_cycle: int,
     return StageMeshStiffness(
         value=tangent if stage.stiffness_source == "ltca" else iso,
         source=stage.stiffness_source, tangent_mean=tangent, secant_mean=secant,
-        iso_c_gamma_b=iso, ratio=secant * math.cos(pair.beta_b) ** 2 / iso,
+        tangent_ptp=float(np.ptp(ds["lpms_tangent"].values)),
+        ste_ptp=float(np.ptp(ds["ste"].values)), iso_c_gamma_b=iso,
+        ratio=secant * math.cos(pair.beta_b) ** 2 / iso,
         band=STIFFNESS_BAND, torque=torque, positions_per_cycle=positions_per_cycle,
         n_pts=n_pts)
