@@ -300,14 +300,17 @@ class Shaft:
     bearings : tuple of Bearing
         At least one.
     end_inertia : float
-        Polar inertia [kg m^2] turning with the shaft's first end (drive or load side:
+        Polar inertia [kg m^2] turning with one end of the shaft (drive or load side:
         coupling, motor rotor); 0: none.
+    end_inertia_at : {"first", "last"}
+        The end that carries ``end_inertia``.
     """
 
     sections: tuple[tuple[float, float, float], ...]
     gear_position: float
     bearings: tuple[Bearing, ...]
     end_inertia: float = 0.0
+    end_inertia_at: str = "first"
 
     def __post_init__(self) -> None:
         if not isinstance(self.sections, Sequence) or len(self.sections) == 0:
@@ -337,6 +340,9 @@ class Shaft:
                                  f"valid range [0, {self.length:g}] mm (sum of the sections)")
         object.__setattr__(self, "end_inertia",
                            _number("end_inertia [kg m2]", self.end_inertia, 0.0, 1e4))
+        if self.end_inertia_at not in ("first", "last"):
+            raise ValueError(f"end_inertia_at={self.end_inertia_at!r} is not one of "
+                             "('first', 'last')")
 
     @property
     def length(self) -> float:
