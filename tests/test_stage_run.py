@@ -1,0 +1,92 @@
+"""``gearuq run STAGE.toml``: the files it writes and the physics of its run-up."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+import gearuq
+from gearuq.cli import main
+from gearuq.gears.stage import GearStage
+
+
+@pytest.fixture(scope="module")
+def e_axle_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    path = out / "e_axle.toml"
+    GearStage.example("e_axle_27_79").to_toml(path)
+    assert main(["run", str(path), "--out", str(out / "res"), "--quiet",
+                 "--n-speeds", "400"]) == 0
+    return out / "res"
+
+
+def test_run_writes_netcdf_csv_and_a_self_contained_report(e_axle_run):
+    names = {p.name for p in e_axle_run.iterdir()}
+    assert {"stage.nc", "report.html", "geometry.csv", "iso6336.csv", "mesh_cycle.csv",
+            "run_up.csv", "modes.csv", "resonances.csv"} <= names
+    ds = gearuq.load(e_axle_run / "stage.nc")
+    stage = GearStage.example("e_axle_27_79")
+    # the file holds the stage itself: it rebuilds the same stage
+    import tomllib
+
+    assert GearStage.from_dict(tomllib.loads(ds.attrs["stage_toml"])) == stage
+    assert ds["geometry"].sel(geometry_quantity="d1").item() == pytest.approx(
+        27 * 2.0 / math.cos(math.radians(22.0)), rel=1e-12)
+    assert ds["ltca_ste"].attrs["units"] == "um"
+    assert int(ds["ltca_status"].max()) == 0
+    report = (e_axle_run / "report.html").read_text()
+    assert report.count("data:image/png;base64,") == 2 and "<script" not in report
+    for text in ("ISO 21771 closed form", "ISO 6336-1", "LTCA", "modal damping"):
+        assert text in report
+    with open(e_axle_run / "resonances.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert rows and {"resonance_speed", "resonance_frequency"} <= set(rows[0])
+
+
+def test_run_up_resonance_is_at_the_mesh_frequency_of_a_mesh_mode(e_axle_run):
+    """At each marked resonance the mesh harmonic h z1 n / 60 (written here) meets a natural
+    frequency of a mode that strains the mesh, within the run-up's speed step and the shift
+    of a 3 %-damped peak."""
+    ds = gearuq.load(e_axle_run / "stage.nc")
+    speeds = ds["speed"].values
+    step_rpm = speeds[1] - speeds[0]
+    f_n = ds["natural_frequency"].values[ds["mesh_energy_share"].values >= 0.05]
+    assert ds["resonance_speed"].size >= 1
+    for n, h in zip(ds["resonance_speed"].values, ds["resonance_harmonic"].values,
+                    strict=True):
+        f_mesh = h * 27 * n / 60.0
+        nearest = f_n[np.argmin(abs(f_n - f_mesh))]
+        assert abs(f_mesh - nearest) <= h * 27 * step_rpm / 60.0 + 0.015 * nearest
+    # the mesh mode of largest mesh-energy share whose first-harmonic crossing lies in the
+    # speed range is found as a first-harmonic resonance
+    share = ds["mesh_energy_share"].values
+    f_all = ds["natural_frequency"].values
+    in_range = (f_all * 60 / 27 > speeds[0]) & (f_all * 60 / 27 < speeds[-1])
+    mode = f_all[in_range][np.argmax(share[in_range])]
+    h1 = ds["resonance_speed"].values[ds["resonance_harmonic"].values == 1]
+    assert np.any(abs(h1 * 27 / 60.0 - mode) < 0.015 * mode)
+
+
+def test_run_up_limits(e_axle_run):
+    """Far above every mode the dynamic force tends to k e_h (the rotor cannot follow); the
+    mesh-energy shares of the modes sum to about 1 (the mesh spring's strain energy under a
+    static unit approach is spread over the modes)."""
+    ds = gearuq.load(e_axle_run / "stage.nc")
+    k = ds.attrs["mesh_stiffness_N_per_um"]
+    e3 = ds["ste_harmonic"].sel(harmonic=3).item()
+    top = ds["dynamic_mesh_force"].sel(harmonic=3).values[-1]
+    # h = 3 at 16 000 rpm is 21.6 kHz, above the modes that load the mesh
+    assert top == pytest.approx(k * e3, rel=0.35)
+    assert 0.9 < ds["mesh_energy_share"].sum().item() < 1.01
+
+
+def test_models_command_lists_stage_parameters(tmp_path, capsys):
+    path = tmp_path / "e.toml"
+    GearStage.example("e_axle_27_79").to_toml(path)
+    assert main(["models", "mesh_excitation", "--stage", str(path)]) == 0
+    text = capsys.readouterr().out
+    assert "iso_grade_wheel" in text and "pinion_tip_relief_amount" in text
+    assert "pitch_xi_g_78" in text  # the germ's size follows z2 = 79
