@@ -122,3 +122,64 @@ def test_mesh_excitation_refuses_measured_pitch_deviations():
         gearuq.get_model("mesh_excitation", stage=stage, pair=stage.pair)
     with pytest.raises(TypeError, match="must be a gearuq.GearStage"):
         gearuq.get_model("helical_pair", stage="e_axle.toml")
+
+
+def test_geared_rotor_paper_stage_is_bit_identical():
+    today = gearuq.get_model("geared_rotor")
+    staged = gearuq.get_model("geared_rotor", stage=GearStage.example("yuan_liu_liu"))
+    assert [p.name for p in staged.parameters] == [p.name for p in today.parameters]
+    assert [p.nominal for p in staged.parameters] == [p.nominal for p in today.parameters]
+    opts = dict(positions_per_cycle=8, n_pts=6, n_mesh_harmonics=2)
+    params = {"torque": np.array([900.0]), "speed": np.array([3000.0]),
+              "pitch_xi_g_3": np.array([0.5])}
+    out = ["dte_rms", "mesh_force_rms", "dte_mean", "bearing1_acceleration_y_rms"]
+    _same_dataset(today.response(params, None, outputs=out, **opts),
+                  staged.response(params, None, outputs=out, **opts))
+
+
+def _stage_26_78():
+    from dataclasses import replace
+
+    from gearuq.gears.stage import Bearing
+
+    e = GearStage.example("e_axle_27_79")
+    b = Bearing(0.0, 400.0, 150.0, damping=200.0)
+    shafts = {name: replace(getattr(e, name), bearings=tuple(
+        replace(b, position=x.position) for x in getattr(e, name).bearings))
+        for name in ("pinion_shaft", "wheel_shaft")}
+    return replace(e, teeth=(26, 78), pinion=replace(e.pinion, tip_relief=None),
+                   wheel=replace(e.wheel, iso_grade=6, tip_relief=None), name="e_26_78",
+                   **shafts)
+
+
+def test_geared_rotor_from_a_stage_that_is_not_the_paper():
+    stage = _stage_26_78()
+    model = gearuq.get_model("geared_rotor", stage=stage)
+    names = model.parameter_names
+    assert "pitch_xi_g_77" in names and "pitch_xi_p_25" in names and "pitch_xi_p_26" not in names
+    nominal = {p.name: p.nominal for p in model.parameters}
+    assert nominal["bearing_stiffness"] == 400e6 and nominal["load_inertia"] == 0.2
+    assert set(model.default_space().names) <= set(names)
+    ds = model.response({"speed": np.array([6000.0])}, None,
+                        outputs=["mesh_frequency", "ste_ptp", "dte_rms"],
+                        positions_per_cycle=8, n_pts=6, n_mesh_harmonics=2)
+    assert int(ds["status"][0]) == 0
+    assert ds["mesh_frequency"].item() == 26 * 6000.0 / 60.0
+    assert ds.attrs["long_period_mesh_cycles"] == 78
+    assert 0 < ds["dte_rms"].item() < 1e-5 and np.isfinite(ds["ste_ptp"].item())
+
+
+def test_geared_rotor_refuses_a_hunting_tooth_stage(e_axle):
+    with pytest.raises(ValueError, match="repeat after 2133 mesh cycles"):
+        gearuq.get_model("geared_rotor", stage=e_axle)
+
+
+def test_pair_link_from_a_stage(e_axle):
+    link = gearuq.get_link("helical_pair", "mesh_oscillator", stage=e_axle)
+    assert link.high.stage is e_axle
+    from gearuq_plugins.links.helical_pair import oscillator_inputs
+
+    params = link.high.validate_params({})
+    _, scales = oscillator_inputs(link.high, params, "mesh_line")
+    assert scales["k"][0] == pytest.approx(stage_mesh_stiffness(e_axle).value * 1e6,
+                                           rel=1e-14)

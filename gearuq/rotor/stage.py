@@ -62,12 +62,19 @@ def stage_shaft_line(shaft: Any, *, max_element_length: float = 0.02, first_node
 
 
 def stage_rotor(stage: Any, mesh_stiffness: float, *, mesh_damping: float = 0.0,
-                max_element_length: float = 0.02) -> Rotor:
+                max_element_length: float = 0.02, bearing_labels: str = "stage",
+                bearings: tuple[float, float, float] | None = None,
+                end_inertias: tuple[float | None, float | None] | None = None,
+                moment_arm: str = "pitch_point") -> Rotor:
     """The stage's geared rotor with mesh stiffness ``mesh_stiffness`` [N/m].
 
     Shaft 1 (pinion) on the z axis, shaft 2 (wheel) at ``(a, 0)`` turning at ``-z1/z2``,
     its first end on the same side; the gear planes are aligned. Tags: ``pinion``, ``gear``,
-    ``input``, ``output`` and ``pinion bearing 1``... ``wheel bearing 2``.
+    ``input``, ``output`` and the bearings: ``pinion bearing 1``... ``wheel bearing 2``, or
+    with ``bearing_labels="numbered"`` ``bearing 1``, ``bearing 2``... (pinion shaft first).
+    ``bearings`` = (radial [N/m], axial [N/m], damping [N s/m]) replaces every bearing's
+    values, ``end_inertias`` = (pinion shaft, wheel shaft) [kg m^2] (``None``: no hub) the
+    stage's end inertias; ``moment_arm`` goes to the mesh element.
 
     Raises
     ------
@@ -94,27 +101,32 @@ def stage_rotor(stage: Any, mesh_stiffness: float, *, mesh_damping: float = 0.0,
     elements: list[Any] = s1.elements() + s2.elements()
     tags = {"pinion": pinion, "gear": gear, "input": s1.first_node, "output": s2.first_node
             if stage.wheel_shaft.end_inertia_at == "first" else s2.last_node}
-    for label, shaft, line, node, df, da, b, spin, shift in (
+    count = 0
+    for j, (label, shaft, line, node, df, da, b, spin, shift) in enumerate((
             ("pinion", stage.pinion_shaft, s1, pinion, pair.df1, pair.da1, pair.b1, 1.0, 0.0),
             ("wheel", stage.wheel_shaft, s2, gear, pair.df2, pair.da2, pair.b2, ratio,
-             zg1 - zg2)):
+             zg1 - zg2))):
         seat = to_si(shaft.section_at(shaft.gear_position)[1], "1e-3")
         body = math.sqrt(0.5 * (df**2 + da**2))
         elements.append(DiskElement.from_geometry(node, b, seat, body, material,
                                                   spin_ratio=spin))
-        if shaft.end_inertia > 0:
+        inertia = shaft.end_inertia if end_inertias is None else (end_inertias[j] or 0.0)
+        if inertia > 0:
             first = shaft.end_inertia_at == "first"
             end_d = to_si(shaft.sections[0 if first else -1][1], "1e-3")
             elements.append(shaft_end_hub(line.first_node if first else line.last_node,
-                                          shaft.end_inertia, end_d, material,
+                                          inertia, end_d, material,
                                           spin_ratio=spin, name=f"{label}.end_inertia"))
         for i, brg in enumerate(shaft.bearings):
             bnode = line.node_at(to_si(brg.position, "1e-3") + shift)
             kr, ka = to_si(brg.radial_stiffness, "1e6"), to_si(brg.axial_stiffness, "1e6")
             c = brg.damping
-            tag = f"{label} bearing {i + 1}"
+            if bearings is not None:
+                kr, ka, c = bearings
+            count += 1
+            tag = f"{label} bearing {i + 1}" if bearing_labels == "stage" else f"bearing {count}"
             elements.append(BearingElement(bnode, kr, kr, ka, c, c, c, label=tag))
             tags[tag] = bnode
     elements.append(HelicalMeshElement.from_pair(pair, pinion, gear, stiffness=mesh_stiffness,
-                                                 damping=mesh_damping))
+                                                 damping=mesh_damping, moment_arm=moment_arm))
     return Rotor(elements, shafts=[s1, s2], name=f"stage {stage.name}", tags=tags)
