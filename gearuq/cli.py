@@ -202,7 +202,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     ds = analyse_stage(stage, progress=not args.quiet, stage_file=str(args.stage),
                        n_speeds=args.n_speeds)
     out = args.out or f"gearuq_{stage.name}"
-    paths = write_stage_results(ds, out)
+    rel = None
+    if stage.reliability and not args.no_reliability:
+        from gearuq.stage_analysis import reliability
+
+        rel = reliability(stage, progress=not args.quiet)
+    paths = write_stage_results(ds, out, reliability=rel,
+                                reliability_settings=stage.reliability_settings)
     for kind, path in paths.items():
         print(f"{kind:<10} {path}")
     return 0
@@ -300,6 +306,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default: gearuq_<stage name>)")
     p.add_argument("--n-speeds", type=int, default=1000, help="speeds of the run-up")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--no-reliability", action="store_true",
+                   help="skip the [reliability] step of the file (failure probability, Sobol')")
     p.set_defaults(func=_cmd_run)
     return parser
 

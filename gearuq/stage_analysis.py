@@ -36,8 +36,8 @@ import xarray as xr
 
 from gearuq._version import __version__
 
-__all__ = ["analyse_stage", "geometry_table", "iso6336_table", "mesh_cycle", "run_up",
-           "write_stage_results"]
+__all__ = ["analyse_stage", "geometry_table", "iso6336_table", "mesh_cycle", "reliability",
+           "run_up", "write_stage_results"]
 
 _GEOMETRY = (  # (name, units, description)
     ("d1", "mm", "pinion reference diameter z1 m_n / cos(beta)"),
@@ -288,6 +288,64 @@ def analyse_stage(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20,
     return ds
 
 
+# ---------------------------------------------------------------------- reliability
+def reliability(stage: Any, *, progress: bool = False) -> tuple[xr.Dataset, xr.Dataset]:
+    """The failure probability and the Sobol' ranking of the stage's ``[reliability]``.
+
+    The model named there is built from the stage; the random inputs are the stage's
+    ``[random]`` tables; failure is the output leaving ``[lower, upper]``. The probability
+    comes from :func:`gearuq.failure_probability` (``method``, default ``"subset"``, with its
+    interval and status), the ranking from :func:`gearuq.sobol_indices` (Saltelli, bootstrap
+    intervals, ``n_base`` (D + 2) runs) on the same output.
+    """
+    from gearuq.engines.sensitivity import sobol_indices
+    from gearuq.failure.api import failure_probability
+    from gearuq.failure.modes import Band
+    from gearuq.registry import get_model
+    from gearuq.space import ParameterSpace
+
+    cfg = stage.reliability_settings
+    if not cfg:
+        raise ValueError(f"stage {stage.name!r} has no [reliability] table")
+    model = get_model(cfg["model"], stage=stage)
+    space = ParameterSpace(stage.random_inputs)
+    band = Band(cfg["output"], lower=cfg.get("lower"), upper=cfg.get("upper"))
+    opts = cfg.get("model_options", {})
+    seed = cfg.get("seed", 0)
+    report = failure_probability(model, space, band, method=cfg.get("method", "subset"),
+                                 rng=seed, model_options=opts,
+                                 **cfg.get("method_settings", {}))
+    sobol = sobol_indices(model, space, n_base=int(cfg.get("n_base", 128)),
+                          outputs=[cfg["output"]], rng=seed, model_options=opts,
+                          progress=progress)
+    return report, sobol
+
+
+def _reliability_html(report: xr.Dataset, sobol: xr.Dataset, cfg: dict[str, Any]) -> str:
+    band = f"[{cfg.get('lower', '-inf')}, {cfg.get('upper', 'inf')}]"
+    rows = [("model", cfg["model"], "built from the stage"),
+            ("output and allowed band", f"{cfg['output']} in {band}", "[reliability]"),
+            ("method", report.attrs.get("method", cfg.get("method", "subset")),
+             "gearuq.failure_probability")]
+    for name in ("pf", "pf_lower", "pf_upper", "cov_pf", "beta", "n_model_runs", "status"):
+        if name in report:
+            rows.append((name, report[name].values.item() if report[name].size == 1 else
+                         report[name].values, report[name].attrs.get("long_name", "")))
+    meaning = report.attrs.get("status_reason") or report.attrs.get("status_meaning", "")
+    if meaning:
+        rows.append(("status in words", meaning, ""))
+    out = "<h2>Reliability</h2>" + _html_table(rows, ("quantity", "value", "provenance"))
+    names = [str(n) for n in sobol["parameter"].values] if "parameter" in sobol.coords else []
+    if names:
+        keys = [k for k in ("S1", "S1_conf", "ST", "ST_conf") if k in sobol]
+        table = [(n, *(float(np.ravel(sobol[k].sel(parameter=n).values)[0]) for k in keys))
+                 for n in names]
+        table.sort(key=lambda r: -r[keys.index("ST") + 1] if "ST" in keys else 0.0)
+        out += ("<h3>Sobol' ranking (gearuq.sobol_indices, Saltelli, bootstrap intervals)"
+                "</h3>" + _html_table(table, ("parameter", *keys)))
+    return out
+
+
 # ---------------------------------------------------------------------- writing
 def _write_csv(table: xr.Dataset | xr.DataArray, path: Path) -> Path:
     """One CSV table (the one place CSVs are written, so it can be switched to a shared
@@ -350,7 +408,7 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
-def _report_html(ds: xr.Dataset) -> str:
+def _report_html(ds: xr.Dataset, extra: str = "") -> str:
     a = ds.attrs
     parts = [f"<h1>{html.escape(a['title'])}</h1>",
              f"<p>{html.escape(a['stage_description'])}<br>Source: "
@@ -390,6 +448,7 @@ def _report_html(ds: xr.Dataset) -> str:
              "dynamic mesh force [N]")))
         parts.append("<p>Provenance: " + html.escape(ds["dynamic_mesh_force"].attrs["source"])
                      + "; " + html.escape(a["run_up_settings"]) + ".</p>")
+    parts.append(extra)
     for title, png in _figures(ds):
         parts.append(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' "
                      f"src='data:image/png;base64,{png}'>")
@@ -401,13 +460,31 @@ def _report_html(ds: xr.Dataset) -> str:
             + "\n".join(parts) + "</body></html>\n")
 
 
-def write_stage_results(ds: xr.Dataset, out: str | Path) -> dict[str, Path]:
-    """Write the analysis as ``stage.nc``, CSV tables and ``report.html`` in ``out``."""
+def write_stage_results(ds: xr.Dataset, out: str | Path, *,
+                        reliability: tuple[xr.Dataset, xr.Dataset] | None = None,
+                        reliability_settings: dict[str, Any] | None = None) -> dict[str, Path]:
+    """Write the analysis as ``stage.nc``, CSV tables and ``report.html`` in ``out``.
+
+    With ``reliability`` (the report and the Sobol' indices of :func:`reliability`) also
+    ``reliability.nc``, ``sobol.nc``, their CSV tables and a section of the report.
+    """
     from gearuq.io import save
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"netcdf": save(ds, out / "stage.nc")}
+    extra_html = ""
+    if reliability is not None:
+        report, sobol = reliability
+        paths["reliability"] = save(report, out / "reliability.nc")
+        paths["sobol"] = save(sobol, out / "sobol.nc")
+        scalars = [k for k in report.data_vars if report[k].ndim == 0]
+        paths["reliability_csv"] = _write_csv(report[scalars].expand_dims("run"),
+                                              out / "reliability.csv")
+        paths["sobol_csv"] = _write_csv(sobol[[k for k in sobol.data_vars
+                                               if "parameter" in sobol[k].dims]],
+                                        out / "sobol.csv")
+        extra_html = _reliability_html(report, sobol, reliability_settings or {})
     tables = {"geometry": ["geometry", "geometry_units"], "iso6336": ["iso6336", "iso_units"],
               "mesh_cycle": ["ltca_ste", "ltca_lpms", "ltca_lpms_tangent",
                              "n_teeth_in_contact" if "n_teeth_in_contact" in ds else
@@ -421,5 +498,5 @@ def write_stage_results(ds: xr.Dataset, out: str | Path) -> dict[str, Path]:
     for name, variables in tables.items():
         paths[name] = _write_csv(ds[variables], out / f"{name}.csv")
     paths["report"] = out / "report.html"
-    paths["report"].write_text(_report_html(ds), encoding="utf-8")
+    paths["report"].write_text(_report_html(ds, extra_html), encoding="utf-8")
     return paths

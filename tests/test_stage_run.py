@@ -90,3 +90,39 @@ def test_models_command_lists_stage_parameters(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "iso_grade_wheel" in text and "pinion_tip_relief_amount" in text
     assert "pitch_xi_g_78" in text  # the germ's size follows z2 = 79
+
+
+@pytest.mark.e2e  # ~80 s on the shared machine: the oscillator's kernels and 332 model runs
+def test_reliability_step_from_the_file(tmp_path):
+    """The file's [random] and [reliability] tables give a failure probability with an
+    interval and a Sobol' ranking; an independent Monte Carlo estimate (own draws, own
+    seed, the model evaluated directly) falls inside the reported interval."""
+    from gearuq.space import ParameterSpace
+    from gearuq.stage_analysis import analyse_stage, reliability, write_stage_results
+
+    stage = GearStage.example("e_axle_27_79")
+    data = stage.to_dict()
+    data["reliability"] |= {"method": "mc", "n_base": 8,
+                            "method_settings": {"n_samples": 300},
+                            "model_options": {"n_frequencies": 11, "frequency_min": 0.7,
+                                              "frequency_max": 1.3}, "upper": 6e-6}
+    small = GearStage.from_dict(data)
+    assert GearStage.from_dict(small.to_dict()) == small
+    report, sobol = reliability(small)
+    pf, lo, hi = (float(report[k]) for k in ("pf", "pf_lower", "pf_upper"))
+    assert 0.0 < lo <= pf <= hi < 1.0 and int(report["n_model_runs"]) == 300
+    model = gearuq.get_model("mesh_oscillator", stage=small)
+    space = ParameterSpace(small.random_inputs)
+    draws = space.sample(400, rng=99)
+    ds = model.response(draws, None, outputs=["peak_dte_amplitude"], n_frequencies=11,
+                        frequency_min=0.7, frequency_max=1.3)
+    independent = float(np.mean(ds["peak_dte_amplitude"].values > 6e-6))
+    assert lo - 0.05 <= independent <= hi + 0.05  # two estimates of one probability
+    assert set(sobol["parameter"].values) == {"damping_ratio", "mean_force"}
+    ds = analyse_stage(small, positions_per_cycle=8, n_pts=6, n_speeds=50, progress=False)
+    paths = write_stage_results(ds, tmp_path / "out", reliability=(report, sobol),
+                                reliability_settings=small.reliability_settings)
+    text = paths["report"].read_text()
+    assert "Reliability" in text and "Sobol" in text and "pf_upper" in text
+    assert gearuq.load(paths["reliability"])["pf"].item() == pf
+    assert (tmp_path / "out" / "reliability.csv").exists()

@@ -466,6 +466,13 @@ class GearStage:
         Random inputs by model parameter name, each a ``gearuq.ParameterSpace`` spec (a
         mapping such as ``{"dist": "uniform", "lower": 5, "upper": 11}``), stored as sorted
         ``(key, value)`` tuples so the stage stays hashable; see :attr:`random_inputs`.
+    reliability : tuple of (key, value)
+        The limit of ``gearuq run``'s reliability step (``[reliability]`` in the file):
+        ``model`` (a registered gear model, built from the stage), ``output``, ``lower`` and/or
+        ``upper`` (the allowed band, in the output's units), ``method`` (default
+        ``"subset"``), ``seed``, ``n_base`` (Sobol' base sample, default 128),
+        ``model_options`` and ``method_settings`` (tables); see
+        :attr:`reliability_settings`.
     stiffness_source : {"ltca", "iso6336"}
         Source of the stage's one mesh stiffness (:func:`stage_mesh_stiffness`): the LTCA
         (default) or ISO 6336-1 method B (Li, Hu and Han's model, kept for its file).
@@ -500,6 +507,7 @@ class GearStage:
     wheel_shaft: Shaft | None = None
     operation: Operation = field(default_factory=Operation)
     random: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
+    reliability: tuple[tuple[str, Any], ...] = ()
     stiffness_source: str = "ltca"
     name: str = "stage"
     description: str = ""
@@ -553,6 +561,7 @@ class GearStage:
         self._check_gears(pair)
         self._check_shafts(pair)
         self._check_random()
+        self._check_reliability()
 
     def _build_pair(self) -> HelicalGearPair:
         try:
@@ -622,6 +631,40 @@ class GearStage:
             if not isinstance(spec.get("dist"), str):
                 raise ValueError(f"[random.{item[0]}] needs dist = \"normal\" | \"uniform\" | "
                                  f"... (gearuq.ParameterSpace), got {spec!r}")
+
+    def _check_reliability(self) -> None:
+        if not self.reliability:
+            return
+        valid = {"model", "output", "lower", "upper", "method", "seed", "n_base",
+                 "model_options", "method_settings"}
+        settings = self.reliability_settings
+        unknown = sorted(set(settings) - valid)
+        if unknown:
+            raise ValueError(f"[reliability]: unknown key(s) {unknown}; valid keys: "
+                             f"{sorted(valid)}")
+        for key in ("model", "output"):
+            if not isinstance(settings.get(key), str):
+                raise ValueError(f"[reliability] needs {key} = \"...\" (a string), got "
+                                 f"{settings.get(key)!r}")
+        if "lower" not in settings and "upper" not in settings:
+            raise ValueError("[reliability] needs lower and/or upper (the allowed band of "
+                             "the output)")
+        for key in ("lower", "upper"):
+            if key in settings:
+                _number(f"[reliability] {key}", settings[key])
+        if "n_base" in settings:
+            _integer("[reliability] n_base", settings["n_base"], 8, 1 << 20)
+        if not self.random:
+            raise ValueError("[reliability] needs random inputs ([random.NAME] tables)")
+
+    @property
+    def reliability_settings(self) -> dict[str, Any]:
+        """The ``[reliability]`` table as a dict (``model_options`` as a dict)."""
+        out = dict(self.reliability)
+        for key in ("model_options", "method_settings"):
+            if key in out:
+                out[key] = dict(out[key])
+        return out
 
     # ------------------------------------------------------------------ derived geometry
     @property
@@ -749,6 +792,8 @@ class GearStage:
         out["operation"] = _plain(self.operation)
         if self.random:
             out["random"] = self.random_inputs
+        if self.reliability:
+            out["reliability"] = self.reliability_settings
         return _drop_none(out)
 
     @classmethod
@@ -757,7 +802,8 @@ class GearStage:
         if not isinstance(data, Mapping):
             raise TypeError(f"a stage must be a table, got {type(data).__name__}")
         tables = {"name", "description", "source", "stiffness_source", "pair", "pinion",
-                  "wheel", "material", "pinion_shaft", "wheel_shaft", "operation", "random"}
+                  "wheel", "material", "pinion_shaft", "reliability", "wheel_shaft",
+                  "operation", "random"}
         unknown = sorted(set(data) - tables)
         if unknown:
             raise ValueError(f"unknown table(s) or key(s) {unknown}; valid: {sorted(tables)}")
@@ -767,7 +813,7 @@ class GearStage:
         pair = dict(data["pair"]) if isinstance(data["pair"], Mapping) else data["pair"]
         _known_keys("[pair]", pair, cls)
         for key in ("pinion", "wheel", "material", "pinion_shaft", "wheel_shaft",
-                    "operation", "random", "name", "description", "source",
+                    "operation", "random", "reliability", "name", "description", "source",
                     "stiffness_source"):
             if key in pair:
                 raise ValueError(f"[pair] {key}: not a [pair] key")
@@ -800,6 +846,13 @@ class GearStage:
             kwargs["random"] = tuple((k, tuple(sorted((kk, _freeze(vv)) for kk, vv in
                                                       v.items())))
                                      for k, v in sorted(rnd.items()))
+        if "reliability" in data:
+            rel = data["reliability"]
+            if not isinstance(rel, Mapping):
+                raise TypeError("[reliability] must be a table")
+            kwargs["reliability"] = tuple(
+                (k, tuple(sorted((kk, _freeze(vv)) for kk, vv in v.items()))
+                 if isinstance(v, Mapping) else _freeze(v)) for k, v in sorted(rel.items()))
         for key in ("name", "description", "source", "stiffness_source"):
             if key in data:
                 kwargs[key] = data[key]
