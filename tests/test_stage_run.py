@@ -18,7 +18,7 @@ def e_axle_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run")
     path = out / "e_axle.toml"
     GearStage.example("e_axle_27_79").to_toml(path)
-    assert main(["run", str(path), "--out", str(out / "res"), "--quiet",
+    assert main(["run", str(path), "--out", str(out / "res"), "--quiet", "--no-reliability",
                  "--n-speeds", "400"]) == 0
     return out / "res"
 
