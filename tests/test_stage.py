@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import warnings
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -288,3 +289,63 @@ def test_band_warning_is_raised_outside_the_band(monkeypatch, e_axle):
         r = mod.stage_mesh_stiffness(e_axle, positions_per_cycle=8, n_pts=8)
     assert not r.within_band
     mod._stage_mesh_stiffness.cache_clear()
+
+
+_any = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 500),
+                 st.text(max_size=2), st.none(), st.lists(st.floats(0, 100), max_size=3))
+_relief = st.fixed_dictionaries(
+    {"shape": st.one_of(st.sampled_from(["linear", "parabolic", "arc"]), _any),
+     "amount": st.one_of(st.floats(0.0, 50.0), _any)},
+    optional={"start_diameter": st.one_of(st.floats(50.0, 70.0), _any),
+              "start_roll_length": st.one_of(st.floats(5.0, 20.0), _any),
+              "amount_tolerance": st.one_of(st.floats(0.0, 10.0), _any)})
+_bearing = st.fixed_dictionaries(
+    {"position": st.one_of(st.floats(-10.0, 200.0), _any),
+     "radial_stiffness": st.one_of(st.floats(0.0, 1e3), _any)},
+    optional={"axial_stiffness": st.one_of(st.floats(0.0, 1e3), _any),
+              "damping": st.one_of(st.floats(0.0, 1e3), _any)})
+_shaft = st.fixed_dictionaries(
+    {"sections": st.one_of(st.lists(st.tuples(st.floats(1.0, 100.0), st.floats(5.0, 80.0),
+                                              st.floats(0.0, 10.0)).map(list),
+                                    min_size=1, max_size=4), _any),
+     "gear_position": st.one_of(st.floats(-10.0, 300.0), _any),
+     "bearings": st.lists(_bearing, max_size=3)},
+    optional={"end_inertia": st.one_of(st.floats(0.0, 1.0), _any)})
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(tip=st.one_of(st.none(), _relief), root=st.one_of(st.none(), _relief),
+       grade=st.one_of(st.integers(0, 14), _any), shaft=st.one_of(st.none(), _shaft),
+       torque=st.one_of(st.lists(st.floats(-10.0, 500.0), min_size=2, max_size=2), _any))
+def test_generated_full_stages_fail_only_with_a_message(tip, root, grade, shaft, torque):
+    data = {"pair": {"normal_module": 2.0, "teeth": [27, 79], "normal_pressure_angle": 20.0,
+                     "helix_angle": 22.0, "face_width": [30.0, 28.0],
+                     "profile_shift": [0.3, -0.2]},
+            "pinion": {"iso_grade": grade}, "operation": {"torque": torque}}
+    if tip is not None:
+        data["pinion"]["tip_relief"] = tip
+    if root is not None:
+        data["pinion"]["root_relief"] = root
+    if shaft is not None:
+        data["pinion_shaft"] = shaft
+    try:
+        stage = GearStage.from_dict(data)
+    except (ValueError, TypeError) as exc:
+        assert str(exc)
+        return
+    assert GearStage.from_dict(stage.to_dict()) == stage
+    p = stage.pair
+    s = np.linspace(p.g_f1, p.g_f1 + p.g_alpha, 9) * 1e3
+    relief = stage.profile_relief(s)
+    assert np.all(np.isfinite(relief)) and np.all(relief >= 0.0)
+
+
+def test_iso_tr_6336_30_stage_stiffness_table_matches_the_published_example():
+    """The stage file's ISO 6336-1 table against the worked example's printed values
+    (q' = 0.0560041 mm um/N, c'_th = 17.8558, c' = 12.3705 N/(mm um))."""
+    from gearuq.stage_analysis import iso6336_table
+
+    table = iso6336_table(GearStage.example("iso_tr_6336_30_example1"))["iso6336"]
+    assert table.sel(iso_quantity="q_prime").item() == pytest.approx(0.0560041, abs=5e-8)
+    assert table.sel(iso_quantity="c_th").item() == pytest.approx(17.8558, abs=5e-5)
+    assert table.sel(iso_quantity="c_prime").item() == pytest.approx(12.3705, abs=5e-5)
