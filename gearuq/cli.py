@@ -198,7 +198,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from gearuq.gears.stage import GearStage
     from gearuq.stage_analysis import analyse_stage, write_stage_results
 
-    stage = GearStage.from_toml(args.stage)
+    # a file, or the name of a shipped stage (GearStage.examples())
+    is_file = any(c in args.stage for c in "./\\")
+    stage = GearStage.from_toml(args.stage) if is_file else GearStage.example(args.stage)
     ds = analyse_stage(stage, progress=not args.quiet, stage_file=str(args.stage),
                        n_speeds=args.n_speeds)
     out = args.out or f"gearuq_{stage.name}"
@@ -302,7 +304,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="analyse a gear stage file: geometry, ISO 6336-1, LTCA, "
                        "run-up; netCDF, CSV and an HTML report",
                        description="The deterministic analysis of a stage (docs/stage.md).")
-    p.add_argument("stage", help="stage file (TOML), e.g. one of GearStage.examples()")
+    p.add_argument("stage", help="stage file (TOML), or the name of a shipped stage "
+                   "(GearStage.examples(), e.g. e_axle_27_79)")
     p.add_argument("--out", default=None, help="output folder (default: gearuq_<stage name>)")
     p.add_argument("--n-speeds", type=int, default=1000, help="speeds of the run-up")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -183,3 +183,16 @@ def test_pair_link_from_a_stage(e_axle):
     _, scales = oscillator_inputs(link.high, params, "mesh_line")
     assert scales["k"][0] == pytest.approx(stage_mesh_stiffness(e_axle).value * 1e6,
                                            rel=1e-14)
+
+
+@pytest.mark.parametrize("name, t, options", [
+    ("helical_pair", np.linspace(0.0, 5.0, 4), {}),
+    ("mesh_oscillator", None, {"n_frequencies": 5}),
+    ("mesh_excitation", np.array([0.0, 0.5]), {"positions_per_cycle": 4, "n_pts": 3,
+                                               "n_mesh_orders": 1, "n_sidebands": 1,
+                                               "threads": 1}),
+])
+def test_models_built_from_a_stage_honour_the_contract(e_axle, name, t, options):
+    from gearuq.testing import check_model
+
+    check_model(gearuq.get_model(name, stage=e_axle), t, options=options, n_samples=2)
