@@ -264,16 +264,37 @@ def test_generated_stages_fail_only_with_a_message(mn, z1, z2, an, beta, b, x, h
     assert GearStage.from_dict(stage.to_dict()) == stage
 
 
+def _iso6336_c_gamma_b(stage) -> float:
+    """ISO 6336-1:2019 method B c_gamma_alpha b [N/um], written here from the standard."""
+    z1, z2 = stage.teeth
+    x1, x2 = stage.profile_shift
+    beta, an = math.radians(stage.helix_angle), math.radians(stage.normal_pressure_angle)
+    at = math.atan(math.tan(an) / math.cos(beta))
+    bb = math.atan(math.tan(beta) * math.cos(at))
+    zn1, zn2 = (z / (math.cos(bb) ** 2 * math.cos(beta)) for z in (z1, z2))
+    q = (0.04723 + 0.15551 / zn1 + 0.25791 / zn2 - 0.00635 * x1 - 0.11654 * x1 / zn1
+         - 0.00193 * x2 - 0.24188 * x2 / zn2 + 0.00529 * x1**2 + 0.00182 * x2**2)
+    c_b = (1 + 0.5 * (1.2 - stage.dedendum_factor)) * (
+        1 - 0.02 * (20.0 - stage.normal_pressure_angle))
+    c_prime = 0.8 * 1.0 * c_b * math.cos(beta) / q
+    eps_alpha = stage.summary()["eps_alpha"]
+    return c_prime * (0.75 * eps_alpha + 0.25) * min(stage.face_width)
+
+
 def test_stage_mesh_stiffness_against_iso_6336_1(e_axle):
     """Mean LTCA stiffness against ISO 6336-1 c_gamma (an oracle sharing no code): the
     like-for-like ratio lies in the measured band, for the paper's pair and the e-axle."""
     with warnings.catch_warnings():
         warnings.simplefilter("error", StiffnessBandWarning)
-        for stage in (GearStage.example("yuan_liu_liu"), e_axle):
+        for stage in (GearStage.example("yuan_liu_liu"), e_axle,
+                      GearStage.example("iso_tr_6336_30_example1")):
             r = stage_mesh_stiffness(stage, positions_per_cycle=8, n_pts=8)
-            # ISO 6336-1 method B, written here: c' = 1/q' C_M C_R C_B cos(beta), c_gamma =
-            # c' (0.75 eps_alpha + 0.25); for the e-axle the pair value sits in 400-700 N/um
-            assert r.band[0] <= r.ratio <= r.band[1]
+            iso = _iso6336_c_gamma_b(stage)
+            assert r.iso_c_gamma_b == pytest.approx(iso, rel=1e-9)
+            beta_b = math.radians(stage.summary()["beta_b_deg"])
+            ratio = r.secant_mean * math.cos(beta_b) ** 2 / iso
+            assert r.ratio == pytest.approx(ratio, rel=1e-12)
+            assert r.band[0] <= ratio <= r.band[1]
             assert r.tangent_mean > r.secant_mean > 0  # stiffening Hertzian contact
             assert r.value == r.tangent_mean and r.source == "ltca"
     li = stage_mesh_stiffness(GearStage.example("li_hu_han"), positions_per_cycle=8, n_pts=8)
