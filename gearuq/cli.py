@@ -213,6 +213,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
                                 reliability_settings=stage.reliability_settings)
     for kind, path in paths.items():
         print(f"{kind:<10} {path}")
+    print(f"mesh stiffness {ds.attrs['mesh_stiffness_N_per_um']:.1f} N/um "
+          f"({ds.attrs['mesh_stiffness_definition']})")
+    if rel is not None:
+        rep = rel[0]
+        print(f"pf {float(rep['pf']):.3g} [{float(rep['pf_lower']):.3g}, "
+              f"{float(rep['pf_upper']):.3g}] in {int(rep['n_model_runs'])} runs, status "
+              f"{int(rep['status'])}: {rep.attrs.get('message', '')}")
     return 0
 
 
