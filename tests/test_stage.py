@@ -370,3 +370,27 @@ def test_iso_tr_6336_30_stage_stiffness_table_matches_the_published_example():
     assert table.sel(iso_quantity="q_prime").item() == pytest.approx(0.0560041, abs=5e-8)
     assert table.sel(iso_quantity="c_th").item() == pytest.approx(17.8558, abs=5e-5)
     assert table.sel(iso_quantity="c_prime").item() == pytest.approx(12.3705, abs=5e-5)
+
+
+def test_helix_slope_deviation_tilts_the_clearance_and_softens_the_mesh(e_axle):
+    """f_Hbeta enters the stage's LTCA as the clearance f_Hbeta (y/b - 1/2) cos(beta_b)
+    (written here), antisymmetric over the face; a slope that opens part of the face
+    unloads it, so the mean mesh stiffness drops."""
+    from dataclasses import replace
+
+    tilted = replace(e_axle, pinion=replace(e_axle.pinion, helix_slope_deviation=6.0),
+                     wheel=replace(e_axle.wheel, helix_slope_deviation=4.0))
+    p = tilted.pair
+    s_mid = np.full(3, (p.g_f1 + 0.5 * p.g_alpha))  # mid path: no relief there
+    y = np.array([0.0, 0.5, 1.0]) * p.face_width
+    got = tilted.relief_clearance()(s_mid, y, np.zeros(3, int), np.zeros(3, int))
+    expect = 10e-6 * (y / p.face_width - 0.5) * math.cos(p.beta_b)
+    np.testing.assert_allclose(got, expect, rtol=1e-12, atol=1e-18)
+    straight = stage_mesh_stiffness(e_axle, positions_per_cycle=8, n_pts=8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StiffnessBandWarning)
+        slanted = stage_mesh_stiffness(tilted, positions_per_cycle=8, n_pts=8)
+    assert slanted.secant_mean < straight.secant_mean
+    # mesh_excitation carries it in the stage's clearance map (reliefs as amount parameters)
+    model = gearuq.get_model("mesh_excitation", stage=tilted)
+    assert model.stage_relief is not None and "pinion_tip_relief_amount" in model.parameter_names

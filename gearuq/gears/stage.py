@@ -188,7 +188,10 @@ class GearData:
     lead_crowning : float
         Lead crowning ``C_b`` [um], >= 0.
     helix_slope_deviation : float
-        Helix slope deviation ``f_Hbeta`` [um] over the face width (sign: ISO 1328).
+        Helix slope deviation ``f_Hbeta`` [um] over the face width, signed in the mesh:
+        positive opens the gap towards the face end ``y = b`` of the contact (the two gears'
+        values add). The LTCA of the stage (:meth:`GearStage.flank_deviations`) takes it as
+        the clearance ``f_Hbeta (y / b - 1/2)``.
     """
 
     iso_grade: int | None = None
@@ -748,12 +751,14 @@ class GearStage:
         return total
 
     def relief_clearance(self, amounts: Mapping[str, float] | None = None) -> Any:
-        """The reliefs as ``FlankDeviations.user``: ``f(s, y, k1, k2)`` -> normal clearance [m].
+        """The reliefs and helix slope deviations as ``FlankDeviations.user``:
+        ``f(s, y, k1, k2)`` -> normal clearance [m].
 
-        ``None`` when the stage has no relief; ``amounts`` as in :meth:`profile_relief`.
+        ``None`` when the stage has neither; ``amounts`` as in :meth:`profile_relief`.
         """
         if not any(getattr(g, f"{k}_relief") is not None
-                   for g in (self.pinion, self.wheel) for k in ("tip", "root")):
+                   for g in (self.pinion, self.wheel) for k in ("tip", "root")) and not (
+                self.pinion.helix_slope_deviation or self.wheel.helix_slope_deviation):
             return None
         return _ProfileClearance(self, math.cos(self.pair.beta_b), amounts)
 
@@ -918,7 +923,9 @@ class GearStage:
 
 
 class _ProfileClearance:
-    """``user(s, y, k1, k2)`` of FlankDeviations: the stage's reliefs as normal clearance."""
+    """``user(s, y, k1, k2)`` of FlankDeviations: the stage's reliefs and helix slope
+    deviations as normal clearance [m] (transverse values times ``cos(beta_b)``, as the
+    LTCA's own reliefs and crowning)."""
 
     def __init__(self, stage: GearStage, cos_bb: float,
                  amounts: Mapping[str, float] | None = None) -> None:
@@ -927,9 +934,14 @@ class _ProfileClearance:
     def __call__(self, s: Any, y: Any, k1: Any, k2: Any) -> Any:
         import numpy as np
 
-        relief = self.stage.profile_relief(np.asarray(s) * 1e3, self.amounts) * 1e-6
+        stage = self.stage
+        relief = stage.profile_relief(np.asarray(s) * 1e3, self.amounts) * 1e-6
+        slope = to_si(stage.pinion.helix_slope_deviation + stage.wheel.helix_slope_deviation,
+                      "1e-6")
+        if slope:
+            relief = relief + slope * (np.asarray(y) / stage.pair.face_width - 0.5)
         return np.broadcast_to(relief * self.cos_bb, np.broadcast_shapes(
-            np.shape(s), np.shape(k1), np.shape(k2)))
+            np.shape(s), np.shape(y), np.shape(k1), np.shape(k2)))
 
 
 def _freeze(value: Any) -> Any:

@@ -203,8 +203,9 @@ def _from_stage(stage: Any) -> tuple[Any, dict[str, float], dict[str, float],
     One parabolic relief shared by both gears maps onto the ``*_relief_*`` parameters (the
     built-in LTCA path); any other relief (linear, arc, per gear) is carried as the stage's
     clearance map with one amount parameter per relief (``pinion_tip_relief_amount``...).
-    Different ISO classes add ``iso_grade_wheel``. Measured pitch deviations and helix slope
-    deviations are refused: the model's pitch deviations are random.
+    Different ISO classes add ``iso_grade_wheel``; helix slope deviations travel in the
+    clearance map. Measured pitch deviations are refused: the model's pitch deviations are
+    random.
     """
     from gearuq.gears.stage import GearStage, to_si
 
@@ -223,17 +224,19 @@ def _from_stage(stage: Any) -> tuple[Any, dict[str, float], dict[str, float],
                                integer=True))
     for gear in ("pinion", "wheel"):
         data = getattr(stage, gear)
-        for name in ("single_pitch_deviations", "helix_slope_deviation"):
-            if getattr(data, name):
-                raise ValueError(f"stage {stage.name!r}: [{gear}] {name} is not taken by "
-                                 "mesh_excitation (its pitch deviations are random, from the "
-                                 "germ or the ISO class; no helix slope deviation)")
+        if data.single_pitch_deviations is not None:
+            raise ValueError(f"stage {stage.name!r}: [{gear}] single_pitch_deviations is not "
+                             "taken by mesh_excitation (its pitch deviations are random, from "
+                             "the germ or the ISO class)")
+    # a helix slope deviation travels in the stage's clearance map, so the reliefs go too
+    slope = bool(stage.pinion.helix_slope_deviation or stage.wheel.helix_slope_deviation)
     keys: list[str] = []
     for kind in ("tip", "root"):
         reliefs = [getattr(stage.pinion, f"{kind}_relief"),
                    getattr(stage.wheel, f"{kind}_relief")]
         lengths = [stage.relief_length(g, kind) for g in ("pinion", "wheel")]
-        shared = (None not in reliefs and all(r.shape == "parabolic" for r in reliefs)
+        shared = (not slope and None not in reliefs
+                  and all(r.shape == "parabolic" for r in reliefs)
                   and reliefs[0].amount == reliefs[1].amount
                   and abs(lengths[0] - lengths[1]) <= 1e-9)
         if shared:
@@ -251,7 +254,7 @@ def _from_stage(stage: Any) -> tuple[Any, dict[str, float], dict[str, float],
                 "the path of contact, along the line of action)"))
     material = {"E": to_si(stage.material.young_modulus, "1e6"),
                 "nu": stage.material.poisson_ratio}
-    relief = _StageRelief(stage, tuple(keys)) if keys else None
+    relief = _StageRelief(stage, tuple(keys)) if keys or slope else None
     return stage.pair, material, nominal, tuple(added), relief
 
 
