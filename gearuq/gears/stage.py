@@ -489,6 +489,14 @@ class GearStage:
         pointed tip, tip interference, transverse contact ratio below 1, a bearing off its
         shaft, a gear face beyond its shaft, a relief starting outside the active profile).
         The message names the file's parameter and the limit.
+
+    Examples
+    --------
+    >>> stage = GearStage.example("e_axle_27_79")
+    >>> stage.teeth, stage.is_hunting_tooth, stage.long_period_mesh_cycles
+    ((27, 79), True, 2133)
+    >>> round(stage.summary()["eps_alpha"], 3)
+    1.496
     """
 
     normal_module: float
