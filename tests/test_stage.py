@@ -314,29 +314,29 @@ def test_band_warning_is_raised_outside_the_band(monkeypatch, e_axle):
 
 _any = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 500),
                  st.text(max_size=2), st.none(), st.lists(st.floats(0, 100), max_size=3))
-_relief = st.fixed_dictionaries(
+_relief_tables = st.fixed_dictionaries(
     {"shape": st.one_of(st.sampled_from(["linear", "parabolic", "arc"]), _any),
      "amount": st.one_of(st.floats(0.0, 50.0), _any)},
     optional={"start_diameter": st.one_of(st.floats(50.0, 70.0), _any),
               "start_roll_length": st.one_of(st.floats(5.0, 20.0), _any),
               "amount_tolerance": st.one_of(st.floats(0.0, 10.0), _any)})
-_bearing = st.fixed_dictionaries(
+_bearing_tables = st.fixed_dictionaries(
     {"position": st.one_of(st.floats(-10.0, 200.0), _any),
      "radial_stiffness": st.one_of(st.floats(0.0, 1e3), _any)},
     optional={"axial_stiffness": st.one_of(st.floats(0.0, 1e3), _any),
               "damping": st.one_of(st.floats(0.0, 1e3), _any)})
-_shaft = st.fixed_dictionaries(
+_shaft_tables = st.fixed_dictionaries(
     {"sections": st.one_of(st.lists(st.tuples(st.floats(1.0, 100.0), st.floats(5.0, 80.0),
                                               st.floats(0.0, 10.0)).map(list),
                                     min_size=1, max_size=4), _any),
      "gear_position": st.one_of(st.floats(-10.0, 300.0), _any),
-     "bearings": st.lists(_bearing, max_size=3)},
+     "bearings": st.lists(_bearing_tables, max_size=3)},
     optional={"end_inertia": st.one_of(st.floats(0.0, 1.0), _any)})
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(tip=st.one_of(st.none(), _relief), root=st.one_of(st.none(), _relief),
-       grade=st.one_of(st.integers(0, 14), _any), shaft=st.one_of(st.none(), _shaft),
+@given(tip=st.one_of(st.none(), _relief_tables), root=st.one_of(st.none(), _relief_tables),
+       grade=st.one_of(st.integers(0, 14), _any), shaft=st.one_of(st.none(), _shaft_tables),
        torque=st.one_of(st.lists(st.floats(-10.0, 500.0), min_size=2, max_size=2), _any))
 def test_generated_full_stages_fail_only_with_a_message(tip, root, grade, shaft, torque):
     data = {"pair": {"normal_module": 2.0, "teeth": [27, 79], "normal_pressure_angle": 20.0,
