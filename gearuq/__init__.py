@@ -52,6 +52,8 @@ _LAZY = {
     # I/O
     "save": "gearuq.io",
     "load": "gearuq.io",
+    # the gear stage
+    "GearStage": "gearuq.gears.stage",
 }
 
 _SUBMODULES = {

@@ -23,7 +23,13 @@ def _cmd_models(args: argparse.Namespace) -> int:
             else:
                 print(f"{r.name:<{width}}  {r.version:<7}  {r.description}")
         return 0
-    model = registry.get_model(args.name)
+    if getattr(args, "stage", None):
+        from gearuq.gears.stage import GearStage
+
+        model = registry.get_model(args.name, stage=GearStage.from_toml(args.stage))
+        print(f"built from the stage {args.stage}")
+    else:
+        model = registry.get_model(args.name)
     print(f"{model.name} {model.version}: {model.description}\n")
     print("parameters:")
     w = max(len(p.name) for p in model.parameters)
@@ -188,6 +194,35 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return run_bench(args.what, out=args.out, quick=args.quick)
 
 
+def _cmd_run(args: argparse.Namespace) -> int:
+    from gearuq.gears.stage import GearStage
+    from gearuq.stage_analysis import analyse_stage, write_stage_results
+
+    # a file, or the name of a shipped stage (GearStage.examples())
+    is_file = any(c in args.stage for c in "./\\")
+    stage = GearStage.from_toml(args.stage) if is_file else GearStage.example(args.stage)
+    ds = analyse_stage(stage, progress=not args.quiet, stage_file=str(args.stage),
+                       n_speeds=args.n_speeds)
+    out = args.out or f"gearuq_{stage.name}"
+    rel = None
+    if stage.reliability and not args.no_reliability:
+        from gearuq.stage_analysis import reliability
+
+        rel = reliability(stage, progress=not args.quiet)
+    paths = write_stage_results(ds, out, reliability=rel,
+                                reliability_settings=stage.reliability_settings)
+    for kind, path in paths.items():
+        print(f"{kind:<10} {path}")
+    print(f"mesh stiffness {ds.attrs['mesh_stiffness_N_per_um']:.1f} N/um "
+          f"({ds.attrs['mesh_stiffness_definition']})")
+    if rel is not None:
+        rep = rel[0]
+        print(f"pf {float(rep['pf']):.3g} [{float(rep['pf_lower']):.3g}, "
+              f"{float(rep['pf_upper']):.3g}] in {int(rep['n_model_runs'])} runs, status "
+              f"{int(rep['status'])}: {rep.attrs.get('message', '')}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of the ``gearuq`` command."""
     parser = argparse.ArgumentParser(
@@ -201,6 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Without NAME: table of registered models. With NAME: its "
                                    "parameters (units, nominal, valid range) and outputs.")
     p.add_argument("name", nargs="?", help="model to describe")
+    p.add_argument("--stage", default=None, metavar="FILE",
+                   help="describe the model built from this stage file (docs/stage.md)")
     p.set_defaults(func=_cmd_models)
 
     p = sub.add_parser("info", help="what a result file holds and how it was made",
@@ -270,6 +307,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=1,
                    help="parallel processes over the seeds (--coverage)")
     p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("run", help="analyse a gear stage file: geometry, ISO 6336-1, LTCA, "
+                       "run-up; netCDF, CSV and an HTML report",
+                       description="The deterministic analysis of a stage (docs/stage.md).")
+    p.add_argument("stage", help="stage file (TOML), or the name of a shipped stage "
+                   "(GearStage.examples(), e.g. e_axle_27_79)")
+    p.add_argument("--out", default=None, help="output folder (default: gearuq_<stage name>)")
+    p.add_argument("--n-speeds", type=int, default=1000, help="speeds of the run-up")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--no-reliability", action="store_true",
+                   help="skip the [reliability] step of the file (failure probability, Sobol')")
+    p.set_defaults(func=_cmd_run)
     return parser
 
 

@@ -9,6 +9,8 @@
 - :mod:`gearuq.gears.deviations`: pitch deviations, reliefs, crowning as initial clearances
 - :mod:`gearuq.gears.ltca`: loaded tooth contact analysis over the long period (STE, LPMS
   secant and tangent, CMS, force-deflection function)
+- :mod:`gearuq.gears.stage`: a user's gear stage (pair, accuracy, modifications, shafts,
+  bearings, operation), read from TOML, the one description every gear model builds from
 
 Submodules are imported on use so that ``import gearuq`` stays light; the main functions are
 also reachable as ``gearuq.gears.<name>`` (resolved lazily), e.g.
@@ -39,6 +41,8 @@ _LAZY = {
     "stiffness_at_deflection": "ltca",
     "normal_force_from_torque": "ltca",
     "tip_relief_map": "ltca",
+    "GearStage": "stage",
+    "stage_mesh_stiffness": "stage",
 }
 
 __all__ = sorted(_LAZY)

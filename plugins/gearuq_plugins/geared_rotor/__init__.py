@@ -181,6 +181,12 @@ class GearedRotor(Model):
     cache_size : int
         Number of LTCA excitations and rotor reductions kept between calls (a speed sweep at
         fixed torque and deviations runs the LTCA once).
+    stage : GearStage or None
+        Build the rotor of a stage (docs/stage.md): its pair, shafts, bearings, end inertias,
+        material and operating point, its pitch-deviation germ (``pitch_xi_*`` for its tooth
+        numbers). Refused with the reason for a long period beyond 120 mesh cycles (a
+        hunting-tooth pair), other than two bearings per shaft, bearings that differ, per-gear
+        classes or reliefs other than one shared parabolic tip relief.
     """
 
     name = "geared_rotor"
@@ -192,12 +198,23 @@ class GearedRotor(Model):
     outputs = _OUTPUTS
     options = _OPTIONS
 
-    def __init__(self, cache_size: int = 32) -> None:
+    def __init__(self, cache_size: int = 32, *, stage: Any = None) -> None:
         if int(cache_size) != cache_size or cache_size < 0:
             raise ValueError(f"cache_size={cache_size!r} is outside its valid range: "
                              "integers >= 0")
         self.cache_size = int(cache_size)
         self._cache: dict = {}
+        self.stage = stage
+        if stage is not None:
+            from gearuq_plugins.geared_rotor.stage import (
+                check_stage,
+                stage_compliance,
+                stage_parameters,
+            )
+
+            check_stage(stage)
+            self.parameters = stage_parameters(stage, _PARAMETERS)
+            self.compliance = stage_compliance(stage)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -206,10 +223,12 @@ class GearedRotor(Model):
 
     def settings(self) -> dict[str, Any]:
         """Construction options (provenance)."""
-        return {"cache_size": self.cache_size}
+        out: dict[str, Any] = {"cache_size": self.cache_size}
+        if getattr(self, "stage", None) is not None:
+            out["stage"] = self.stage.to_dict()
+        return out
 
-    @staticmethod
-    def default_space(pitch_harmonics: int | None = None) -> Any:
+    def default_space(self, pitch_harmonics: int | None = None) -> Any:
         """Random inputs: torque, bearing stiffness, damping and the pitch-deviation germ.
 
         ``torque`` uniform on 800-1200 N m; ``bearing_stiffness`` lognormal (median 5e8 N/m,
@@ -223,9 +242,11 @@ class GearedRotor(Model):
         from gearuq.gears.deviations import pitch_germ_dimension
         from gearuq.space import ParameterSpace
 
-        n = pitch_germ_dimension(30, pitch_harmonics)
+        stage = getattr(self, "stage", None)
+        teeth = (30, 30) if stage is None else stage.teeth  # a stage: its own germ
         germ = {name: {"dist": "normal", "mean": 0.0, "std": 1.0}
-                for g in (1, 2) for name in pitch_germ_names(30, g)[:n]}
+                for g, z in ((1, teeth[0]), (2, teeth[1]))
+                for name in pitch_germ_names(z, g)[:pitch_germ_dimension(z, pitch_harmonics)]}
         return ParameterSpace({
             "torque": {"dist": "uniform", "lower": 800.0, "upper": 1200.0},
             "bearing_stiffness": {"dist": "lognormal", "mu": math.log(5.0e8), "sigma": 0.2},

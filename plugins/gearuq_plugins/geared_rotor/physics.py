@@ -144,20 +144,25 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
     from gearuq.rotor.excitation import MeshExcitation
     from gearuq.rotor.geared import GearedRotorProblem
 
-    pair = seed_pair()
+    stage = getattr(model, "stage", None)
+    pair = seed_pair() if stage is None else stage.pair
     ppc, n_pts = options["positions_per_cycle"], options["n_pts"]
     setup = _cached(model, ("setup", ppc, n_pts),
-                    lambda: ltca_setup(pair, compliance=compliance_model(pair),
+                    lambda: ltca_setup(pair, compliance=compliance_model(pair) if stage is None
+                                       else model.compliance,
                                        positions_per_cycle=ppc, n_pts=n_pts))
+    germ_keys = _GERM_KEYS if stage is None else tuple(
+        k for k in values if k.startswith(("pitch_xi_p_", "pitch_xi_g_")))
     lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
             options["pitch_harmonics"]) + tuple(values[k] for k in _LTCA_KEYS) + tuple(
-        values.get(k, 0.0) for k in _GERM_KEYS)
+        values.get(k, 0.0) for k in germ_keys)
     excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
         setup, values["torque"],
         deviations=sample_deviations(pair, values, options["pitch_phases"],
                                      options["pitch_model"], options["pitch_harmonics"])))
     harmonics, cutoff_factor = ((options["range_mesh_harmonics"], options["range_cutoff_factor"])
-                                if speed_range else (mesh_harmonics(options, values["speed"]),
+                                if speed_range else (mesh_harmonics(options, values["speed"],
+                                                                    pair.z1),
                                                      options["cutoff_factor"]))
     H = harmonics * excitation.n_cycles
     rkey = ("rotor", H, cutoff_factor, options["moment_arm"],
@@ -167,6 +172,15 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
     ends = options["end_inertias"] == "parameters"
 
     def build() -> Any:
+        if stage is not None:  # the stage's FE rotor (gearuq.rotor.stage)
+            from gearuq_plugins.geared_rotor.stage import StageRotorFactory
+
+            factory: Any = StageRotorFactory(stage, values, options["moment_arm"], ends)
+            return GearedRotorProblem(factory, excitation, pair.z1,
+                                      damping_ratio=values["damping_ratio"], n_harmonics=H,
+                                      cutoff_factor=cutoff_factor,
+                                      backlash=values["backlash"] * 1e-6)
+
         def factory(k: float) -> Any:
             return seed002_rotor(
                 k, pair=pair, bearing_radial_stiffness=values["bearing_stiffness"],
@@ -183,7 +197,7 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
     return _cached(model, rkey, build)
 
 
-def mesh_harmonics(options: dict[str, Any], speed: float) -> int:
+def mesh_harmonics(options: dict[str, Any], speed: float, z1: int = 30) -> int:
     """Mesh harmonics of a steady state: the option, or chosen from the speed.
 
     ``n_mesh_harmonics=None``: every mesh harmonic up to ``harmonic_band`` Hz, at least 4,
@@ -193,7 +207,7 @@ def mesh_harmonics(options: dict[str, Any], speed: float) -> int:
     if options["n_mesh_harmonics"] is not None:
         return int(options["n_mesh_harmonics"])
     top = (options["positions_per_cycle"] - 1) // 2
-    f_mesh = 30 * speed / 60.0  # z1 = 30 (Yuan, Liu and Liu's pair)
+    f_mesh = z1 * speed / 60.0  # z1 = 30 for Yuan, Liu and Liu's pair
     return int(min(top, max(4, math.ceil(options["harmonic_band"] / f_mesh - 1e-9))))
 
 
@@ -295,7 +309,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     from gearuq.gears.contact import long_period_cycles
     from gearuq.rotor.geared import single_threaded_blas
 
-    pair = seed_pair()
+    pair = seed_pair() if getattr(model, "stage", None) is None else model.stage.pair
     n_cycles = long_period_cycles(pair)
     chosen = options["n_mesh_harmonics"]
     if chosen is not None and 2 * chosen >= options["positions_per_cycle"]:
@@ -322,8 +336,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     single = [o for o in outputs if o not in _RANGE_OUTPUTS]
     n = next(iter(params.values())).shape[0]
     speed_values = params.get("speed", np.full(n, model.parameter("speed").nominal))
-    per_sample = [mesh_harmonics(options, float(v)) for v in speed_values]
-    H = max(per_sample, default=mesh_harmonics(options, 4000.0)) * n_cycles
+    per_sample = [mesh_harmonics(options, float(v), pair.z1) for v in speed_values]
+    H = max(per_sample, default=mesh_harmonics(options, 4000.0, pair.z1)) * n_cycles
     shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
                                     for d in o.dims[1:]) for o in model.outputs}
     data = {name: np.full(shapes[name], np.nan) for name in outputs}

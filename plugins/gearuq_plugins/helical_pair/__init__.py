@@ -129,6 +129,13 @@ class HelicalPair(Model):
     use_virtual_teeth : bool
         ISO 6336 q' with virtual numbers of teeth (standard, default) or with z as Li, Hu and Han
         prints it.
+    stage : GearStage or None
+        Build from a stage (docs/stage.md): the nominal geometry, face widths, density,
+        design torque and speed, half backlash, bearing clearances and lumped supports come
+        from it, and the mesh stiffness is the stage's one (:func:`gearuq.gears.stage.
+        stage_mesh_stiffness`), applied as its ratio to ISO 6336-1 at the nominal geometry
+        so that sampled geometry still moves it. Shafts that differ add the parameters
+        ``k_r_wheel``, ``k_a_wheel``, ``span_wheel``.
 
     Notes
     -----
@@ -149,7 +156,8 @@ class HelicalPair(Model):
     outputs = OUTPUTS
     options = _OPTIONS
 
-    def __init__(self, stiffness_harmonics: Any = None, use_virtual_teeth: bool = True) -> None:
+    def __init__(self, stiffness_harmonics: Any = None, use_virtual_teeth: bool = True, *,
+                 stage: Any = None) -> None:
         from gearuq_plugins.helical_pair.layout import MAX_HARMONICS
 
         harm = np.zeros((0, 2)) if stiffness_harmonics is None else np.asarray(
@@ -164,13 +172,23 @@ class HelicalPair(Model):
                              f"mesh stiffness stays positive, got {np.abs(harm).sum():g}")
         self.stiffness_harmonics = harm
         self.use_virtual_teeth = bool(use_virtual_teeth)
+        self.stage = stage
+        self.stiffness_factor = 1.0
+        if stage is not None:
+            from gearuq_plugins.helical_pair.stage import from_stage
+
+            self.parameters, self.stiffness_factor = from_stage(
+                stage, _PARAMETERS, use_virtual_teeth=self.use_virtual_teeth)
 
     def settings(self) -> dict[str, Any]:
         """Construction options (recorded as provenance)."""
-        return {
+        out = {
             "stiffness_harmonics": self.stiffness_harmonics.tolist(),
             "use_virtual_teeth": self.use_virtual_teeth,
         }
+        if self.stage is not None:
+            out |= {"stage": self.stage.to_dict(), "stiffness_factor": self.stiffness_factor}
+        return out
 
     @staticmethod
     def default_space():
@@ -190,13 +208,15 @@ class HelicalPair(Model):
             raise ValueError(f"mesh_damping: {mesh_damping!r} is not 'always' or 'in_contact'")
         return build_system(params, harmonics=self.stiffness_harmonics,
                             use_virtual_teeth=self.use_virtual_teeth,
-                            gated=mesh_damping == "in_contact")
+                            gated=mesh_damping == "in_contact",
+                            stiffness_factor=self.stiffness_factor)
 
     def gear_data(self, params: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Geometry, masses, inertias and ISO 6336 mesh stiffness per sample (SI)."""
         from gearuq_plugins.helical_pair.physics import gear_data
 
-        return gear_data(params, use_virtual_teeth=self.use_virtual_teeth)
+        return gear_data(params, use_virtual_teeth=self.use_virtual_teeth,
+                         stiffness_factor=self.stiffness_factor)
 
     def coefficients(self, params: dict[str, np.ndarray], *,
                      mesh_damping: str = "always") -> tuple[np.ndarray, dict]:

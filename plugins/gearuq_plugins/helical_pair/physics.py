@@ -59,12 +59,14 @@ def _iso_per_width(row: tuple[float, ...], use_virtual_teeth: bool) -> tuple[flo
     return ms.c_gamma_alpha, ms.eps_alpha
 
 
-def gear_data(params: dict[str, np.ndarray], *, use_virtual_teeth: bool = True) -> dict:
+def gear_data(params: dict[str, np.ndarray], *, use_virtual_teeth: bool = True,
+              stiffness_factor: float = 1.0) -> dict:
     """Geometry, blank masses and inertias, ISO mesh stiffness per sample (SI units).
 
     Blank model: each gear is a solid steel cylinder of its reference diameter and face
     width (no bore, no web): m = rho pi r^2 B, polar J = m r^2 / 2, diametral
-    J_d = m (3 r^2 + B^2) / 12.
+    J_d = m (3 r^2 + B^2) / 12. ``stiffness_factor`` scales the ISO mesh stiffness (a
+    stage's LTCA value over ISO at its nominal geometry; 1.0 leaves it bit for bit).
     """
     rows = np.stack([params[k] for k in _GEOMETRY_KEYS], axis=1)
     unique, inverse = np.unique(rows, axis=0, return_inverse=True)
@@ -92,7 +94,7 @@ def gear_data(params: dict[str, np.ndarray], *, use_virtual_teeth: bool = True) 
         "J_gy": m_g * (3 * r_g**2 + params["B2"] ** 2) / 12.0,
         "c_gamma_alpha": c_ga[inverse], "eps_alpha": eps_a[inverse],
         # c_gamma_alpha [N/(mm um)] * b [mm] -> N/um -> * 1e6 N/m
-        "k_mesh": c_ga[inverse] * (b_eff * 1e3) * 1e6,
+        "k_mesh": c_ga[inverse] * (b_eff * 1e3) * 1e6 * stiffness_factor,
     }
 
 
@@ -125,9 +127,11 @@ def build_system(
     harmonics: np.ndarray,
     use_virtual_teeth: bool = True,
     gated: bool = False,
+    stiffness_factor: float = 1.0,
 ) -> PairSystem:
     """Gear data and coefficients of every sample (the whole set-up in one call)."""
-    gear = gear_data(params, use_virtual_teeth=use_virtual_teeth)
+    gear = gear_data(params, use_virtual_teeth=use_virtual_teeth,
+                     stiffness_factor=stiffness_factor)
     coef, derived = coefficients(params, gear, harmonics, gated=gated)
     return PairSystem(coef=coef, gear={**gear, **derived})
 
@@ -157,13 +161,18 @@ def support_stiffness(params: dict[str, np.ndarray], gear: dict[str, np.ndarray]
     """Support stiffness (n, 10) of each length coordinate [N/m]; torsion has none.
 
     Two bearings at +-span share k_r, so the swing stiffness is k_r span^2 (moment per
-    radian), divided by r^2 for the arc-length coordinate.
+    radian), divided by r^2 for the arc-length coordinate. The wheel takes ``k_r_wheel``,
+    ``k_a_wheel``, ``span_wheel`` when a stage declares them (its shafts differ), else the
+    pinion's values.
     """
     k_sw = params["k_r"] * params["span"] ** 2
+    k_r_g = params.get("k_r_wheel", params["k_r"])
+    k_a_g = params.get("k_a_wheel", params["k_a"])
+    k_sw_g = k_r_g * params.get("span_wheel", params["span"]) ** 2
     zero = np.zeros_like(k_sw)
     return np.stack([
         params["k_r"], params["k_r"], params["k_a"], k_sw / gear["r_p"] ** 2, zero,
-        params["k_r"], params["k_r"], params["k_a"], k_sw / gear["r_g"] ** 2, zero,
+        k_r_g, k_r_g, k_a_g, k_sw_g / gear["r_g"] ** 2, zero,
     ], axis=1)
 
 

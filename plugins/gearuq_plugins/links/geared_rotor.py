@@ -227,6 +227,11 @@ def build(rotor: Model | str = "geared_rotor", oscillator: Model | str = "mesh_o
 
     high = get_model(rotor) if isinstance(rotor, str) else rotor
     low = get_model(oscillator) if isinstance(oscillator, str) else oscillator
+    stage = getattr(high, "stage", None)
+    if stage is not None and stage.pair != seed002_pair():
+        raise ValueError(f"rotor: built from the stage {stage.name!r}; this link's map is "
+                         "written for Yuan, Liu and Liu's 30/30 rotor (its bodies and long "
+                         "period), a stage's rotor is not supported yet")
     if getattr(low, "dimensional", False):
         raise ValueError("oscillator: the link drives the nondimensional mesh oscillator "
                          "(get_model('mesh_oscillator') without a force)")

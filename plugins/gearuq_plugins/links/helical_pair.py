@@ -193,7 +193,7 @@ _OPTIONS = (
 
 
 def build(pair: Model | str = "helical_pair", oscillator: Model | str = "mesh_oscillator",
-          **low_options: Any) -> FidelityLink:
+          *, stage: Any = None, **low_options: Any) -> FidelityLink:
     """The link ``helical_pair -> mesh_oscillator`` (output ``mesh_force``).
 
     Parameters
@@ -201,6 +201,9 @@ def build(pair: Model | str = "helical_pair", oscillator: Model | str = "mesh_os
     pair, oscillator : Model or str
         The pair (a ``helical_pair`` instance, e.g. ``with_nominal(...)``, or its name) and the
         nondimensional mesh oscillator.
+    stage : GearStage, optional
+        Build the pair from this stage (``get_model("helical_pair", stage=stage)``: its
+        masses, supports and mesh stiffness); the oscillator's inputs follow from it.
     **low_options
         Fixed options of the oscillator's time integration (``rtol``, ``atol``,
         ``settle_tolerance``, ``ode_method``); defaults ``rtol=1e-5``, ``atol=1e-7``,
@@ -209,7 +212,11 @@ def build(pair: Model | str = "helical_pair", oscillator: Model | str = "mesh_os
     """
     from gearuq.registry import get_model
 
-    high = get_model(pair) if isinstance(pair, str) else pair
+    if stage is not None and not isinstance(pair, str):
+        raise ValueError("give stage= with the pair's name, not a built pair (the stage "
+                         "builds it)")
+    high = (get_model(pair, **({} if stage is None else {"stage": stage}))
+            if isinstance(pair, str) else pair)
     low = get_model(oscillator) if isinstance(oscillator, str) else oscillator
     harmonics = getattr(high, "stiffness_harmonics", np.zeros((0, 2)))
     if np.size(harmonics):

@@ -83,6 +83,11 @@ class MeshExcitation(Model):
     ----------
     pair : HelicalGearPair or None
         The gear pair; ``None``: Yuan, Liu and Liu's pair (30/30, m_n 6 mm, 18 deg, b 40 mm).
+    stage : GearStage or None
+        A stage instead of ``pair``: its pair, its material in the compliance, and as
+        nominal values its design torque, its ISO 1328 classes, its reliefs (any shape, per
+        gear) and its lead crowning; measured pitch deviations are refused with the reason
+        (docs/stage.md, "What each model takes").
     coupling_length : float or None
         Face-width coupling length of the compliance [m]; ``None``: the cantilever-plate
         calibration (:func:`gearuq.gears.face_coupling.plate_coupling_length`).
@@ -107,6 +112,7 @@ class MeshExcitation(Model):
         self,
         pair: Any = None,
         *,
+        stage: Any = None,
         coupling_length: float | None = None,
         bore_ratio: float = 0.5,
         hertz: bool = True,
@@ -114,15 +120,24 @@ class MeshExcitation(Model):
         from gearuq.gears.compliance import ComplianceModel
         from gearuq.gears.geometry import HelicalGearPair, seed002_pair
 
+        material: dict[str, float] = {}
+        nominal: dict[str, float] = {}
+        added: tuple[Parameter, ...] = ()
+        self.stage_relief = None
+        if stage is not None:
+            if pair is not None:
+                raise ValueError("give pair= or stage=, not both (the stage holds its pair)")
+            pair, material, nominal, added, self.stage_relief = _from_stage(stage)
         if pair is None:
             pair = seed002_pair()
         if not isinstance(pair, HelicalGearPair):
             raise ValueError(f"pair={pair!r} must be a gearuq.gears.HelicalGearPair")
         self.pair = pair
+        self.stage = stage
         # validates coupling_length and bore_ratio with clear messages
         self.compliance = ComplianceModel(pair, coupling_length=coupling_length,
-                                          bore_ratio=bore_ratio, hertz=bool(hertz))
-        self.parameters = _parameters(pair)
+                                          bore_ratio=bore_ratio, hertz=bool(hertz), **material)
+        self.parameters = _with_nominal(_parameters(pair), nominal) + added
         self._cache: dict[Any, Any] = {}
 
     def __getstate__(self) -> dict[str, Any]:
@@ -140,7 +155,7 @@ class MeshExcitation(Model):
             "coupling_length_m": float(self.compliance.coupling_length),
             "bore_ratio": self.compliance.bore_ratio,
             "hertz": bool(self.compliance.hertz),
-        }
+        } | ({} if getattr(self, "stage", None) is None else {"stage": self.stage.to_dict()})
 
     def default_space(self, pitch_harmonics: int | None = None) -> Any:
         """Yuan, Liu and Liu's random input: torque 200-1000 N m and the pitch-deviation germ.
@@ -168,6 +183,93 @@ class MeshExcitation(Model):
             options = {**options, "threads": len(os.sched_getaffinity(0))
                        if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)}
         return evaluate(self, params, t, outputs, **options)
+
+
+class _StageRelief:
+    """A stage's reliefs with each amount read from a sample's parameter values."""
+
+    def __init__(self, stage: Any, keys: tuple[str, ...]) -> None:
+        self.stage, self.keys = stage, keys
+
+    def __call__(self, values: dict[str, float]) -> Any:
+        return self.stage.relief_clearance({k: values[f"{k}_relief_amount"]
+                                            for k in self.keys})
+
+
+def _from_stage(stage: Any) -> tuple[Any, dict[str, float], dict[str, float],
+                                     tuple[Parameter, ...], _StageRelief | None]:
+    """What a stage sets: pair, material, nominal values, added parameters, relief map.
+
+    One parabolic relief shared by both gears maps onto the ``*_relief_*`` parameters (the
+    built-in LTCA path); any other relief (linear, arc, per gear) is carried as the stage's
+    clearance map with one amount parameter per relief (``pinion_tip_relief_amount``...).
+    Different ISO classes add ``iso_grade_wheel``; helix slope deviations travel in the
+    clearance map. Measured pitch deviations are refused: the model's pitch deviations are
+    random.
+    """
+    from gearuq.gears.stage import GearStage, to_si
+
+    if not isinstance(stage, GearStage):
+        raise TypeError(f"stage={stage!r} must be a gearuq.GearStage")
+    nominal: dict[str, float] = {"torque": stage.operation.torque_design,
+                                 "crowning": stage.pinion.lead_crowning
+                                 + stage.wheel.lead_crowning}
+    added: list[Parameter] = []
+    grades = [stage.pinion.iso_grade or 0, stage.wheel.iso_grade or 0]
+    nominal["iso_grade"] = float(grades[0])
+    if grades[1] != grades[0]:
+        added.append(Parameter("iso_grade_wheel", "1", grades[1], 0, 12,
+                               "ISO 1328-1 class of the wheel (the stage's; iso_grade is then "
+                               "the pinion's); 0: pitch_amplitude and pitch_sigma",
+                               integer=True))
+    for gear in ("pinion", "wheel"):
+        data = getattr(stage, gear)
+        if data.single_pitch_deviations is not None:
+            raise ValueError(f"stage {stage.name!r}: [{gear}] single_pitch_deviations is not "
+                             "taken by mesh_excitation (its pitch deviations are random, from "
+                             "the germ or the ISO class)")
+    # a helix slope deviation travels in the stage's clearance map, so the reliefs go too
+    slope = bool(stage.pinion.helix_slope_deviation or stage.wheel.helix_slope_deviation)
+    keys: list[str] = []
+    for kind in ("tip", "root"):
+        reliefs = [getattr(stage.pinion, f"{kind}_relief"),
+                   getattr(stage.wheel, f"{kind}_relief")]
+        lengths = [stage.relief_length(g, kind) for g in ("pinion", "wheel")]
+        shared = (not slope and None not in reliefs
+                  and all(r.shape == "parabolic" for r in reliefs)
+                  and reliefs[0].amount == reliefs[1].amount
+                  and abs(lengths[0] - lengths[1]) <= 1e-9)
+        if shared:
+            nominal[f"{kind}_relief_amount"] = reliefs[0].amount
+            nominal[f"{kind}_relief_length"] = lengths[0]
+            continue
+        for gear, relief, length in zip(("pinion", "wheel"), reliefs, lengths, strict=True):
+            if relief is None:
+                continue
+            keys.append(f"{gear}_{kind}")
+            added.append(Parameter(
+                f"{gear}_{kind}_relief_amount", "um", relief.amount, 0.0, 200.0,
+                f"{relief.shape} {kind} relief of the {gear} (the stage's: "
+                f"{relief.amount:g} +- {relief.amount_tolerance:g} um over {length:.3f} mm of "
+                "the path of contact, along the line of action)"))
+    material = {"E": to_si(stage.material.young_modulus, "1e6"),
+                "nu": stage.material.poisson_ratio}
+    relief = _StageRelief(stage, tuple(keys)) if keys or slope else None
+    return stage.pair, material, nominal, tuple(added), relief
+
+
+def _with_nominal(parameters: tuple[Parameter, ...],
+                  nominal: dict[str, float]) -> tuple[Parameter, ...]:
+    """``parameters`` with the given nominal values, the range widened to hold them."""
+    from dataclasses import replace
+
+    out = []
+    for p in parameters:
+        if p.name in nominal:
+            v = nominal[p.name]
+            p = replace(p, nominal=v, lower=min(p.lower, v), upper=max(p.upper, v))
+        out.append(p)
+    return tuple(out)
 
 
 def _parameters(pair: Any) -> tuple[Parameter, ...]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -110,6 +111,7 @@ def _prepared(model: Any, options: dict[str, Any], t: np.ndarray) -> dict[str, A
                                             n_pts=n_pts)
         extra = model._cache[tkey]
     return {"main": main, "reference": reference, "extra": extra, "n_cycles": n_cycles,
+            "stage_relief": getattr(model, "stage_relief", None),
             "ppc": ppc, "grid_index": np.mod(np.round(index).astype(np.int64),
                                               n_cycles * ppc) if on_grid else None,
             "orders": orders, "labels": labels, "bins": bins}
@@ -136,6 +138,8 @@ def sample_deviations(pair: Any, values: dict[str, float], amplitude_reading: st
     germ = (None if pitch_model == "germ" else
             pitch_deviation_germ(pair.z1, pair.z2, int(values["pitch_seed"])))
     for gear, z, d in ((1, pair.z1, pair.d1), (2, pair.z2, pair.d2)):
+        if gear == 2 and "iso_grade_wheel" in values:  # a stage with per-gear classes
+            grade = int(values["iso_grade_wheel"])
         if grade > 0:
             f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
             amp, sigma, reading = 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0)), "sine"
@@ -177,6 +181,8 @@ def _one_sample(prep: dict[str, Any], pair: Any, values: dict[str, float],
 
     main, reference = prep["main"], prep["reference"]
     dev = sample_deviations(pair, values, reading, pitch_model, pitch_harmonics)
+    if prep["stage_relief"] is not None:  # a stage's reliefs: any shape, per gear
+        dev = replace(dev, user=prep["stage_relief"](values))
     P = normal_force_from_torque(pair, values["torque"])
     sol = ltca_solve(main, P, main.clearance(dev))
     ref = ltca_solve(reference, P, reference.clearance(dev.design_only()))

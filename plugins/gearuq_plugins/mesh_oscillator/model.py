@@ -245,6 +245,12 @@ class MeshOscillator(Model):
         coordinates).
     nominal : dict, optional
         Nominal values replacing the defaults (e.g. ``{"mass": 0.4, "mean_force": 5e3}``).
+    stage : GearStage, optional
+        Build the dimensional model from a stage instead of ``force``: the force-deflection
+        function is the stage's LTCA over one mesh cycle (every relief shape, per gear) on a
+        load grid over its torque range, the nominal mass the gear bodies' equivalent mass
+        and the nominal mean force the design torque's (``nominal`` still overrides);
+        docs/stage.md.
     """
 
     name = "mesh_oscillator"
@@ -260,8 +266,21 @@ class MeshOscillator(Model):
     internally_parallel = True
 
     def __init__(self, force: Any = None, *, load_harmonic_scaling: str = "constant",
-                 nominal: Mapping[str, float] | None = None) -> None:
+                 nominal: Mapping[str, float] | None = None, stage: Any = None) -> None:
         from gearuq_plugins.mesh_oscillator.forces import ForceDeflection
+
+        self.stage = stage
+        if stage is not None:
+            from gearuq.gears.stage import GearStage
+            from gearuq_plugins.mesh_oscillator.stage import stage_force, stage_nominal
+
+            if not isinstance(stage, GearStage):
+                raise TypeError(f"stage={stage!r} must be a gearuq.GearStage")
+            if force is not None:
+                raise ValueError("give force= or stage=, not both (the stage's LTCA gives "
+                                 "the force-deflection function)")
+            force = stage_force(stage)
+            nominal = stage_nominal(stage) | dict(nominal or {})
 
         if force is not None and not isinstance(force, ForceDeflection):
             raise ValueError(f"force: expected a ForceDeflection or None, got "
@@ -330,8 +349,11 @@ class MeshOscillator(Model):
 
     def settings(self) -> dict[str, Any]:
         """Construction options (provenance)."""
-        return {"force": None if self.force is None else self.force.describe(),
-                "load_harmonic_scaling": self.load_harmonic_scaling}
+        out = {"force": None if self.force is None else self.force.describe(),
+               "load_harmonic_scaling": self.load_harmonic_scaling}
+        if getattr(self, "stage", None) is not None:
+            out["stage"] = self.stage.to_dict()
+        return out
 
     def default_space(self):
         """Random damping, mean load (torque) and, for families, the modification: uniform
