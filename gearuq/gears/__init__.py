@@ -9,6 +9,8 @@
 - :mod:`gearuq.gears.deviations`: pitch deviations, reliefs, crowning as initial clearances
 - :mod:`gearuq.gears.ltca`: loaded tooth contact analysis over the long period (STE, LPMS
   secant and tangent, CMS, force-deflection function)
+- :mod:`gearuq.gears.long_period`: the long period from a line-load table, at a cost that
+  does not grow with ``lcm(z1, z2)``
 
 Submodules are imported on use so that ``import gearuq`` stays light; the main functions are
 also reachable as ``gearuq.gears.<name>`` (resolved lazily), e.g.
@@ -39,6 +41,9 @@ _LAZY = {
     "stiffness_at_deflection": "ltca",
     "normal_force_from_torque": "ltca",
     "tip_relief_map": "ltca",
+    "LongPeriodSettings": "long_period",
+    "line_load_table": "long_period",
+    "long_period_ltca": "long_period",
 }
 
 __all__ = sorted(_LAZY)

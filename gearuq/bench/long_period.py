@@ -1,0 +1,186 @@
+"""Long-period LTCA: the line-load table against the full LTCA (``gearuq bench longperiod``).
+
+For the 30/30 pair of Yuan, Liu and Liu (2020) and two hunting-tooth pairs (13/17, lcm 221;
+a 27/79 electric-axle stage, lcm 2133), side by side in one run: CPU time per sample of the
+full LTCA over the long period (:func:`gearuq.gears.ltca.ltca`, set-up reused) and of the
+line-load table (:func:`gearuq.gears.long_period.long_period_ltca`, table reused), the table's
+one-off cost, and the table's error against the full LTCA for each ``n_load_nodes``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from gearuq.bench.core import machine_description
+from gearuq.gears.deviations import FlankDeviations, random_cumulative_pitch_deviations
+from gearuq.gears.geometry import HelicalGearPair, seed002_pair
+from gearuq.gears.long_period import LongPeriodSettings, line_load_table, long_period_ltca
+from gearuq.gears.ltca import ltca, ltca_setup
+
+__all__ = ["bench_cases", "compare", "eaxle_27_79_pair", "hunting_13_17_pair", "run"]
+
+_DEG = math.pi / 180.0
+
+
+def eaxle_27_79_pair() -> HelicalGearPair:
+    """A 27/79 electric-axle stage (lcm 2133): m_n 2 mm, helix 22 deg, b 30/28 mm, x +0.3/-0.2."""
+    return HelicalGearPair(mn=2e-3, z1=27, z2=79, alpha_n=20 * _DEG, beta=22 * _DEG,
+                           b1=30e-3, b2=28e-3, x1=0.3, x2=-0.2)
+
+
+def hunting_13_17_pair() -> HelicalGearPair:
+    """A small hunting-tooth pair (lcm 221): m_n 3 mm, helix 20 deg, b 30 mm, x +0.2/0."""
+    return HelicalGearPair(mn=3e-3, z1=13, z2=17, alpha_n=20 * _DEG, beta=20 * _DEG,
+                           b1=30e-3, b2=30e-3, x1=0.2, x2=0.0)
+
+
+def _grade_deviations(pair: HelicalGearPair, grade: int, relief: tuple[float, float],
+                      seed: int) -> FlankDeviations:
+    """ISO 1328 grade ``grade`` random cumulative pitch deviations of both gears, one relief."""
+    rng = np.random.default_rng(seed)
+    fp = [random_cumulative_pitch_deviations(z, seed=rng, accuracy_grade=grade, d=d, mn=pair.mn)
+          for z, d in ((pair.z1, pair.d1), (pair.z2, pair.d2))]
+    return FlankDeviations.symmetric_tip_relief(*relief, Fp1=fp[0], Fp2=fp[1])
+
+
+def bench_cases() -> list[dict]:
+    """The benchmark's pairs, torques and deviation laws (relief in m, torque in N m)."""
+    cases = []
+    for label, pair, torque, relief in (
+            ("30/30 (Yuan et al.)", seed002_pair(), 600.0, (20e-6, 10e-3)),
+            ("13/17", hunting_13_17_pair(), 150.0, (8e-6, 3e-3)),
+            ("27/79 e-axle", eaxle_27_79_pair(), 150.0, (8e-6, 2e-3))):
+        cases.append({"label": label, "pair": pair, "torque": torque, "relief": relief,
+                      "grade": 6})
+    return cases
+
+
+def _cpu(fn):
+    t0 = time.process_time()
+    out = fn()
+    return time.process_time() - t0, out
+
+
+def compare(fast: xr.Dataset, full: xr.Dataset) -> dict[str, float]:
+    """Errors of the table route against the full LTCA of the same sample.
+
+    Relative errors of the STE peak-to-peak and of the mean secant and tangent mesh
+    stiffness; largest pointwise STE error [um], largest pointwise relative stiffness
+    errors, largest CMS error [um] and positions whose partial-contact-loss flag differs.
+    """
+    def ptp(ds):
+        return float(ds["ste"].max() - ds["ste"].min())
+
+    def rel_mean(v):
+        return float(fast[v].mean() / full[v].mean() - 1.0)
+
+    return {
+        "ste_ptp_rel": ptp(fast) / ptp(full) - 1.0,
+        "lpms_mean_rel": rel_mean("lpms"),
+        "lpms_tangent_mean_rel": rel_mean("lpms_tangent"),
+        "ste_max_abs_um": float(np.abs(fast["ste"] - full["ste"]).max()),
+        "lpms_max_rel": float((np.abs(fast["lpms"] - full["lpms"]) / full["lpms"]).max()),
+        "lpms_tangent_max_rel": float((np.abs(fast["lpms_tangent"] - full["lpms_tangent"])
+                                       / full["lpms_tangent"]).max()),
+        "cms_max_abs_um": float(np.abs(fast["cms"] - full["cms"]).max()),
+        "loss_flag_differs": int((fast["partial_contact_loss"].values
+                                  != full["partial_contact_loss"].values).sum()),
+    }
+
+
+def _case_rows(case: dict, nodes: tuple[int, ...], n_samples: int) -> list[dict]:
+    pair, torque = case["pair"], case["torque"]
+    devs = [_grade_deviations(pair, case["grade"], case["relief"], seed)
+            for seed in range(n_samples)]
+    t_setup, setup = _cpu(lambda: ltca_setup(pair))
+    fulls, t_full = [], 0.0
+    for dev in devs:
+        t, ds = _cpu(lambda dev=dev: ltca(pair, torque=torque, deviations=dev, setup=setup,
+                                           keep_points=False))
+        t_full += t
+        fulls.append(ds)
+    rows = [{"pair": case["label"], "lcm": math.lcm(pair.z1, pair.z2), "route": "full LTCA",
+             "n_load_nodes": None, "one_off_s": t_setup, "cpu_per_sample_s": t_full / n_samples,
+             "positions": fulls[0].sizes["position"]}]
+    for n in nodes:
+        settings = LongPeriodSettings(n_load_nodes=n)
+        t_table, table = _cpu(lambda settings=settings: line_load_table(
+            pair, max_torque=torque, modifications=devs[0], settings=settings))
+        t_fast, errs = 0.0, []
+        for dev, full in zip(devs, fulls, strict=True):
+            t, fast = _cpu(lambda dev=dev, table=table: long_period_ltca(
+                pair, dev, torque=torque, table=table))
+            t_fast += t
+            errs.append(compare(fast, full))
+        worst = {k: max((e[k] for e in errs), key=abs) for k in errs[0]}
+        rows.append({"pair": case["label"], "lcm": math.lcm(pair.z1, pair.z2),
+                     "route": "line-load table", "n_load_nodes": n, "one_off_s": t_table,
+                     "cpu_per_sample_s": t_fast / n_samples,
+                     "positions": fulls[0].sizes["position"], **worst})
+    return rows
+
+
+def _warm_up() -> None:
+    """Compile both routes' kernels on a tiny problem, so no timing includes compilation."""
+    pair = seed002_pair()
+    dev = _grade_deviations(pair, 6, (20e-6, 10e-3), 0)
+    ltca(pair, torque=600.0, deviations=dev, n_cycles=1, positions_per_cycle=2, n_pts=2)
+    long_period_ltca(pair, dev, torque=600.0, n_cycles=1, settings=LongPeriodSettings(
+        positions_per_cycle=2, n_pts=2, n_load_nodes=4))
+
+
+def render(rows: list[dict], header: str) -> str:
+    """Markdown table of :func:`run`'s rows."""
+    lines = [header, "",
+             "| pair | lcm | route | load nodes | one-off CPU [s] | CPU/sample [ms] | STE p-p "
+             "rel. err. | mean LPMS rel. err. | mean tangent rel. err. | max STE err. [um] | "
+             "max LPMS rel. err. | max tangent rel. err. | max CMS err. [um] | loss flags "
+             "differing |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if r["route"] == "full LTCA":
+            lines.append(f"| {r['pair']} | {r['lcm']} | full LTCA ({r['positions']} positions) "
+                         f"| - | {r['one_off_s']:.3f} | {1e3 * r['cpu_per_sample_s']:.1f} | "
+                         "reference | | | | | | | |")
+            continue
+        lines.append(
+            f"| {r['pair']} | {r['lcm']} | table | {r['n_load_nodes']} | {r['one_off_s']:.3f} | "
+            f"{1e3 * r['cpu_per_sample_s']:.1f} | {r['ste_ptp_rel']:.1e} | "
+            f"{r['lpms_mean_rel']:.1e} | {r['lpms_tangent_mean_rel']:.1e} | "
+            f"{r['ste_max_abs_um']:.1e} | {r['lpms_max_rel']:.1e} | "
+            f"{r['lpms_tangent_max_rel']:.1e} | {r['cms_max_abs_um']:.1e} | "
+            f"{r['loss_flag_differs']} |")
+    return "\n".join(lines)
+
+
+def run(out: str | Path = "gearuq_bench", quick: bool = False) -> list[dict]:
+    """Run the benchmark, print and write ``longperiod.md`` / ``longperiod.json`` to ``out``.
+
+    ``quick``: one sample per pair and 24 / 48 load nodes (the full run: 3 samples, 12 to
+    96 nodes). Times are CPU seconds of this process (one core: the kernels are serial).
+    """
+    nodes = (24, 48) if quick else (12, 24, 48, 96)
+    n_samples = 1 if quick else 3
+    _warm_up()
+    load0 = os.getloadavg()[0]
+    rows = []
+    for case in bench_cases():
+        rows.extend(_case_rows(case, nodes, n_samples))
+    load1 = os.getloadavg()[0]
+    header = (f"Machine: {machine_description()}; load average {load0:.1f} -> {load1:.1f}; "
+              f"{n_samples} sample(s) per pair (ISO 1328 grade 6 pitch deviations, tip "
+              "relief), 24 positions per mesh cycle, 20 points per line; worst sample's error.")
+    text = render(rows, header)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "longperiod.md").write_text(text + "\n")
+    (out / "longperiod.json").write_text(json.dumps(rows, indent=1, default=float))
+    print(text)
+    return rows
