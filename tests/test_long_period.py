@@ -176,3 +176,26 @@ def test_bad_input(hunting):
         long_period_ltca(pair, FlankDeviations(Fp1=np.zeros(5), tip_relief1=dev.tip_relief1,
                                                tip_relief2=dev.tip_relief2),
                          torque=torque, table=table)
+
+
+@pytest.mark.e2e
+def test_eaxle_27_79_within_one_percent_and_far_cheaper():
+    """Issue 27's target pair (lcm 2133): STE p-p and mean mesh stiffness within 1 % of the
+    full LTCA; one sample from the table costs a small fraction of the full long period
+    (CPU ratio measured side by side; docs/benchmarks.md has the times)."""
+    import time
+
+    pair = HelicalGearPair(mn=2e-3, z1=27, z2=79, alpha_n=20 * DEG, beta=22 * DEG,
+                           b1=30e-3, b2=28e-3, x1=0.3, x2=-0.2)
+    dev = grade6_deviations(pair, (8e-6, 2e-3), seed=0)
+    table = line_load_table(pair, max_torque=150.0, modifications=dev)
+    long_period_ltca(pair, dev, torque=150.0, table=table, n_cycles=1)  # compiled
+    t0 = time.process_time()
+    fast = long_period_ltca(pair, dev, torque=150.0, table=table)
+    t_fast = time.process_time() - t0
+    t0 = time.process_time()
+    full = ltca(pair, torque=150.0, deviations=dev, keep_points=False)
+    t_full = time.process_time() - t0
+    assert full.sizes["position"] == 2133 * 24
+    _check_against_full(fast, full, ptp_rel=0.01, mean_rel=0.01, ste_um=0.01, point_rel=0.03)
+    assert t_fast < t_full / 10
