@@ -264,12 +264,13 @@ def line_load_table(
     loaded = forces > 0.0
     defl = approach[..., None] - xi[:, None, :]
     k_point = np.where(loaded, forces / np.where(loaded, defl, 1.0), 0.0)
+    n_valid = _valid_nodes(approach, status)
     return LineLoadTable(
         pair=pair, compliance=comp, modifications=design, settings=settings,
         max_normal_force=p_max, phase=setup.phase, loads=loads, approach=approach,
-        stiffness=stiffness, touch=xi.min(axis=1), n_valid=_valid_nodes(approach, status),
+        stiffness=stiffness, touch=xi.min(axis=1), n_valid=n_valid,
         forces=forces,
-        onset=_onset_approach(approach, forces, xi), secant=k_point.sum(axis=2),
+        onset=_onset_approach(approach, forces, xi, n_valid), secant=k_point.sum(axis=2),
         weighted_clearance=(k_point * xi[:, None, :]).sum(axis=2), xi=xi,
         segment=setup.dL.copy(), contact_length=setup.grid.length, status=status)
 
@@ -283,17 +284,22 @@ def _valid_nodes(approach: np.ndarray, status: np.ndarray) -> np.ndarray:
     return np.maximum(n, 1).astype(np.int64)
 
 
-def _onset_approach(approach: np.ndarray, forces: np.ndarray, xi: np.ndarray) -> np.ndarray:
+def _onset_approach(approach: np.ndarray, forces: np.ndarray, xi: np.ndarray,
+                    n_valid: np.ndarray) -> np.ndarray:
     """Approach at which each point enters contact, from the first two loaded nodes [m].
 
     Between the last unloaded node and the first loaded one, a point's force grows about
     linearly from zero; the line through its first two loaded nodes gives the onset, kept
     inside that interval (the point's own clearance ``xi`` bounds it from below). Points
     loaded at the first node start at their clearance's touch (linear from the first
-    touch); points that are unloaded again at a higher load get NaN.
+    touch); points that are unloaded again at a higher load get NaN. Nodes beyond a
+    geometry's ``n_valid`` repeat its last valid node.
     """
-    loaded = forces > 0.0
     n_phase, n_load, n_pts = forces.shape
+    last = np.minimum(np.arange(n_load)[None, :], n_valid[:, None] - 1)
+    forces = np.take_along_axis(forces, last[..., None], axis=1)
+    approach = np.take_along_axis(approach, last, axis=1)
+    loaded = forces > 0.0
     onset = np.full((n_phase, n_pts), np.inf)
     first = np.argmax(loaded, axis=1)  # first loaded node (0 if never: masked below)
     ever = loaded.any(axis=1)
@@ -302,7 +308,8 @@ def _onset_approach(approach: np.ndarray, forces: np.ndarray, xi: np.ndarray) ->
     a1 = approach[q, j1]
     f1 = forces[q, j1, i]
     j2 = np.minimum(j1 + 1, n_load - 1)
-    slope = (forces[q, j2, i] - f1) / np.where(j2 > j1, approach[q, j2] - a1, 1.0)
+    run = approach[q, j2] - a1  # 0 at the last (valid) node: no slope, onset = a0
+    slope = np.where(run > 0.0, forces[q, j2, i] - f1, 0.0) / np.where(run > 0.0, run, 1.0)
     a0 = np.where(j1 > 0, approach[q, np.maximum(j1 - 1, 0)], xi[q, i])
     est = np.where(slope > 0.0, a1 - f1 / np.where(slope > 0.0, slope, 1.0), a0)
     onset[q, i] = np.clip(est, a0, a1)
@@ -342,14 +349,15 @@ def pitch_separations(pair: HelicalGearPair, deviations: FlankDeviations | None,
 
 
 # ------------------------------------------------------------------------------ kernels
-@nb.njit(cache=True, nogil=True)
-def _line_load(q, a, approach, loads, stiffness, touch, n_valid):
+@nb.njit(cache=True, nogil=True, inline="always")
+def _line_load(q, a, approach, loads, stiffness, touch, n_valid, hint):
     """Load, slope, interval and weight of line geometry ``q`` at approach ``a``.
 
     Interval -2: not touching; -1: between the first touch and the first node (linear);
     ``i``: cubic Hermite between nodes ``i`` and ``i + 1``; ``n - 1``: beyond the last valid
     node ``n = n_valid[q]`` (linear extrapolation, only met inside the root bracket or when
-    the status flags it).
+    the status flags it). ``hint``: an interval to try before the binary search (the
+    previous Newton iterate's).
     """
     n = n_valid[q]
     a_first = approach[q, 0]
@@ -362,6 +370,8 @@ def _line_load(q, a, approach, loads, stiffness, touch, n_valid):
         k = stiffness[q, n - 1]
         return loads[n - 1] + k * (a - approach[q, n - 1]), k, n - 1, 1.0
     lo, hi = 0, n - 1
+    if 0 <= hint < n - 1 and approach[q, hint] < a <= approach[q, hint + 1]:
+        lo, hi = hint, hint + 1
     while hi - lo > 1:
         mid = (lo + hi) // 2
         if approach[q, mid] < a:
@@ -379,7 +389,20 @@ def _line_load(q, a, approach, loads, stiffness, touch, n_valid):
     return f, df, lo, u
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
+def _count_below(sorted_rows, q, a):
+    """Number of entries of row ``q`` (sorted) below ``a``."""
+    lo, hi = 0, sorted_rows.shape[1]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if sorted_rows[q, mid] < a:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
 def _node_value(values, q, idx, w, n_valid):
     """Linear interpolation of a tabulated line quantity (the first node's below it)."""
     n = n_valid[q]
@@ -392,7 +415,7 @@ def _node_value(values, q, idx, w, n_valid):
     return (1.0 - w) * values[q, idx] + w * values[q, idx + 1]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, nogil=True, inline="always")
 def _point_loaded(forces, onset, q, idx, w, a, i, n_valid):
     """Whether point ``i`` of a line at approach ``a`` (interval ``idx``, weight ``w``) is loaded.
 
@@ -428,9 +451,12 @@ def _solve_long_period(phase, sep, P, approach, loads, stiffness, touch, n_valid
     n_pos = sep.shape[0] * ppc
     n_pts = forces.shape[2]
     tol_f = 1e-13 * P
+    hints = np.empty(n_lines, np.int64)
     for p in range(n_pos):
         m = p // ppc
         j = p - m * ppc
+        for a in range(n_lines):  # the error-free interval is the likeliest
+            hints[a] = ref_idx[j, a]
         # bracket: below, no line touches; above, every line carries at least P (on the
         # tabulated curve or its linear extension with the last slope)
         lo = np.inf
@@ -462,8 +488,8 @@ def _solve_long_period(phase, sep, P, approach, loads, stiffness, touch, n_valid
             for a in range(n_lines):
                 q = phase[j, a]
                 if q >= 0:
-                    fa, dfa, _, _ = _line_load(q, d - sep[m, a], approach, loads, stiffness,
-                                               touch, n_valid)
+                    fa, dfa, hints[a], _ = _line_load(q, d - sep[m, a], approach, loads,
+                                                      stiffness, touch, n_valid, hints[a])
                     f += fa
                     df += dfa
             if abs(f) <= tol_f:
@@ -501,7 +527,7 @@ def _solve_long_period(phase, sep, P, approach, loads, stiffness, touch, n_valid
             if q < 0:
                 continue
             fa, dfa, idx, w = _line_load(q, d - sep[m, a], approach, loads, stiffness, touch,
-                                         n_valid)
+                                         n_valid, hints[a])
             if fa > loads[n_valid[q] - 1] * (1.0 + 1e-9):  # beyond the line's valid table
                 status[p] = 2
             line_idx[p, a] = idx
@@ -514,10 +540,10 @@ def _solve_long_period(phase, sep, P, approach, loads, stiffness, touch, n_valid
             if fa > 0.0:
                 nt += 1
             if nested[q]:  # the loaded sets grow with the approach: count the onsets passed
-                n_now = np.searchsorted(onset_sorted[q], d - sep[m, a])
+                n_now = _count_below(onset_sorted, q, d - sep[m, a])
                 ll += n_now * segment[q]
                 if has_ref:
-                    n_ref = np.searchsorted(onset_sorted[q], guess_ste[j])
+                    n_ref = _count_below(onset_sorted, q, guess_ste[j])
                     rl += n_ref * segment[q]
                     lost += max(n_ref - n_now, 0) * segment[q]
                 continue
