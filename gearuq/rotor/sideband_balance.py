@@ -1,0 +1,316 @@
+"""Steady state of a hunting-tooth geared rotor by harmonic balance on a sparse set of orders.
+
+The harmonic balance of :mod:`gearuq.rotor.harmonic_balance` keeps every harmonic of the long
+period up to ``H = n x lcm(z1, z2)``: for a 27/79 pair and four mesh orders, 8532 harmonics
+and a dense system of 17065 unknowns. The excitation of such a pair holds much less: the
+mesh orders ``h f_m`` and, around each, sidebands at the shaft orders of both gears (the
+once-per-revolution pitch deviations), i.e. the long-period harmonics
+
+    j = h L + i L / z1 + l L / z2,   0 <= h <= n_mesh,  |i|, |l| <= n_sidebands,  j >= 0
+
+with ``L = lcm(z1, z2)`` (``L / z1`` long-period harmonics per pinion revolution). The
+parametric coupling through the mesh stiffness, whose long-period harmonics sit on the same
+kind of set, maps the set onto itself up to its edges. :func:`solve_periodic_orders` solves
+the same equations as :func:`gearuq.rotor.harmonic_balance.solve_periodic` (Galerkin on the
+mesh approach with the rotor's receptances; alternating frequency-time evaluation of the
+contact law on a grid of the whole long period, so contact loss is exact on the grid) with the
+unknowns restricted to a given set of orders: ``2 |J| - 1`` real unknowns instead of
+``2 H + 1``. On the full set ``J = 0..H`` it is that solver (tested); without contact loss and
+with an excitation held by the set it is exact; otherwise the orders left out are the
+truncation, measured against the full harmonic balance in docs/theory/geared_rotor.md
+(Sec. 11).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from gearuq.rotor.excitation import MeshExcitation
+from gearuq.rotor.harmonic_balance import (
+    STATUS_CONVERGED,
+    STATUS_NOT_CONVERGED,
+    STATUS_SINGULAR,
+    PeriodicSolution,
+    _contact_force,
+)
+from gearuq.rotor.reduction import ModalModel
+
+__all__ = ["OrderExcitation", "mesh_force_on_grid", "prepare_orders", "sideband_orders",
+           "solve_periodic_orders", "synthesize_orders"]
+
+
+def sideband_orders(z1: int, z2: int, n_mesh_harmonics: int, n_sidebands: int) -> np.ndarray:
+    """Long-period harmonics of the mesh orders and their shaft-order sidebands.
+
+    Parameters
+    ----------
+    z1, z2 : int
+        Teeth of pinion and wheel (>= 1).
+    n_mesh_harmonics : int
+        Mesh orders ``h = 0..n_mesh_harmonics`` (>= 1).
+    n_sidebands : int
+        Sidebands ``|i|, |l| <= n_sidebands`` of each gear's shaft order (>= 0).
+
+    Returns
+    -------
+    ndarray of int
+        Sorted distinct ``j >= 0`` (``0`` included), in harmonics of the long period
+        ``lcm(z1, z2)`` mesh cycles.
+    """
+    for name, v, low in (("z1", z1, 1), ("z2", z2, 1), ("n_mesh_harmonics", n_mesh_harmonics, 1),
+                         ("n_sidebands", n_sidebands, 0)):
+        if isinstance(v, bool) or int(v) != v or v < low:
+            raise ValueError(f"{name}={v!r} is outside its valid range: integers >= {low}")
+    L = math.lcm(int(z1), int(z2))
+    s = np.arange(-int(n_sidebands), int(n_sidebands) + 1)
+    side = (s[:, None] * (L // int(z1)) + s[None, :] * (L // int(z2))).ravel()
+    j = (np.arange(int(n_mesh_harmonics) + 1)[:, None] * L + side[None, :]).ravel()
+    return np.unique(j[j >= 0])
+
+
+@dataclass(frozen=True)
+class OrderExcitation:
+    """Fourier data of an excitation for a set of orders (reusable over speeds).
+
+    Attributes
+    ----------
+    orders : ndarray of int
+        The kept long-period harmonics ``J`` (sorted, ``J[0] = 0``).
+    n_time : int
+        AFT instants per long period (> 4 max J: the products of ``k`` and the response
+        alias nowhere into ``J``).
+    k_grid, ke_grid : ndarray, (n_time,)
+        Stiffness ``k`` and ``k e`` band-limited to ``2 max J`` on the AFT grid.
+    stiffness_error : ndarray, complex (|J|,)
+        ``(k e)_j``, ``j`` in ``J``.
+    mean_stiffness : float
+        ``k_bar`` [N/m].
+    linear_blocks : ndarray, complex (|J|, 2 |J| - 1)
+        Real-form coupling of ``J`` through ``k - k_bar`` (:func:`_order_blocks`).
+    """
+
+    orders: np.ndarray
+    n_time: int
+    k_grid: np.ndarray
+    ke_grid: np.ndarray
+    stiffness_error: np.ndarray
+    mean_stiffness: float
+    linear_blocks: np.ndarray
+
+    @property
+    def n_harmonics(self) -> int:
+        """Largest kept harmonic ``max J``."""
+        return int(self.orders[-1])
+
+
+def _band_limited(one_sided: np.ndarray, limit: int, n_time: int) -> np.ndarray:
+    c = np.zeros(n_time // 2 + 1, dtype=complex)
+    m = min(limit, one_sided.size - 1, n_time // 2 - 1)
+    c[:m + 1] = one_sided[:m + 1]
+    return np.fft.irfft(c * n_time, n=n_time)
+
+
+def _order_blocks(dk: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """``C`` with ``(T[dk] x)_j = C @ [Re x_0, Re x_l, Im x_l]`` for ``j``, ``l > 0`` in ``J``.
+
+    ``dk``: one-sided harmonics of a real signal (index ``>= 2 max J``); ``x``: two-sided
+    harmonics of a real signal on ``+-J``, so ``sum_l dk_{j-l} x_l = dk_j x_0 + sum_{l>0}
+    (dk_{j-l} + dk_{j+l}) Re x_l + i (dk_{j-l} - dk_{j+l}) Im x_l``.
+    """
+    def at(k: np.ndarray) -> np.ndarray:
+        v = dk[np.abs(k)]
+        return np.where(k >= 0, v, np.conj(v))
+
+    j = J[:, None]
+    lp = J[None, 1:]
+    P, Q = at(j - lp), at(j + lp)
+    return np.concatenate([at(J)[:, None], P + Q, 1j * (P - Q)], axis=1)
+
+
+def prepare_orders(excitation: MeshExcitation, orders: np.ndarray) -> OrderExcitation:
+    """Fourier data of ``excitation`` on the long-period harmonics ``orders``.
+
+    Parameters
+    ----------
+    excitation : MeshExcitation
+        Mesh stiffness and error over the long period.
+    orders : array_like of int
+        Long-period harmonics to keep (0 is added; e.g. :func:`sideband_orders`).
+
+    Returns
+    -------
+    OrderExcitation
+    """
+    J = np.unique(np.concatenate([[0], np.asarray(orders, dtype=np.int64).ravel()]))
+    if J[0] < 0:
+        raise ValueError(f"orders contain {int(J[0])}, outside the valid range: integers >= 0")
+    four = excitation.fourier()
+    top = four["stiffness"].size - 1
+    if J[-1] > top:
+        raise ValueError(f"orders up to {int(J[-1])} exceed the {top} harmonics the excitation "
+                         f"samples resolve ({excitation.tau.size} positions per long period)")
+    kbar = float(np.real(four["stiffness"][0]))
+    limit = min(2 * int(J[-1]), top)
+    dk = np.zeros(2 * int(J[-1]) + 1, dtype=complex)
+    dk[1:limit + 1] = four["stiffness"][1:limit + 1]
+    n_time = 1 << int(math.ceil(math.log2(4 * int(J[-1]) + 2)))
+    return OrderExcitation(
+        orders=J, n_time=n_time, k_grid=_band_limited(four["stiffness"], limit, n_time),
+        ke_grid=_band_limited(four["stiffness_error"], limit, n_time),
+        stiffness_error=four["stiffness_error"][J], mean_stiffness=kbar,
+        linear_blocks=_order_blocks(dk, J))
+
+
+def _solve_real(h: np.ndarray, blocks: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve ``(I + diag(h) T) x = b`` on ``J`` in real form; returns one-sided ``x_J``."""
+    n = h.size
+    M = h[:, None] * blocks
+    A = np.concatenate([M.real, M.imag[1:]])
+    idx = np.arange(2 * n - 1)
+    A[idx, idx] += 1.0
+    y = sla.solve(A, np.concatenate([rhs.real, rhs.imag[1:]]), check_finite=True)
+    x = y[:n].astype(complex)
+    x[1:] += 1j * y[n:]
+    return x
+
+
+def _to_time(prep: OrderExcitation, x: np.ndarray) -> np.ndarray:
+    N = prep.n_time
+    c = np.zeros(N // 2 + 1, dtype=complex)
+    c[prep.orders] = x
+    return np.fft.irfft(c * N, n=N)
+
+
+def _residual(x, prep, h, static, backlash):
+    delta_t = _to_time(prep, x)
+    force, slope, front, back = _contact_force(prep, delta_t, backlash)
+    r = np.fft.rfft(force - prep.mean_stiffness * delta_t)[prep.orders] / prep.n_time
+    R = x + h * r
+    R[0] -= static
+    return R, float(np.abs(R).max() / max(np.abs(x).max(), 1e-300)), slope, r
+
+
+def solve_periodic_orders(
+    model: ModalModel,
+    prep: OrderExcitation,
+    period: float,
+    speed: float,
+    *,
+    backlash: float = math.inf,
+    tol: float = 1e-9,
+    max_iter: int = 40,
+    initial: np.ndarray | None = None,
+    receptance: dict[str, np.ndarray] | None = None,
+    channels: list[str] | None = None,
+) -> PeriodicSolution:
+    """Periodic steady state over the long period on the orders of ``prep``.
+
+    Parameters
+    ----------
+    model : ModalModel
+        Reduced rotor (mean stiffness equal to ``prep.mean_stiffness``).
+    prep : OrderExcitation
+        From :func:`prepare_orders`.
+    period : float
+        Long period [s].
+    speed : float
+        Reference speed [rad/s] (gyroscopic terms).
+    backlash : float
+        Normal backlash [m] (``inf``: no back-flank contact).
+    tol : float
+        Newton tolerance on ``max |R_j| / max |delta_j|``.
+    max_iter : int
+        Newton iterations (semi-smooth Newton with backtracking, as the full balance).
+    initial : ndarray, optional
+        One-sided ``delta_j`` on ``prep.orders`` to start from (continuation).
+    receptance : dict, optional
+        :meth:`ModalModel.receptances` at ``j w0``, ``j`` in ``prep.orders``.
+    channels : list of str, optional
+        Outputs to compute (default all of the model's channels).
+
+    Returns
+    -------
+    PeriodicSolution
+        Its ``delta``, ``force``, ``remainder`` and channels are over ``prep.orders`` (not
+        ``0..H``); ``status`` 0 converged, 1 Newton did not converge, 2 singular system.
+    """
+    if not (math.isfinite(period) and period > 0):
+        raise ValueError(f"period={period!r} is outside its valid range (0, inf) s")
+    if abs(prep.mean_stiffness - model.mean_stiffness) > 1e-9 * model.mean_stiffness:
+        raise ValueError("the model's mean mesh stiffness differs from the excitation's")
+    names = list(model.channels) if channels is None else channels
+    J = prep.orders
+    if receptance is None:
+        receptance = model.receptances(speed, 2.0 * np.pi / period * J, names)
+    h = receptance["mesh"]
+    rhs = h * prep.stiffness_error
+    rhs[0] += model.mesh_static
+    status, start, iterations = STATUS_CONVERGED, "linear" if initial is None else "given", 0
+    try:
+        x = (_solve_real(h, prep.linear_blocks, rhs) if initial is None
+             else np.asarray(initial, dtype=complex).copy())
+    except (sla.LinAlgError, ValueError):
+        x, status = np.zeros(J.size, dtype=complex), STATUS_SINGULAR
+    x[0] = x[0].real
+    R, res, slope, r = _residual(x, prep, h, model.mesh_static, backlash)
+    while status == STATUS_CONVERGED and res > tol:
+        if iterations >= max_iter:
+            status = STATUS_NOT_CONVERGED
+            break
+        iterations += 1
+        dk = np.fft.rfft(slope)[:2 * int(J[-1]) + 1] / prep.n_time
+        dk[0] -= prep.mean_stiffness
+        try:
+            step = _solve_real(h, _order_blocks(dk, J), -R)
+        except (sla.LinAlgError, ValueError):
+            status = STATUS_SINGULAR
+            break
+        lam = 1.0
+        for _ in range(12):  # backtracking on the residual norm
+            trial = x + lam * step
+            trial[0] = trial[0].real
+            R_t, res_t, slope_t, r_t = _residual(trial, prep, h, model.mesh_static, backlash)
+            if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
+                break
+            lam *= 0.5
+        if res_t >= res and lam < 1e-3:
+            status = STATUS_NOT_CONVERGED
+            break
+        x, R, res, slope, r = trial, R_t, res_t, slope_t, r_t
+    delta_t = _to_time(prep, x)
+    force, _, front, back = _contact_force(prep, delta_t, backlash)
+    n_sep = float(np.mean(~front & ~back))
+    sol = PeriodicSolution(
+        period=period, delta=x.copy(), force=np.fft.rfft(force)[J] / prep.n_time,
+        remainder=r, status=status, iterations=iterations, residual=res,
+        contact_loss_fraction=n_sep, back_contact_fraction=float(np.mean(back)),
+        min_force=float(force.min()),
+        branch=("back_flank_contact" if back.any() else
+                "contact_loss" if n_sep > 0 else "full_contact"), start=start)
+    for name in names:
+        y = -receptance[name] * r
+        y[0] += model.static_value(name)
+        sol.channels[name] = y
+    return sol
+
+
+def synthesize_orders(harmonics: np.ndarray, orders: np.ndarray, t: np.ndarray,
+                      period: float) -> np.ndarray:
+    """Real signal ``sum_j c_j exp(2 pi i j t / T)`` over ``+-orders`` (one-sided ``c``)."""
+    orders = np.asarray(orders)
+    ph = np.exp(2j * np.pi * np.outer(np.asarray(t, dtype=float), orders[1:]) / period)
+    return np.real(harmonics[0]) + 2.0 * np.real(ph @ harmonics[1:])
+
+
+def mesh_force_on_grid(prep: OrderExcitation, sol: PeriodicSolution,
+                       backlash: float = math.inf) -> np.ndarray:
+    """Mesh force [N] of a solution on the AFT grid of the long period (exact contact law).
+
+    Its extremes are the mesh force's extremes to the grid spacing ``T / n_time``.
+    """
+    force, _, _, _ = _contact_force(prep, _to_time(prep, sol.delta), backlash)
+    return force
