@@ -18,10 +18,12 @@ from gearuq.rotor.excitation import MeshExcitation
 from gearuq.rotor.geared import GearedRotorProblem
 from gearuq.rotor.harmonic_balance import solve_periodic, synthesize
 from gearuq.rotor.sideband_balance import (
+    excitation_from_long_period,
     mesh_force_on_grid,
     prepare_orders,
     sideband_orders,
     solve_periodic_orders,
+    spectral_orders,
     synthesize_orders,
 )
 
@@ -125,3 +127,45 @@ def test_bad_input(problem):
     prep = prepare_orders(problem.excitation, [77])
     with pytest.raises(ValueError, match="period=0"):
         solve_periodic_orders(problem.reduced(3000.0), prep, 0.0, 300.0)
+
+
+def test_spectral_orders_find_the_excitation(problem):
+    exc = problem.excitation
+    J = spectral_orders(exc, 3 * L, energy=1.0)
+    # the synthetic excitation holds k at L, 2L and k e at the error orders and their
+    # products with the stiffness harmonics: all found, nothing else
+    four = exc.fourier()
+    held = np.flatnonzero((np.abs(four["stiffness"][:3 * L + 1]) > 1e-9 * exc.mean_stiffness)
+                          | (np.abs(four["stiffness_error"][:3 * L + 1]) > 1e-9 * abs(
+                              four["stiffness_error"][0])))
+    assert set(J.tolist()) == set(held.tolist()) | {0}
+    few = spectral_orders(exc, 3 * L, energy=0.5, always=[L, 2 * L])
+    assert {0, L, 2 * L} <= set(few.tolist()) and few.size < J.size
+    with pytest.raises(ValueError, match="energy=0"):
+        spectral_orders(exc, 3 * L, energy=0.0)
+    with pytest.raises(ValueError, match="max_order=0"):
+        spectral_orders(exc, 0)
+
+
+def test_excitation_from_long_period_matches_the_ltca_route():
+    from gearuq.gears.deviations import FlankDeviations, random_cumulative_pitch_deviations
+    from gearuq.gears.geometry import seed002_pair
+    from gearuq.gears.long_period import long_period_ltca
+    from gearuq.gears.ltca import ltca, ltca_setup
+
+    pair = seed002_pair()
+    dev = FlankDeviations(Fp1=random_cumulative_pitch_deviations(30, seed=4),
+                          Fp2=random_cumulative_pitch_deviations(30, seed=5))
+    setup = ltca_setup(pair, positions_per_cycle=12, n_pts=10)
+    ref = MeshExcitation.from_setup(setup, 600.0, deviations=dev)
+    full = excitation_from_long_period(ltca(pair, torque=600.0, deviations=dev, setup=setup,
+                                            keep_points=False))
+    np.testing.assert_allclose(full.stiffness, ref.stiffness, rtol=1e-12)
+    np.testing.assert_allclose(full.error, ref.error, rtol=0, atol=1e-15)
+    assert full.n_cycles == 30 and full.normal_force == pytest.approx(ref.normal_force)
+    from gearuq.gears.long_period import LongPeriodSettings
+
+    fast = excitation_from_long_period(long_period_ltca(
+        pair, dev, torque=600.0, settings=LongPeriodSettings(positions_per_cycle=12, n_pts=10)))
+    assert np.abs(fast.stiffness / ref.stiffness - 1).max() < 0.03
+    assert np.abs(fast.error - ref.error).max() < 0.03 * np.ptp(ref.error)

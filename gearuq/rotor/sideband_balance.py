@@ -39,8 +39,9 @@ from gearuq.rotor.harmonic_balance import (
 )
 from gearuq.rotor.reduction import ModalModel
 
-__all__ = ["OrderExcitation", "mesh_force_on_grid", "prepare_orders", "sideband_orders",
-           "solve_periodic_orders", "synthesize_orders"]
+__all__ = ["OrderExcitation", "excitation_from_long_period", "mesh_force_on_grid",
+           "prepare_orders", "sideband_orders", "solve_periodic_orders", "spectral_orders",
+           "synthesize_orders"]
 
 
 def sideband_orders(z1: int, z2: int, n_mesh_harmonics: int, n_sidebands: int) -> np.ndarray:
@@ -70,6 +71,53 @@ def sideband_orders(z1: int, z2: int, n_mesh_harmonics: int, n_sidebands: int) -
     side = (s[:, None] * (L // int(z1)) + s[None, :] * (L // int(z2))).ravel()
     j = (np.arange(int(n_mesh_harmonics) + 1)[:, None] * L + side[None, :]).ravel()
     return np.unique(j[j >= 0])
+
+
+def spectral_orders(excitation: MeshExcitation, max_order: int, energy: float = 0.999,
+                    always: np.ndarray | None = None) -> np.ndarray:
+    """The long-period harmonics up to ``max_order`` that hold the excitation's energy.
+
+    Ranks the harmonics ``1..max_order`` by ``|dk_j|^2 / sum |dk|^2 + |(k e)_j|^2 / sum
+    |(k e)|^2`` (the stiffness fluctuation and the error forcing weighted alike) and keeps
+    the fewest whose share reaches ``energy`` of the total (2), plus ``always`` and 0.
+    Random tooth-to-tooth scatter spreads the excitation over every shaft order, where a
+    fixed sideband count (:func:`sideband_orders`) cuts it; the spectrum says which orders
+    carry it.
+
+    Parameters
+    ----------
+    excitation : MeshExcitation
+        Mesh stiffness and error over the long period.
+    max_order : int
+        Highest harmonic considered (e.g. ``n_mesh_harmonics x lcm(z1, z2)``), >= 1.
+    energy : float
+        Share to keep, in (0, 1].
+    always : array_like of int, optional
+        Harmonics kept whatever their share (e.g. the mesh orders).
+
+    Returns
+    -------
+    ndarray of int
+        Sorted harmonics, 0 included.
+    """
+    if not 0.0 < energy <= 1.0:
+        raise ValueError(f"energy={energy!r} is outside its valid range (0, 1]")
+    four = excitation.fourier()
+    top = four["stiffness"].size - 1
+    if isinstance(max_order, bool) or int(max_order) != max_order or not 1 <= max_order <= top:
+        raise ValueError(f"max_order={max_order!r} is outside its valid range: integers "
+                         f"1..{top}")
+    share = np.zeros(int(max_order))
+    for name in ("stiffness", "stiffness_error"):
+        a2 = np.abs(four[name][1:int(max_order) + 1]) ** 2
+        if a2.sum() > 0.0:
+            share += a2 / a2.sum()
+    rank = np.argsort(-share, kind="stable")
+    total = share.sum()
+    n = int(np.searchsorted(np.cumsum(share[rank]), energy * total * (1 - 1e-12))) + 1
+    keep = rank[:min(n, rank.size)] + 1
+    extra = np.zeros(0, np.int64) if always is None else np.asarray(always, np.int64)
+    return np.unique(np.concatenate([[0], keep, extra[(extra >= 0) & (extra <= max_order)]]))
 
 
 @dataclass(frozen=True)
@@ -314,3 +362,33 @@ def mesh_force_on_grid(prep: OrderExcitation, sol: PeriodicSolution,
     """
     force, _, _, _ = _contact_force(prep, _to_time(prep, sol.delta), backlash)
     return force
+
+
+def excitation_from_long_period(ds: object) -> MeshExcitation:
+    """The rotor's mesh excitation from a long-period LTCA Dataset.
+
+    ``ds``: a result of :func:`gearuq.gears.long_period.long_period_ltca` or of
+    :func:`gearuq.gears.ltca.ltca` over the long period (``ste`` in um, ``lpms_tangent`` in
+    N/um, ``normal_force_N`` in the attrs); the mesh is linearised with the tangent stiffness
+    as in :meth:`MeshExcitation.from_setup`. Raises ValueError when a position's status is
+    not 0 (a load the LTCA could not carry is never passed on).
+    """
+    status = np.asarray(ds["status"])
+    if np.any(status != 0):
+        bad = int(np.flatnonzero(status != 0)[0])
+        raise ValueError(f"status={int(status[bad])} at position {bad} of the LTCA: a position "
+                         "that did not converge is outside what the excitation accepts")
+    tau = np.asarray(ds["tau"], dtype=float)
+    ste = np.asarray(ds["ste"], dtype=float) * 1e-6
+    k_t = np.asarray(ds["lpms_tangent"], dtype=float) * 1e6
+    P = float(ds.attrs["normal_force_N"])
+    ppc = int(round(1.0 / (tau[1] - tau[0])))
+    return MeshExcitation(
+        tau=tau, stiffness=k_t, error=ste - P / k_t, normal_force=P,
+        n_cycles=int(round(tau.size / ppc)), ste=ste,
+        secant_stiffness=np.asarray(ds["lpms"], dtype=float) * 1e6,
+        secant_error=np.asarray(ds["cms"], dtype=float) * 1e-6,
+        contact_loss_fraction=np.asarray(ds["contact_loss_fraction"], dtype=float),
+        meta={"source": str(ds.attrs.get("model", "ltca")), "torque_Nm":
+              float(ds.attrs.get("torque_Nm", math.nan)), "tangent": "ltca",
+              "positions_per_cycle": ppc})
