@@ -20,8 +20,10 @@ from gearuq.rotor.harmonic_balance import solve_periodic, synthesize
 from gearuq.rotor.sideband_balance import (
     excitation_from_long_period,
     mesh_force_on_grid,
+    prepare_krylov,
     prepare_orders,
     sideband_orders,
+    solve_periodic_krylov,
     solve_periodic_orders,
     spectral_orders,
     synthesize_orders,
@@ -169,3 +171,26 @@ def test_excitation_from_long_period_matches_the_ltca_route():
         pair, dev, torque=600.0, settings=LongPeriodSettings(positions_per_cycle=12, n_pts=10)))
     assert np.abs(fast.stiffness / ref.stiffness - 1).max() < 0.03
     assert np.abs(fast.error - ref.error).max() < 0.03 * np.ptp(ref.error)
+
+
+def test_krylov_on_every_harmonic_is_the_full_balance(problem):
+    """GMRES with the mesh-order preconditioner on all 3 L harmonics equals the dense
+    balance in full contact and flags contact loss instead of returning a wrong answer."""
+    prep = prepare_krylov(problem.excitation, 3)
+    assert prep.n_harmonics == problem.n_harmonics
+    for rpm in (3000.0, 6000.0):
+        full = _full(problem, rpm)
+        assert full.branch == "full_contact"
+        model = problem.reduced(rpm)
+        sol = solve_periodic_krylov(model, prep, problem.period(rpm), 2 * math.pi * rpm / 60,
+                                    channels=["dte"])
+        assert sol.status == 0 and 0 < sol.iterations < 30
+        scale = np.abs(full.delta[1:]).max()
+        assert np.abs(sol.delta - full.delta).max() < 1e-9 * scale
+        np.testing.assert_allclose(sol.channels["dte"], full.channels["dte"],
+                                   atol=1e-9 * np.abs(full.channels["dte"][1:]).max())
+    lost = solve_periodic_krylov(problem.reduced(3500.0), prep, problem.period(3500.0),
+                                 2 * math.pi * 3500.0 / 60, channels=["dte"])
+    assert lost.status == 4 and lost.min_force < 0.0
+    with pytest.raises(ValueError, match="n_mesh_harmonics=0"):
+        prepare_krylov(problem.excitation, 0)

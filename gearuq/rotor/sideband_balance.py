@@ -39,8 +39,9 @@ from gearuq.rotor.harmonic_balance import (
 )
 from gearuq.rotor.reduction import ModalModel
 
-__all__ = ["OrderExcitation", "excitation_from_long_period", "mesh_force_on_grid",
-           "prepare_orders", "sideband_orders", "solve_periodic_orders", "spectral_orders",
+__all__ = ["KrylovExcitation", "OrderExcitation", "excitation_from_long_period",
+           "mesh_force_on_grid", "prepare_krylov", "prepare_orders", "sideband_orders",
+           "solve_periodic_krylov", "solve_periodic_orders", "spectral_orders",
            "synthesize_orders"]
 
 
@@ -392,3 +393,216 @@ def excitation_from_long_period(ds: object) -> MeshExcitation:
         meta={"source": str(ds.attrs.get("model", "ltca")), "torque_Nm":
               float(ds.attrs.get("torque_Nm", math.nan)), "tangent": "ltca",
               "positions_per_cycle": ppc})
+
+
+# ------------------------------------------------------------------ every harmonic, iteratively
+STATUS_CONTACT_LOSS = 4
+
+
+@dataclass(frozen=True)
+class KrylovExcitation:
+    """Fourier data for the full-contact balance on every harmonic ``0..H`` (reusable).
+
+    Attributes
+    ----------
+    n_harmonics : int
+        ``H = n_mesh_harmonics x n_cycles`` (every harmonic of the long period up to the
+        highest mesh order kept).
+    n_cycles : int
+        Mesh cycles per long period ``L``.
+    n_time : int
+        Instants per long period of the FFT products (> 4 H).
+    k_grid, ke_grid : ndarray, (n_time,)
+        ``k`` and ``k e`` band-limited to ``2 H``.
+    stiffness_error : ndarray, complex (H + 1,)
+        ``(k e)_j``.
+    mesh_stiffness : ndarray, complex (2 n_mesh_harmonics + 1,)
+        ``dk_{mL}``, ``m = 0..2 n_mesh`` (``dk_0 = 0``): the stiffness fluctuation repeated
+        every mesh cycle, the preconditioner's part.
+    mean_stiffness : float
+        ``k_bar`` [N/m].
+    """
+
+    n_harmonics: int
+    n_cycles: int
+    n_time: int
+    k_grid: np.ndarray
+    ke_grid: np.ndarray
+    stiffness_error: np.ndarray
+    mesh_stiffness: np.ndarray
+    mean_stiffness: float
+
+
+def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int) -> KrylovExcitation:
+    """Fourier data of ``excitation`` for :func:`solve_periodic_krylov`.
+
+    Parameters
+    ----------
+    excitation : MeshExcitation
+        Mesh stiffness and error over the long period.
+    n_mesh_harmonics : int
+        Mesh orders kept, >= 1 (``H = n_mesh_harmonics x lcm``).
+    """
+    n = n_mesh_harmonics
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise ValueError(f"n_mesh_harmonics={n!r} is outside its valid range: integers >= 1")
+    L = int(excitation.n_cycles)
+    H = int(n) * L
+    four = excitation.fourier()
+    top = four["stiffness"].size - 1
+    if H > top:
+        raise ValueError(f"n_mesh_harmonics={n} needs {H} harmonics; the excitation resolves "
+                         f"{top} ({excitation.tau.size} positions per long period)")
+    limit = min(2 * H, top)
+    n_time = 1 << int(math.ceil(math.log2(4 * H + 2)))
+    dk = np.zeros(2 * H + 1, dtype=complex)
+    dk[1:limit + 1] = four["stiffness"][1:limit + 1]
+    return KrylovExcitation(
+        n_harmonics=H, n_cycles=L, n_time=n_time,
+        k_grid=_band_limited(four["stiffness"], limit, n_time),
+        ke_grid=_band_limited(four["stiffness_error"], limit, n_time),
+        stiffness_error=four["stiffness_error"][:H + 1].copy(),
+        mesh_stiffness=dk[::L][:2 * int(n) + 1].copy(),
+        mean_stiffness=float(np.real(four["stiffness"][0])))
+
+
+def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray):
+    """Inverse blocks of ``I + diag(h) T[dk_mesh]`` per residue class ``j mod L``.
+
+    Two-sided index ``j = -H..H``; class ``r`` holds ``r + m L``. Returns the member
+    indices (``(L, M)``, -1 padding) and the inverted blocks ``(L, M, M)``.
+    """
+    H, L = prep.n_harmonics, prep.n_cycles
+    n = H // L
+    M = 2 * n + 1
+    m = np.arange(-n, n + 1)
+    j = np.arange(L)[:, None] + m[None, :] * L  # class r: r + mL
+    valid = (j >= -H) & (j <= H)
+    idx = np.where(valid, j + H, -1)
+    d = m[:, None] - m[None, :]
+    dk = prep.mesh_stiffness
+    T = np.where(d >= 0, dk[np.abs(d)], np.conj(dk[np.abs(d)]))
+    hv = np.where(valid, h_two[np.maximum(idx, 0)], 0.0)
+    B = np.eye(M)[None] + hv[:, :, None] * T[None]
+    B = np.where(valid[:, :, None] & valid[:, None, :], B, np.eye(M)[None])
+    return idx, np.linalg.inv(B)
+
+
+def solve_periodic_krylov(
+    model: ModalModel,
+    prep: KrylovExcitation,
+    period: float,
+    speed: float,
+    *,
+    tol: float = 1e-10,
+    max_iter: int = 200,
+    receptance: dict[str, np.ndarray] | None = None,
+    channels: list[str] | None = None,
+) -> PeriodicSolution:
+    """Full-contact steady state on every harmonic ``0..H`` of the long period, by GMRES.
+
+    The balance of :func:`gearuq.rotor.harmonic_balance.solve_periodic` in full contact,
+    ``(I + diag(h) T[k - k_bar]) delta = delta_static e_0 + diag(h) (k e)``, without forming
+    ``T``: products with ``k - k_bar`` by FFT on the long period (``O(H log H)``), and as
+    preconditioner the exact solve with the mesh-order part of the stiffness alone, which
+    couples harmonic ``j`` only with ``j +- m L`` (one small block per residue class). The
+    rest of the stiffness fluctuation (its long-period part, from the pitch deviations) is
+    small, so GMRES converges in a few iterations. A solution whose mesh force turns
+    negative somewhere on the grid gets status 4 (contact loss: this solver does not model
+    it; use :func:`solve_periodic_orders` or the full balance).
+
+    Parameters
+    ----------
+    model : ModalModel
+        Reduced rotor (mean stiffness equal to ``prep.mean_stiffness``).
+    prep : KrylovExcitation
+        From :func:`prepare_krylov`.
+    period, speed : float
+        Long period [s] and reference speed [rad/s].
+    tol : float
+        GMRES relative residual tolerance.
+    max_iter : int
+        GMRES iterations.
+    receptance : dict, optional
+        :meth:`ModalModel.receptances` at ``j w0``, ``j = 0..H``.
+    channels : list of str, optional
+        Outputs to compute (default all of the model's channels).
+
+    Returns
+    -------
+    PeriodicSolution
+        Over harmonics ``0..H``; ``status`` 0 converged, 1 GMRES did not converge,
+        4 contact loss.
+    """
+    from scipy.sparse.linalg import LinearOperator, gmres
+
+    if not (math.isfinite(period) and period > 0):
+        raise ValueError(f"period={period!r} is outside its valid range (0, inf) s")
+    if abs(prep.mean_stiffness - model.mean_stiffness) > 1e-9 * model.mean_stiffness:
+        raise ValueError("the model's mean mesh stiffness differs from the excitation's")
+    H, N = prep.n_harmonics, prep.n_time
+    names = list(model.channels) if channels is None else channels
+    if receptance is None:
+        receptance = model.receptances(speed, 2.0 * np.pi / period * np.arange(H + 1), names)
+    h = receptance["mesh"]
+    dk_grid = prep.k_grid - prep.mean_stiffness
+
+    def to_complex(v):  # real [Re x_0..x_H, Im x_1..x_H] -> one-sided complex
+        x = v[:H + 1].astype(complex)
+        x[1:] += 1j * v[H + 1:]
+        return x
+
+    def to_real(x):
+        return np.concatenate([x.real, x.imag[1:]])
+
+    def apply(v):
+        x = to_complex(v)
+        p = np.fft.rfft(np.fft.irfft(x * N, n=N) * dk_grid)[:H + 1] / N
+        y = x + h * p
+        y[0] = y[0].real
+        return to_real(y)
+
+    h_two = np.concatenate([np.conj(h[:0:-1]), h])
+    idx, inv = _class_blocks(prep, h_two)
+    valid = idx >= 0
+
+    def precondition(v):
+        x = to_complex(v)
+        two = np.concatenate([np.conj(x[:0:-1]), x])
+        z = np.einsum("rab,rb->ra", inv, np.where(valid, two[np.maximum(idx, 0)], 0.0))
+        out = np.zeros(2 * H + 1, dtype=complex)
+        out[idx[valid]] = z[valid]
+        one = out[H:]
+        one[0] = one[0].real
+        return to_real(one)
+
+    rhs = h * prep.stiffness_error
+    rhs[0] += model.mesh_static
+    n_real = 2 * H + 1
+    A = LinearOperator((n_real, n_real), matvec=apply, dtype=float)
+    Minv = LinearOperator((n_real, n_real), matvec=precondition, dtype=float)
+    count = [0]
+
+    def callback(_):
+        count[0] += 1
+
+    v, info = gmres(A, to_real(rhs), M=Minv, rtol=tol, atol=0.0, restart=50,
+                    maxiter=max_iter, callback=callback, callback_type="pr_norm")
+    x = to_complex(v)
+    delta_t = np.fft.irfft(x * N, n=N)
+    force = prep.k_grid * delta_t - prep.ke_grid
+    r = np.fft.rfft(force - prep.mean_stiffness * delta_t)[:H + 1] / N
+    status = STATUS_NOT_CONVERGED if info != 0 else (
+        STATUS_CONTACT_LOSS if force.min() <= 0.0 else STATUS_CONVERGED)
+    sol = PeriodicSolution(
+        period=period, delta=x, force=np.fft.rfft(force)[:H + 1] / N, remainder=r,
+        status=status, iterations=count[0],
+        residual=float(np.abs(apply(v) - to_real(rhs)).max() / max(np.abs(v).max(), 1e-300)),
+        contact_loss_fraction=float(np.mean(force <= 0.0)), back_contact_fraction=0.0,
+        min_force=float(force.min()), branch="full_contact" if status != 4 else "contact_loss",
+        start="linear")
+    for name in names:
+        y = -receptance[name] * r
+        y[0] += model.static_value(name)
+        sol.channels[name] = y
+    return sol
