@@ -175,7 +175,7 @@ def test_excitation_from_long_period_matches_the_ltca_route():
 
 def test_krylov_on_every_harmonic_is_the_full_balance(problem):
     """GMRES with the mesh-order preconditioner on all 3 L harmonics equals the dense
-    balance in full contact and flags contact loss instead of returning a wrong answer."""
+    balance, in full contact and, by Newton on the contact law, with contact loss."""
     prep = prepare_krylov(problem.excitation, 3)
     assert prep.n_harmonics == problem.n_harmonics
     for rpm in (3000.0, 6000.0):
@@ -189,8 +189,15 @@ def test_krylov_on_every_harmonic_is_the_full_balance(problem):
         assert np.abs(sol.delta - full.delta).max() < 1e-9 * scale
         np.testing.assert_allclose(sol.channels["dte"], full.channels["dte"],
                                    atol=1e-9 * np.abs(full.channels["dte"][1:]).max())
-    lost = solve_periodic_krylov(problem.reduced(3500.0), prep, problem.period(3500.0),
-                                 2 * math.pi * 3500.0 / 60, channels=["dte"])
+    model = problem.reduced(3500.0)
+    args = (model, prep, problem.period(3500.0), 2 * math.pi * 3500.0 / 60)
+    lost = solve_periodic_krylov(*args, channels=["dte"], contact_loss=False)
     assert lost.status == 4 and lost.min_force < 0.0
+    # with the contact law: the dense balance's contact-loss solution (31 % apart)
+    full = _full(problem, 3500.0)
+    sol = solve_periodic_krylov(*args, channels=["dte"])
+    assert sol.status == 0 and sol.branch == "contact_loss" == full.branch
+    assert abs(sol.contact_loss_fraction - full.contact_loss_fraction) < 1e-12
+    assert np.abs(sol.delta - full.delta).max() < 1e-8 * np.abs(full.delta[1:]).max()
     with pytest.raises(ValueError, match="n_mesh_harmonics=0"):
         prepare_krylov(problem.excitation, 0)

@@ -496,20 +496,23 @@ def solve_periodic_krylov(
     *,
     tol: float = 1e-10,
     max_iter: int = 200,
+    contact_loss: bool = True,
+    newton_tol: float = 1e-9,
+    max_newton: int = 40,
     receptance: dict[str, np.ndarray] | None = None,
     channels: list[str] | None = None,
 ) -> PeriodicSolution:
-    """Full-contact steady state on every harmonic ``0..H`` of the long period, by GMRES.
+    """Steady state on every harmonic ``0..H`` of the long period, by preconditioned GMRES.
 
-    The balance of :func:`gearuq.rotor.harmonic_balance.solve_periodic` in full contact,
-    ``(I + diag(h) T[k - k_bar]) delta = delta_static e_0 + diag(h) (k e)``, without forming
-    ``T``: products with ``k - k_bar`` by FFT on the long period (``O(H log H)``), and as
-    preconditioner the exact solve with the mesh-order part of the stiffness alone, which
-    couples harmonic ``j`` only with ``j +- m L`` (one small block per residue class). The
-    rest of the stiffness fluctuation (its long-period part, from the pitch deviations) is
-    small, so GMRES converges in a few iterations. A solution whose mesh force turns
-    negative somewhere on the grid gets status 4 (contact loss: this solver does not model
-    it; use :func:`solve_periodic_orders` or the full balance).
+    The balance of :func:`gearuq.rotor.harmonic_balance.solve_periodic` (no back flank),
+    without forming the Toeplitz matrix: products with the stiffness by FFT on the long
+    period (``O(H log H)``), and as preconditioner the exact solve with the mesh-order part
+    of the stiffness alone, which couples harmonic ``j`` only with ``j +- m L`` (one small
+    block per residue class). The rest of the fluctuation (its long-period part, from the
+    pitch deviations) is small, so GMRES converges in a few iterations. Full contact is one
+    linear solve; when the flanks separate, semi-smooth Newton on the exact contact law
+    follows (each step a GMRES solve of ``I + diag(h) T[c k - k_bar]``, ``c`` the contact
+    indicator, same preconditioner), with backtracking on the residual as the full balance.
 
     Parameters
     ----------
@@ -522,7 +525,12 @@ def solve_periodic_krylov(
     tol : float
         GMRES relative residual tolerance.
     max_iter : int
-        GMRES iterations.
+        GMRES iterations per solve.
+    contact_loss : bool
+        Solve the contact law when the full-contact solution separates; False: return it
+        with status 4.
+    newton_tol, max_newton : float, int
+        Newton tolerance on ``max |R_j| / max |delta_j|`` and iteration limit.
     receptance : dict, optional
         :meth:`ModalModel.receptances` at ``j w0``, ``j = 0..H``.
     channels : list of str, optional
@@ -531,8 +539,9 @@ def solve_periodic_krylov(
     Returns
     -------
     PeriodicSolution
-        Over harmonics ``0..H``; ``status`` 0 converged, 1 GMRES did not converge,
-        4 contact loss.
+        Over harmonics ``0..H``; ``status`` 0 converged, 1 GMRES or Newton did not
+        converge, 4 contact loss not solved (``contact_loss=False``); ``iterations`` counts
+        GMRES iterations over all solves.
     """
     from scipy.sparse.linalg import LinearOperator, gmres
 
@@ -545,7 +554,8 @@ def solve_periodic_krylov(
     if receptance is None:
         receptance = model.receptances(speed, 2.0 * np.pi / period * np.arange(H + 1), names)
     h = receptance["mesh"]
-    dk_grid = prep.k_grid - prep.mean_stiffness
+    kbar = prep.mean_stiffness
+    n_real = 2 * H + 1
 
     def to_complex(v):  # real [Re x_0..x_H, Im x_1..x_H] -> one-sided complex
         x = v[:H + 1].astype(complex)
@@ -555,12 +565,14 @@ def solve_periodic_krylov(
     def to_real(x):
         return np.concatenate([x.real, x.imag[1:]])
 
-    def apply(v):
-        x = to_complex(v)
-        p = np.fft.rfft(np.fft.irfft(x * N, n=N) * dk_grid)[:H + 1] / N
-        y = x + h * p
-        y[0] = y[0].real
-        return to_real(y)
+    def operator(weight):  # v -> v + h (weight v)_j, weight(t) on the grid
+        def apply(v):
+            x = to_complex(v)
+            p = np.fft.rfft(np.fft.irfft(x * N, n=N) * weight)[:H + 1] / N
+            y = x + h * p
+            y[0] = y[0].real
+            return to_real(y)
+        return LinearOperator((n_real, n_real), matvec=apply, dtype=float)
 
     h_two = np.concatenate([np.conj(h[:0:-1]), h])
     idx, inv = _class_blocks(prep, h_two)
@@ -576,31 +588,63 @@ def solve_periodic_krylov(
         one[0] = one[0].real
         return to_real(one)
 
-    rhs = h * prep.stiffness_error
-    rhs[0] += model.mesh_static
-    n_real = 2 * H + 1
-    A = LinearOperator((n_real, n_real), matvec=apply, dtype=float)
     Minv = LinearOperator((n_real, n_real), matvec=precondition, dtype=float)
     count = [0]
 
-    def callback(_):
-        count[0] += 1
+    def solve(weight, b):
+        def callback(_):
+            count[0] += 1
+        v, info = gmres(operator(weight), b, M=Minv, rtol=tol, atol=0.0, restart=50,
+                        maxiter=max_iter, callback=callback, callback_type="pr_norm")
+        return v, info == 0
 
-    v, info = gmres(A, to_real(rhs), M=Minv, rtol=tol, atol=0.0, restart=50,
-                    maxiter=max_iter, callback=callback, callback_type="pr_norm")
+    def residual(x):
+        delta_t = np.fft.irfft(x * N, n=N)
+        F = prep.k_grid * delta_t - prep.ke_grid
+        force = np.maximum(F, 0.0)
+        r = np.fft.rfft(force - kbar * delta_t)[:H + 1] / N
+        R = x + h * r
+        R[0] -= model.mesh_static
+        return R, float(np.abs(R).max() / max(np.abs(x).max(), 1e-300)), F, r
+
+    rhs = h * prep.stiffness_error
+    rhs[0] += model.mesh_static
+    v, ok = solve(prep.k_grid - kbar, to_real(rhs))
     x = to_complex(v)
-    delta_t = np.fft.irfft(x * N, n=N)
-    force = prep.k_grid * delta_t - prep.ke_grid
-    r = np.fft.rfft(force - prep.mean_stiffness * delta_t)[:H + 1] / N
-    status = STATUS_NOT_CONVERGED if info != 0 else (
-        STATUS_CONTACT_LOSS if force.min() <= 0.0 else STATUS_CONVERGED)
+    R, res, F, r = residual(x)
+    status = STATUS_CONVERGED if ok else STATUS_NOT_CONVERGED
+    n_newton = 0
+    if ok and F.min() <= 0.0:
+        if not contact_loss:
+            status = STATUS_CONTACT_LOSS
+        while contact_loss and res > newton_tol:
+            if n_newton >= max_newton:
+                status = STATUS_NOT_CONVERGED
+                break
+            n_newton += 1
+            step, ok = solve(np.where(F > 0.0, prep.k_grid, 0.0) - kbar, -to_real(R))
+            if not ok:
+                status = STATUS_NOT_CONVERGED
+                break
+            step = to_complex(step)
+            lam = 1.0
+            for _ in range(12):  # backtracking on the residual norm
+                trial = x + lam * step
+                R_t, res_t, F_t, r_t = residual(trial)
+                if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
+                    break
+                lam *= 0.5
+            if res_t >= res and lam < 1e-3:
+                status = STATUS_NOT_CONVERGED
+                break
+            x, R, res, F, r = trial, R_t, res_t, F_t, r_t
+    force = np.maximum(F, 0.0) if status != STATUS_CONTACT_LOSS else F
+    n_sep = float(np.mean(F <= 0.0))
     sol = PeriodicSolution(
         period=period, delta=x, force=np.fft.rfft(force)[:H + 1] / N, remainder=r,
-        status=status, iterations=count[0],
-        residual=float(np.abs(apply(v) - to_real(rhs)).max() / max(np.abs(v).max(), 1e-300)),
-        contact_loss_fraction=float(np.mean(force <= 0.0)), back_contact_fraction=0.0,
-        min_force=float(force.min()), branch="full_contact" if status != 4 else "contact_loss",
-        start="linear")
+        status=status, iterations=count[0], residual=res, contact_loss_fraction=n_sep,
+        back_contact_fraction=0.0, min_force=float(force.min()),
+        branch="contact_loss" if n_sep > 0 else "full_contact", start="linear")
     for name in names:
         y = -receptance[name] * r
         y[0] += model.static_value(name)
