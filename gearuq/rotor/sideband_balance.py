@@ -18,7 +18,12 @@ unknowns restricted to a given set of orders: ``2 |J| - 1`` real unknowns instea
 ``2 H + 1``. On the full set ``J = 0..H`` it is that solver (tested); without contact loss and
 with an excitation held by the set it is exact; otherwise the orders left out are the
 truncation, measured against the full harmonic balance in docs/theory/geared_rotor.md
-(Sec. 11).
+(Sec. 13). :func:`spectral_orders` chooses the set from the excitation's spectrum instead.
+
+:func:`solve_periodic_krylov` keeps every harmonic ``0..H`` but never forms the dense system:
+FFT products and GMRES preconditioned by the mesh-order stiffness (one small block per
+residue class ``j mod L``), semi-smooth Newton on the contact law when the flanks separate;
+the long-period reference for pairs whose dense balance is out of reach.
 """
 
 from __future__ import annotations
@@ -401,7 +406,7 @@ STATUS_CONTACT_LOSS = 4
 
 @dataclass(frozen=True)
 class KrylovExcitation:
-    """Fourier data for the full-contact balance on every harmonic ``0..H`` (reusable).
+    """Fourier data for the balance on every harmonic ``0..H`` by GMRES (reusable).
 
     Attributes
     ----------
