@@ -11,6 +11,8 @@
   secant and tangent, CMS, force-deflection function)
 - :mod:`gearuq.gears.stage`: a user's gear stage (pair, accuracy, modifications, shafts,
   bearings, operation), read from TOML, the one description every gear model builds from
+- :mod:`gearuq.gears.long_period`: the long period from a line-load table, at a cost that
+  does not grow with ``lcm(z1, z2)``
 
 Submodules are imported on use so that ``import gearuq`` stays light; the main functions are
 also reachable as ``gearuq.gears.<name>`` (resolved lazily), e.g.
@@ -43,6 +45,9 @@ _LAZY = {
     "tip_relief_map": "ltca",
     "GearStage": "stage",
     "stage_mesh_stiffness": "stage",
+    "LongPeriodSettings": "long_period",
+    "line_load_table": "long_period",
+    "long_period_ltca": "long_period",
 }
 
 __all__ = sorted(_LAZY)

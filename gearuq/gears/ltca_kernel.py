@@ -35,7 +35,7 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["solve_positions"]
+__all__ = ["solve_line_loads", "solve_positions"]
 
 _BULK_ITERATIONS = 8  # active-set iterations that change several points at once
 
@@ -324,3 +324,49 @@ def solve_positions(D, phase, pair_index, xi, dL, R, h1, h2, P, E, nu, hertz, to
                 gap_out[p, ln, i] = g
                 prev_F[a, i] = F[a, i]
                 prev_active[a, i] = F[a, i] > 0.0
+
+
+@nb.njit(cache=True, nogil=True)
+def solve_line_loads(D, xi, dL, R, h1, h2, loads, E, nu, hertz, tol, max_newton, F_out,
+                     approach, k_tan, n_iter, status):
+    """Solve one line of contact alone at prescribed line loads, for every line geometry.
+
+    Different tooth pairs do not interact (``D`` is block diagonal over the lines), so a
+    line's share of the mesh is a function of its own approach alone; this tabulates that
+    function (:mod:`gearuq.gears.long_period`). Each geometry is solved at increasing loads,
+    warm-started from the previous load, with the same Newton / active-set solver as
+    :func:`solve_positions` (one line, ``P`` = the line load).
+
+    Parameters
+    ----------
+    D : (n_phase, n, n) influence blocks [m/N]
+    xi : (n_phase, n) initial clearances of each geometry [m]
+    dL : (n_phase,) segment length; R, h1, h2 : (n_phase, n) Hertz data [m]
+    loads : (n_load,) increasing line loads [N], > 0
+    E, nu, hertz, tol, max_newton : as :func:`solve_positions`
+    F_out : (n_phase, n_load, n) output forces [N]
+    approach, k_tan : (n_phase, n_load) outputs: approach of the line [m] and tangent
+        stiffness ``dL / d approach`` [N/m]
+    n_iter, status : (n_phase, n_load) outputs (Newton iterations; 0 ok, 1 not converged)
+    """
+    n_phase, n = xi.shape
+    for q in range(n_phase):
+        Dq = np.ascontiguousarray(D[q:q + 1])
+        xiq = np.ascontiguousarray(xi[q:q + 1])
+        dLq = dL[q:q + 1].copy()
+        Rq = np.ascontiguousarray(R[q:q + 1])
+        h1q = np.ascontiguousarray(h1[q:q + 1])
+        h2q = np.ascontiguousarray(h2[q:q + 1])
+        active = np.zeros((1, n), np.bool_)
+        F = np.zeros((1, n))
+        for i in range(n):  # uniform line load as the first linearisation point
+            F[0, i] = loads[0] / n
+        for j in range(loads.shape[0]):
+            delta, kt, it, ok = _solve_position(Dq, xiq, dLq, Rq, h1q, h2q, loads[j], E, nu,
+                                                hertz, tol, max_newton, active, F)
+            approach[q, j] = delta
+            k_tan[q, j] = kt
+            n_iter[q, j] = it
+            status[q, j] = 0 if ok else 1
+            for i in range(n):
+                F_out[q, j, i] = F[0, i]

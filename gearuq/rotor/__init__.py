@@ -13,6 +13,8 @@
 - :mod:`gearuq.rotor.harmonic_balance`: periodic steady state (AFT for contact loss)
 - :mod:`gearuq.rotor.time_integration`: reduced model on ``solve_batch``, Newmark full model
 - :mod:`gearuq.rotor.geared`: :class:`GearedRotorProblem` (rotor + excitation + torque)
+- :mod:`gearuq.rotor.sideband_balance`: steady state on a sparse set of long-period orders
+  (hunting-tooth pairs)
 
 Theory and checks: docs/theory/geared_rotor.md.
 """
@@ -45,6 +47,7 @@ _LAZY = {
     "newmark_full": "gearuq.rotor.time_integration",
     "GearedRotorProblem": "gearuq.rotor.geared",
     "torque_load": "gearuq.rotor.geared",
+    "solve_periodic_orders": "gearuq.rotor.sideband_balance",
 }
 
 __all__ = sorted(_LAZY)

@@ -1,0 +1,657 @@
+"""Steady state of a hunting-tooth geared rotor by harmonic balance on a sparse set of orders.
+
+The harmonic balance of :mod:`gearuq.rotor.harmonic_balance` keeps every harmonic of the long
+period up to ``H = n x lcm(z1, z2)``: for a 27/79 pair and four mesh orders, 8532 harmonics
+and a dense system of 17065 unknowns. The excitation of such a pair holds much less: the
+mesh orders ``h f_m`` and, around each, sidebands at the shaft orders of both gears (the
+once-per-revolution pitch deviations), i.e. the long-period harmonics
+
+    j = h L + i L / z1 + l L / z2,   0 <= h <= n_mesh,  |i|, |l| <= n_sidebands,  j >= 0
+
+with ``L = lcm(z1, z2)`` (``L / z1`` long-period harmonics per pinion revolution). The
+parametric coupling through the mesh stiffness, whose long-period harmonics sit on the same
+kind of set, maps the set onto itself up to its edges. :func:`solve_periodic_orders` solves
+the same equations as :func:`gearuq.rotor.harmonic_balance.solve_periodic` (Galerkin on the
+mesh approach with the rotor's receptances; alternating frequency-time evaluation of the
+contact law on a grid of the whole long period, so contact loss is exact on the grid) with the
+unknowns restricted to a given set of orders: ``2 |J| - 1`` real unknowns instead of
+``2 H + 1``. On the full set ``J = 0..H`` it is that solver (tested); without contact loss and
+with an excitation held by the set it is exact; otherwise the orders left out are the
+truncation, measured against the full harmonic balance in docs/theory/geared_rotor.md
+(Sec. 13). :func:`spectral_orders` chooses the set from the excitation's spectrum instead.
+
+:func:`solve_periodic_krylov` keeps every harmonic ``0..H`` but never forms the dense system:
+FFT products and GMRES preconditioned by the mesh-order stiffness (one small block per
+residue class ``j mod L``), semi-smooth Newton on the contact law when the flanks separate;
+the long-period reference for pairs whose dense balance is out of reach.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from gearuq.rotor.excitation import MeshExcitation
+from gearuq.rotor.harmonic_balance import (
+    STATUS_CONVERGED,
+    STATUS_NOT_CONVERGED,
+    STATUS_SINGULAR,
+    PeriodicSolution,
+    _contact_force,
+)
+from gearuq.rotor.reduction import ModalModel
+
+__all__ = ["KrylovExcitation", "OrderExcitation", "excitation_from_long_period",
+           "mesh_force_on_grid", "prepare_krylov", "prepare_orders", "sideband_orders",
+           "solve_periodic_krylov", "solve_periodic_orders", "spectral_orders",
+           "synthesize_orders"]
+
+
+def sideband_orders(z1: int, z2: int, n_mesh_harmonics: int, n_sidebands: int) -> np.ndarray:
+    """Long-period harmonics of the mesh orders and their shaft-order sidebands.
+
+    Parameters
+    ----------
+    z1, z2 : int
+        Teeth of pinion and wheel (>= 1).
+    n_mesh_harmonics : int
+        Mesh orders ``h = 0..n_mesh_harmonics`` (>= 1).
+    n_sidebands : int
+        Sidebands ``|i|, |l| <= n_sidebands`` of each gear's shaft order (>= 0).
+
+    Returns
+    -------
+    ndarray of int
+        Sorted distinct ``j >= 0`` (``0`` included), in harmonics of the long period
+        ``lcm(z1, z2)`` mesh cycles.
+    """
+    for name, v, low in (("z1", z1, 1), ("z2", z2, 1), ("n_mesh_harmonics", n_mesh_harmonics, 1),
+                         ("n_sidebands", n_sidebands, 0)):
+        if isinstance(v, bool) or int(v) != v or v < low:
+            raise ValueError(f"{name}={v!r} is outside its valid range: integers >= {low}")
+    L = math.lcm(int(z1), int(z2))
+    s = np.arange(-int(n_sidebands), int(n_sidebands) + 1)
+    side = (s[:, None] * (L // int(z1)) + s[None, :] * (L // int(z2))).ravel()
+    j = (np.arange(int(n_mesh_harmonics) + 1)[:, None] * L + side[None, :]).ravel()
+    return np.unique(j[j >= 0])
+
+
+def spectral_orders(excitation: MeshExcitation, max_order: int, energy: float = 0.999,
+                    always: np.ndarray | None = None) -> np.ndarray:
+    """The long-period harmonics up to ``max_order`` that hold the excitation's energy.
+
+    Ranks the harmonics ``1..max_order`` by ``|dk_j|^2 / sum |dk|^2 + |(k e)_j|^2 / sum
+    |(k e)|^2`` (the stiffness fluctuation and the error forcing weighted alike) and keeps
+    the fewest whose share reaches ``energy`` of the total (2), plus ``always`` and 0.
+    Random tooth-to-tooth scatter spreads the excitation over every shaft order, where a
+    fixed sideband count (:func:`sideband_orders`) cuts it; the spectrum says which orders
+    carry it.
+
+    Parameters
+    ----------
+    excitation : MeshExcitation
+        Mesh stiffness and error over the long period.
+    max_order : int
+        Highest harmonic considered (e.g. ``n_mesh_harmonics x lcm(z1, z2)``), >= 1.
+    energy : float
+        Share to keep, in (0, 1].
+    always : array_like of int, optional
+        Harmonics kept whatever their share (e.g. the mesh orders).
+
+    Returns
+    -------
+    ndarray of int
+        Sorted harmonics, 0 included.
+    """
+    if not 0.0 < energy <= 1.0:
+        raise ValueError(f"energy={energy!r} is outside its valid range (0, 1]")
+    four = excitation.fourier()
+    top = four["stiffness"].size - 1
+    if isinstance(max_order, bool) or int(max_order) != max_order or not 1 <= max_order <= top:
+        raise ValueError(f"max_order={max_order!r} is outside its valid range: integers "
+                         f"1..{top}")
+    share = np.zeros(int(max_order))
+    for name in ("stiffness", "stiffness_error"):
+        a2 = np.abs(four[name][1:int(max_order) + 1]) ** 2
+        if a2.sum() > 0.0:
+            share += a2 / a2.sum()
+    rank = np.argsort(-share, kind="stable")
+    total = share.sum()
+    n = int(np.searchsorted(np.cumsum(share[rank]), energy * total * (1 - 1e-12))) + 1
+    keep = rank[:min(n, rank.size)] + 1
+    extra = np.zeros(0, np.int64) if always is None else np.asarray(always, np.int64)
+    return np.unique(np.concatenate([[0], keep, extra[(extra >= 0) & (extra <= max_order)]]))
+
+
+@dataclass(frozen=True)
+class OrderExcitation:
+    """Fourier data of an excitation for a set of orders (reusable over speeds).
+
+    Attributes
+    ----------
+    orders : ndarray of int
+        The kept long-period harmonics ``J`` (sorted, ``J[0] = 0``).
+    n_time : int
+        AFT instants per long period (> 4 max J: the products of ``k`` and the response
+        alias nowhere into ``J``).
+    k_grid, ke_grid : ndarray, (n_time,)
+        Stiffness ``k`` and ``k e`` band-limited to ``2 max J`` on the AFT grid.
+    stiffness_error : ndarray, complex (|J|,)
+        ``(k e)_j``, ``j`` in ``J``.
+    mean_stiffness : float
+        ``k_bar`` [N/m].
+    linear_blocks : ndarray, complex (|J|, 2 |J| - 1)
+        Real-form coupling of ``J`` through ``k - k_bar`` (:func:`_order_blocks`).
+    """
+
+    orders: np.ndarray
+    n_time: int
+    k_grid: np.ndarray
+    ke_grid: np.ndarray
+    stiffness_error: np.ndarray
+    mean_stiffness: float
+    linear_blocks: np.ndarray
+
+    @property
+    def n_harmonics(self) -> int:
+        """Largest kept harmonic ``max J``."""
+        return int(self.orders[-1])
+
+
+def _band_limited(one_sided: np.ndarray, limit: int, n_time: int) -> np.ndarray:
+    c = np.zeros(n_time // 2 + 1, dtype=complex)
+    m = min(limit, one_sided.size - 1, n_time // 2 - 1)
+    c[:m + 1] = one_sided[:m + 1]
+    return np.fft.irfft(c * n_time, n=n_time)
+
+
+def _order_blocks(dk: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """``C`` with ``(T[dk] x)_j = C @ [Re x_0, Re x_l, Im x_l]`` for ``j``, ``l > 0`` in ``J``.
+
+    ``dk``: one-sided harmonics of a real signal (index ``>= 2 max J``); ``x``: two-sided
+    harmonics of a real signal on ``+-J``, so ``sum_l dk_{j-l} x_l = dk_j x_0 + sum_{l>0}
+    (dk_{j-l} + dk_{j+l}) Re x_l + i (dk_{j-l} - dk_{j+l}) Im x_l``.
+    """
+    def at(k: np.ndarray) -> np.ndarray:
+        v = dk[np.abs(k)]
+        return np.where(k >= 0, v, np.conj(v))
+
+    j = J[:, None]
+    lp = J[None, 1:]
+    P, Q = at(j - lp), at(j + lp)
+    return np.concatenate([at(J)[:, None], P + Q, 1j * (P - Q)], axis=1)
+
+
+def prepare_orders(excitation: MeshExcitation, orders: np.ndarray) -> OrderExcitation:
+    """Fourier data of ``excitation`` on the long-period harmonics ``orders``.
+
+    Parameters
+    ----------
+    excitation : MeshExcitation
+        Mesh stiffness and error over the long period.
+    orders : array_like of int
+        Long-period harmonics to keep (0 is added; e.g. :func:`sideband_orders`).
+
+    Returns
+    -------
+    OrderExcitation
+    """
+    J = np.unique(np.concatenate([[0], np.asarray(orders, dtype=np.int64).ravel()]))
+    if J[0] < 0:
+        raise ValueError(f"orders contain {int(J[0])}, outside the valid range: integers >= 0")
+    four = excitation.fourier()
+    top = four["stiffness"].size - 1
+    if J[-1] > top:
+        raise ValueError(f"orders up to {int(J[-1])} exceed the {top} harmonics the excitation "
+                         f"samples resolve ({excitation.tau.size} positions per long period)")
+    kbar = float(np.real(four["stiffness"][0]))
+    limit = min(2 * int(J[-1]), top)
+    dk = np.zeros(2 * int(J[-1]) + 1, dtype=complex)
+    dk[1:limit + 1] = four["stiffness"][1:limit + 1]
+    n_time = 1 << int(math.ceil(math.log2(4 * int(J[-1]) + 2)))
+    return OrderExcitation(
+        orders=J, n_time=n_time, k_grid=_band_limited(four["stiffness"], limit, n_time),
+        ke_grid=_band_limited(four["stiffness_error"], limit, n_time),
+        stiffness_error=four["stiffness_error"][J], mean_stiffness=kbar,
+        linear_blocks=_order_blocks(dk, J))
+
+
+def _solve_real(h: np.ndarray, blocks: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve ``(I + diag(h) T) x = b`` on ``J`` in real form; returns one-sided ``x_J``."""
+    n = h.size
+    M = h[:, None] * blocks
+    A = np.concatenate([M.real, M.imag[1:]])
+    idx = np.arange(2 * n - 1)
+    A[idx, idx] += 1.0
+    y = sla.solve(A, np.concatenate([rhs.real, rhs.imag[1:]]), check_finite=True)
+    x = y[:n].astype(complex)
+    x[1:] += 1j * y[n:]
+    return x
+
+
+def _to_time(prep: OrderExcitation, x: np.ndarray) -> np.ndarray:
+    N = prep.n_time
+    c = np.zeros(N // 2 + 1, dtype=complex)
+    c[prep.orders] = x
+    return np.fft.irfft(c * N, n=N)
+
+
+def _residual(x, prep, h, static, backlash):
+    delta_t = _to_time(prep, x)
+    force, slope, front, back = _contact_force(prep, delta_t, backlash)
+    r = np.fft.rfft(force - prep.mean_stiffness * delta_t)[prep.orders] / prep.n_time
+    R = x + h * r
+    R[0] -= static
+    return R, float(np.abs(R).max() / max(np.abs(x).max(), 1e-300)), slope, r
+
+
+def solve_periodic_orders(
+    model: ModalModel,
+    prep: OrderExcitation,
+    period: float,
+    speed: float,
+    *,
+    backlash: float = math.inf,
+    tol: float = 1e-9,
+    max_iter: int = 40,
+    initial: np.ndarray | None = None,
+    receptance: dict[str, np.ndarray] | None = None,
+    channels: list[str] | None = None,
+) -> PeriodicSolution:
+    """Periodic steady state over the long period on the orders of ``prep``.
+
+    Parameters
+    ----------
+    model : ModalModel
+        Reduced rotor (mean stiffness equal to ``prep.mean_stiffness``).
+    prep : OrderExcitation
+        From :func:`prepare_orders`.
+    period : float
+        Long period [s].
+    speed : float
+        Reference speed [rad/s] (gyroscopic terms).
+    backlash : float
+        Normal backlash [m] (``inf``: no back-flank contact).
+    tol : float
+        Newton tolerance on ``max |R_j| / max |delta_j|``.
+    max_iter : int
+        Newton iterations (semi-smooth Newton with backtracking, as the full balance).
+    initial : ndarray, optional
+        One-sided ``delta_j`` on ``prep.orders`` to start from (continuation).
+    receptance : dict, optional
+        :meth:`ModalModel.receptances` at ``j w0``, ``j`` in ``prep.orders``.
+    channels : list of str, optional
+        Outputs to compute (default all of the model's channels).
+
+    Returns
+    -------
+    PeriodicSolution
+        Its ``delta``, ``force``, ``remainder`` and channels are over ``prep.orders`` (not
+        ``0..H``); ``status`` 0 converged, 1 Newton did not converge, 2 singular system.
+    """
+    if not (math.isfinite(period) and period > 0):
+        raise ValueError(f"period={period!r} is outside its valid range (0, inf) s")
+    if abs(prep.mean_stiffness - model.mean_stiffness) > 1e-9 * model.mean_stiffness:
+        raise ValueError("the model's mean mesh stiffness differs from the excitation's")
+    names = list(model.channels) if channels is None else channels
+    J = prep.orders
+    if receptance is None:
+        receptance = model.receptances(speed, 2.0 * np.pi / period * J, names)
+    h = receptance["mesh"]
+    rhs = h * prep.stiffness_error
+    rhs[0] += model.mesh_static
+    status, start, iterations = STATUS_CONVERGED, "linear" if initial is None else "given", 0
+    try:
+        x = (_solve_real(h, prep.linear_blocks, rhs) if initial is None
+             else np.asarray(initial, dtype=complex).copy())
+    except (sla.LinAlgError, ValueError):
+        x, status = np.zeros(J.size, dtype=complex), STATUS_SINGULAR
+    x[0] = x[0].real
+    R, res, slope, r = _residual(x, prep, h, model.mesh_static, backlash)
+    while status == STATUS_CONVERGED and res > tol:
+        if iterations >= max_iter:
+            status = STATUS_NOT_CONVERGED
+            break
+        iterations += 1
+        dk = np.fft.rfft(slope)[:2 * int(J[-1]) + 1] / prep.n_time
+        dk[0] -= prep.mean_stiffness
+        try:
+            step = _solve_real(h, _order_blocks(dk, J), -R)
+        except (sla.LinAlgError, ValueError):
+            status = STATUS_SINGULAR
+            break
+        lam = 1.0
+        for _ in range(12):  # backtracking on the residual norm
+            trial = x + lam * step
+            trial[0] = trial[0].real
+            R_t, res_t, slope_t, r_t = _residual(trial, prep, h, model.mesh_static, backlash)
+            if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
+                break
+            lam *= 0.5
+        if res_t >= res and lam < 1e-3:
+            status = STATUS_NOT_CONVERGED
+            break
+        x, R, res, slope, r = trial, R_t, res_t, slope_t, r_t
+    delta_t = _to_time(prep, x)
+    force, _, front, back = _contact_force(prep, delta_t, backlash)
+    n_sep = float(np.mean(~front & ~back))
+    sol = PeriodicSolution(
+        period=period, delta=x.copy(), force=np.fft.rfft(force)[J] / prep.n_time,
+        remainder=r, status=status, iterations=iterations, residual=res,
+        contact_loss_fraction=n_sep, back_contact_fraction=float(np.mean(back)),
+        min_force=float(force.min()),
+        branch=("back_flank_contact" if back.any() else
+                "contact_loss" if n_sep > 0 else "full_contact"), start=start)
+    for name in names:
+        y = -receptance[name] * r
+        y[0] += model.static_value(name)
+        sol.channels[name] = y
+    return sol
+
+
+def synthesize_orders(harmonics: np.ndarray, orders: np.ndarray, t: np.ndarray,
+                      period: float) -> np.ndarray:
+    """Real signal ``sum_j c_j exp(2 pi i j t / T)`` over ``+-orders`` (one-sided ``c``)."""
+    orders = np.asarray(orders)
+    ph = np.exp(2j * np.pi * np.outer(np.asarray(t, dtype=float), orders[1:]) / period)
+    return np.real(harmonics[0]) + 2.0 * np.real(ph @ harmonics[1:])
+
+
+def mesh_force_on_grid(prep: OrderExcitation, sol: PeriodicSolution,
+                       backlash: float = math.inf) -> np.ndarray:
+    """Mesh force [N] of a solution on the AFT grid of the long period (exact contact law).
+
+    Its extremes are the mesh force's extremes to the grid spacing ``T / n_time``.
+    """
+    force, _, _, _ = _contact_force(prep, _to_time(prep, sol.delta), backlash)
+    return force
+
+
+def excitation_from_long_period(ds: object) -> MeshExcitation:
+    """The rotor's mesh excitation from a long-period LTCA Dataset.
+
+    ``ds``: a result of :func:`gearuq.gears.long_period.long_period_ltca` or of
+    :func:`gearuq.gears.ltca.ltca` over the long period (``ste`` in um, ``lpms_tangent`` in
+    N/um, ``normal_force_N`` in the attrs); the mesh is linearised with the tangent stiffness
+    as in :meth:`MeshExcitation.from_setup`. Raises ValueError when a position's status is
+    not 0 (a load the LTCA could not carry is never passed on).
+    """
+    status = np.asarray(ds["status"])
+    if np.any(status != 0):
+        bad = int(np.flatnonzero(status != 0)[0])
+        raise ValueError(f"status={int(status[bad])} at position {bad} of the LTCA: a position "
+                         "that did not converge is outside what the excitation accepts")
+    tau = np.asarray(ds["tau"], dtype=float)
+    ste = np.asarray(ds["ste"], dtype=float) * 1e-6
+    k_t = np.asarray(ds["lpms_tangent"], dtype=float) * 1e6
+    P = float(ds.attrs["normal_force_N"])
+    ppc = int(round(1.0 / (tau[1] - tau[0])))
+    return MeshExcitation(
+        tau=tau, stiffness=k_t, error=ste - P / k_t, normal_force=P,
+        n_cycles=int(round(tau.size / ppc)), ste=ste,
+        secant_stiffness=np.asarray(ds["lpms"], dtype=float) * 1e6,
+        secant_error=np.asarray(ds["cms"], dtype=float) * 1e-6,
+        contact_loss_fraction=np.asarray(ds["contact_loss_fraction"], dtype=float),
+        meta={"source": str(ds.attrs.get("model", "ltca")), "torque_Nm":
+              float(ds.attrs.get("torque_Nm", math.nan)), "tangent": "ltca",
+              "positions_per_cycle": ppc})
+
+
+# ------------------------------------------------------------------ every harmonic, iteratively
+STATUS_CONTACT_LOSS = 4
+
+
+@dataclass(frozen=True)
+class KrylovExcitation:
+    """Fourier data for the balance on every harmonic ``0..H`` by GMRES (reusable).
+
+    Attributes
+    ----------
+    n_harmonics : int
+        ``H = n_mesh_harmonics x n_cycles`` (every harmonic of the long period up to the
+        highest mesh order kept).
+    n_cycles : int
+        Mesh cycles per long period ``L``.
+    n_time : int
+        Instants per long period of the FFT products (> 4 H).
+    k_grid, ke_grid : ndarray, (n_time,)
+        ``k`` and ``k e`` band-limited to ``2 H``.
+    stiffness_error : ndarray, complex (H + 1,)
+        ``(k e)_j``.
+    mesh_stiffness : ndarray, complex (2 n_mesh_harmonics + 1,)
+        ``dk_{mL}``, ``m = 0..2 n_mesh`` (``dk_0 = 0``): the stiffness fluctuation repeated
+        every mesh cycle, the preconditioner's part.
+    mean_stiffness : float
+        ``k_bar`` [N/m].
+    """
+
+    n_harmonics: int
+    n_cycles: int
+    n_time: int
+    k_grid: np.ndarray
+    ke_grid: np.ndarray
+    stiffness_error: np.ndarray
+    mesh_stiffness: np.ndarray
+    mean_stiffness: float
+
+
+def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int) -> KrylovExcitation:
+    """Fourier data of ``excitation`` for :func:`solve_periodic_krylov`.
+
+    Parameters
+    ----------
+    excitation : MeshExcitation
+        Mesh stiffness and error over the long period.
+    n_mesh_harmonics : int
+        Mesh orders kept, >= 1 (``H = n_mesh_harmonics x lcm``).
+    """
+    n = n_mesh_harmonics
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise ValueError(f"n_mesh_harmonics={n!r} is outside its valid range: integers >= 1")
+    L = int(excitation.n_cycles)
+    H = int(n) * L
+    four = excitation.fourier()
+    top = four["stiffness"].size - 1
+    if H > top:
+        raise ValueError(f"n_mesh_harmonics={n} needs {H} harmonics; the excitation resolves "
+                         f"{top} ({excitation.tau.size} positions per long period)")
+    limit = min(2 * H, top)
+    n_time = 1 << int(math.ceil(math.log2(4 * H + 2)))
+    dk = np.zeros(2 * H + 1, dtype=complex)
+    dk[1:limit + 1] = four["stiffness"][1:limit + 1]
+    return KrylovExcitation(
+        n_harmonics=H, n_cycles=L, n_time=n_time,
+        k_grid=_band_limited(four["stiffness"], limit, n_time),
+        ke_grid=_band_limited(four["stiffness_error"], limit, n_time),
+        stiffness_error=four["stiffness_error"][:H + 1].copy(),
+        mesh_stiffness=dk[::L][:2 * int(n) + 1].copy(),
+        mean_stiffness=float(np.real(four["stiffness"][0])))
+
+
+def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray):
+    """Inverse blocks of ``I + diag(h) T[dk_mesh]`` per residue class ``j mod L``.
+
+    Two-sided index ``j = -H..H``; class ``r`` holds ``r + m L``. Returns the member
+    indices (``(L, M)``, -1 padding) and the inverted blocks ``(L, M, M)``.
+    """
+    H, L = prep.n_harmonics, prep.n_cycles
+    n = H // L
+    M = 2 * n + 1
+    m = np.arange(-n, n + 1)
+    j = np.arange(L)[:, None] + m[None, :] * L  # class r: r + mL
+    valid = (j >= -H) & (j <= H)
+    idx = np.where(valid, j + H, -1)
+    d = m[:, None] - m[None, :]
+    dk = prep.mesh_stiffness
+    T = np.where(d >= 0, dk[np.abs(d)], np.conj(dk[np.abs(d)]))
+    hv = np.where(valid, h_two[np.maximum(idx, 0)], 0.0)
+    B = np.eye(M)[None] + hv[:, :, None] * T[None]
+    B = np.where(valid[:, :, None] & valid[:, None, :], B, np.eye(M)[None])
+    return idx, np.linalg.inv(B)
+
+
+def solve_periodic_krylov(
+    model: ModalModel,
+    prep: KrylovExcitation,
+    period: float,
+    speed: float,
+    *,
+    tol: float = 1e-10,
+    max_iter: int = 200,
+    contact_loss: bool = True,
+    newton_tol: float = 1e-9,
+    max_newton: int = 40,
+    receptance: dict[str, np.ndarray] | None = None,
+    channels: list[str] | None = None,
+) -> PeriodicSolution:
+    """Steady state on every harmonic ``0..H`` of the long period, by preconditioned GMRES.
+
+    The balance of :func:`gearuq.rotor.harmonic_balance.solve_periodic` (no back flank),
+    without forming the Toeplitz matrix: products with the stiffness by FFT on the long
+    period (``O(H log H)``), and as preconditioner the exact solve with the mesh-order part
+    of the stiffness alone, which couples harmonic ``j`` only with ``j +- m L`` (one small
+    block per residue class). The rest of the fluctuation (its long-period part, from the
+    pitch deviations) is small, so GMRES converges in a few iterations. Full contact is one
+    linear solve; when the flanks separate, semi-smooth Newton on the exact contact law
+    follows (each step a GMRES solve of ``I + diag(h) T[c k - k_bar]``, ``c`` the contact
+    indicator, same preconditioner), with backtracking on the residual as the full balance.
+
+    Parameters
+    ----------
+    model : ModalModel
+        Reduced rotor (mean stiffness equal to ``prep.mean_stiffness``).
+    prep : KrylovExcitation
+        From :func:`prepare_krylov`.
+    period, speed : float
+        Long period [s] and reference speed [rad/s].
+    tol : float
+        GMRES relative residual tolerance.
+    max_iter : int
+        GMRES iterations per solve.
+    contact_loss : bool
+        Solve the contact law when the full-contact solution separates; False: return it
+        with status 4.
+    newton_tol, max_newton : float, int
+        Newton tolerance on ``max |R_j| / max |delta_j|`` and iteration limit.
+    receptance : dict, optional
+        :meth:`ModalModel.receptances` at ``j w0``, ``j = 0..H``.
+    channels : list of str, optional
+        Outputs to compute (default all of the model's channels).
+
+    Returns
+    -------
+    PeriodicSolution
+        Over harmonics ``0..H``; ``status`` 0 converged, 1 GMRES or Newton did not
+        converge, 4 contact loss not solved (``contact_loss=False``); ``iterations`` counts
+        GMRES iterations over all solves.
+    """
+    from scipy.sparse.linalg import LinearOperator, gmres
+
+    if not (math.isfinite(period) and period > 0):
+        raise ValueError(f"period={period!r} is outside its valid range (0, inf) s")
+    if abs(prep.mean_stiffness - model.mean_stiffness) > 1e-9 * model.mean_stiffness:
+        raise ValueError("the model's mean mesh stiffness differs from the excitation's")
+    H, N = prep.n_harmonics, prep.n_time
+    names = list(model.channels) if channels is None else channels
+    if receptance is None:
+        receptance = model.receptances(speed, 2.0 * np.pi / period * np.arange(H + 1), names)
+    h = receptance["mesh"]
+    kbar = prep.mean_stiffness
+    n_real = 2 * H + 1
+
+    def to_complex(v):  # real [Re x_0..x_H, Im x_1..x_H] -> one-sided complex
+        x = v[:H + 1].astype(complex)
+        x[1:] += 1j * v[H + 1:]
+        return x
+
+    def to_real(x):
+        return np.concatenate([x.real, x.imag[1:]])
+
+    def operator(weight):  # v -> v + h (weight v)_j, weight(t) on the grid
+        def apply(v):
+            x = to_complex(v)
+            p = np.fft.rfft(np.fft.irfft(x * N, n=N) * weight)[:H + 1] / N
+            y = x + h * p
+            y[0] = y[0].real
+            return to_real(y)
+        return LinearOperator((n_real, n_real), matvec=apply, dtype=float)
+
+    h_two = np.concatenate([np.conj(h[:0:-1]), h])
+    idx, inv = _class_blocks(prep, h_two)
+    valid = idx >= 0
+
+    def precondition(v):
+        x = to_complex(v)
+        two = np.concatenate([np.conj(x[:0:-1]), x])
+        z = np.einsum("rab,rb->ra", inv, np.where(valid, two[np.maximum(idx, 0)], 0.0))
+        out = np.zeros(2 * H + 1, dtype=complex)
+        out[idx[valid]] = z[valid]
+        one = out[H:]
+        one[0] = one[0].real
+        return to_real(one)
+
+    Minv = LinearOperator((n_real, n_real), matvec=precondition, dtype=float)
+    count = [0]
+
+    def solve(weight, b):
+        def callback(_):
+            count[0] += 1
+        v, info = gmres(operator(weight), b, M=Minv, rtol=tol, atol=0.0, restart=50,
+                        maxiter=max_iter, callback=callback, callback_type="pr_norm")
+        return v, info == 0
+
+    def residual(x):
+        delta_t = np.fft.irfft(x * N, n=N)
+        F = prep.k_grid * delta_t - prep.ke_grid
+        force = np.maximum(F, 0.0)
+        r = np.fft.rfft(force - kbar * delta_t)[:H + 1] / N
+        R = x + h * r
+        R[0] -= model.mesh_static
+        return R, float(np.abs(R).max() / max(np.abs(x).max(), 1e-300)), F, r
+
+    rhs = h * prep.stiffness_error
+    rhs[0] += model.mesh_static
+    v, ok = solve(prep.k_grid - kbar, to_real(rhs))
+    x = to_complex(v)
+    R, res, F, r = residual(x)
+    status = STATUS_CONVERGED if ok else STATUS_NOT_CONVERGED
+    n_newton = 0
+    if ok and F.min() <= 0.0:
+        if not contact_loss:
+            status = STATUS_CONTACT_LOSS
+        while contact_loss and res > newton_tol:
+            if n_newton >= max_newton:
+                status = STATUS_NOT_CONVERGED
+                break
+            n_newton += 1
+            step, ok = solve(np.where(F > 0.0, prep.k_grid, 0.0) - kbar, -to_real(R))
+            if not ok:
+                status = STATUS_NOT_CONVERGED
+                break
+            step = to_complex(step)
+            lam = 1.0
+            for _ in range(12):  # backtracking on the residual norm
+                trial = x + lam * step
+                R_t, res_t, F_t, r_t = residual(trial)
+                if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
+                    break
+                lam *= 0.5
+            if res_t >= res and lam < 1e-3:
+                status = STATUS_NOT_CONVERGED
+                break
+            x, R, res, F, r = trial, R_t, res_t, F_t, r_t
+    force = np.maximum(F, 0.0) if status != STATUS_CONTACT_LOSS else F
+    n_sep = float(np.mean(F <= 0.0))
+    sol = PeriodicSolution(
+        period=period, delta=x, force=np.fft.rfft(force)[:H + 1] / N, remainder=r,
+        status=status, iterations=count[0], residual=res, contact_loss_fraction=n_sep,
+        back_contact_fraction=0.0, min_force=float(force.min()),
+        branch="contact_loss" if n_sep > 0 else "full_contact", start="linear")
+    for name in names:
+        y = -receptance[name] * r
+        y[0] += model.static_value(name)
+        sol.channels[name] = y
+    return sol
