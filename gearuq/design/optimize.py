@@ -102,18 +102,20 @@ class _Scaled:
             return self._value(obj, self.at(u)[obj.name])
         return self.p.cost(self.design(u)) / self.cost_scale
 
-    def margins(self, u: np.ndarray, pick: str = "value") -> np.ndarray:
-        """One margin per constraint bound, >= 0 where it holds (in scaled units)."""
+    def margins(self, u: np.ndarray, conservative: bool = False) -> np.ndarray:
+        """One margin per constraint bound, >= 0 where it holds (in scaled units); with
+        ``conservative`` a cap is met by the interval's upper end, a floor by its lower."""
         est = self.at(u)
         out = []
         for c in self.p.constraints:
             m = c.measure
-            v = self._value(m, est[m.name], pick)
+            v = self._value(m, est[m.name], "upper" if conservative else "value")
             if c.upper is not None:
                 cap = _probit(c.upper, self.floor) if isinstance(m, Probability) \
                     else c.upper / self.scale[m.name]
                 out.append(cap - v)
             if c.lower is not None:
+                v = self._value(m, est[m.name], "lower" if conservative else "value")
                 floor = _probit(c.lower, self.floor) if isinstance(m, Probability) \
                     else c.lower / self.scale[m.name]
                 out.append(v - floor)
@@ -139,8 +141,9 @@ def _grid_start(sc: _Scaled, axes: list[np.ndarray]) -> np.ndarray:
     return best
 
 
-def _slsqp(sc: _Scaled, u0: np.ndarray, pick: str = "value") -> optimize.OptimizeResult:
-    cons = ([{"type": "ineq", "fun": lambda u: sc.margins(u, pick)}]
+def _slsqp(sc: _Scaled, u0: np.ndarray, conservative: bool = False
+           ) -> optimize.OptimizeResult:
+    cons = ([{"type": "ineq", "fun": lambda u: sc.margins(u, conservative)}]
             if sc.p.constraints else [])
     return optimize.minimize(sc.objective, u0, method="SLSQP", bounds=[(0, 1)] * u0.size,
                              constraints=cons,
@@ -284,7 +287,7 @@ def _search_surrogate(problem: DesignProblem, s: Mapping[str, Any], seed: int,
     sc = _Scaled(problem, est, floor, 0.5 * np.ones(k))
     u0 = _grid_start(sc, _grid(problem, s["grid"]))
     n_grid = len(sc.cache)
-    res = _slsqp(sc, u0, pick="upper" if s["conservative"] else "value")
+    res = _slsqp(sc, u0, conservative=s["conservative"])
     u = np.clip(res.x, 0, 1)
     land = _landscape(problem, s["grid"], est)
     history = [{"design": (problem.lower + uu * (problem.upper - problem.lower)).tolist(),
@@ -350,6 +353,7 @@ def optimize_design(
     n_designs: int = 16,
     conservative: bool = True,
     max_evaluations: int = 60,
+    keep_confirmation_runs: bool = False,
     executor: Any = None,
     chunk_size: int | None = None,
 ) -> xr.Dataset:
@@ -389,6 +393,9 @@ def optimize_design(
         ``surrogate``: constraints on the upper end of the surrogate's band.
     max_evaluations : int
         ``crn`` / ``nested``: most designs COBYLA may ask for.
+    keep_confirmation_runs : bool
+        Keep the confirmation's outputs in the result (``run_<output>``, ``run_status``), e.g.
+        for a response band.
     executor, chunk_size
         As in :func:`gearuq.monte_carlo`.
 
@@ -424,7 +431,8 @@ def optimize_design(
     if s["confirm_samples"] > 0:
         cseed = int(np.random.SeedSequence([seed, 2**31 - 1]).generate_state(1)[0])
         confirm = evaluate_design(problem, found["design"], n_samples=s["confirm_samples"],
-                                  rng=cseed, model_options=confirm_options, **run_kw)
+                                  rng=cseed, model_options=confirm_options,
+                                  keep_runs=keep_confirmation_runs, **run_kw)
     return _result(problem, strategy, s, seed, found, confirm, confirm_options,
                    time.perf_counter() - t0)
 
@@ -500,6 +508,8 @@ def _result(problem: DesignProblem, strategy: str, s: Mapping[str, Any], seed: i
         "flag_values": np.array(list(DESIGN_STATUS), dtype=np.int8),
         "flag_meanings": " ".join(DESIGN_STATUS.values()), "role": "status"})
     ds = xr.Dataset(data, coords=coords)
+    if confirm is not None:
+        ds = ds.merge(confirm[[v for v in confirm.data_vars if str(v).startswith("run_")]])
     ds.attrs.update(provenance(f"design/{strategy}", problem.model, None, problem.space, seed,
                                strategy=strategy, **{k: v for k, v in s.items()
                                                      if v is not None and k != "x0"}))

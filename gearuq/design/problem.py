@@ -168,14 +168,14 @@ class DesignProblem:
 
     def run(self, design: np.ndarray, n: int, seed: int, *,
             model_options: Mapping[str, Any] | None = None, executor: Any = None,
-            chunk_size: int | None = None) -> xr.Dataset:
+            chunk_size: int | None = None, all_outputs: bool = False) -> xr.Dataset:
         """Monte Carlo at one design (same seed, same uniform draws: common random numbers)."""
         opts = self.model_options if model_options is None else dict(model_options)
+        outputs = None if all_outputs else (self.outputs or None)
         return monte_carlo(model_at(self.model, self.variables, design),
                            space_at(self.space, self.variables, design), self.t,
-                           n_samples=n, rng=seed, outputs=self.outputs or None,
-                           executor=executor, chunk_size=chunk_size, progress=False,
-                           model_options=opts)
+                           n_samples=n, rng=seed, outputs=outputs, executor=executor,
+                           chunk_size=chunk_size, progress=False, model_options=opts)
 
     def run_spread(self, n: int, seed: int, *, executor: Any = None,
                    chunk_size: int | None = None) -> xr.Dataset:
@@ -203,6 +203,7 @@ def evaluate_design(
     model_options: Mapping[str, Any] | None = None,
     executor: Any = None,
     chunk_size: int | None = None,
+    keep_runs: bool = False,
 ) -> xr.Dataset:
     """Every measure of a problem at one design, from one fresh Monte Carlo run.
 
@@ -219,6 +220,9 @@ def evaluate_design(
         Model options (default: the problem's; pass the expensive fidelity to confirm).
     executor, chunk_size
         As in :func:`gearuq.monte_carlo`.
+    keep_runs : bool
+        Also keep the runs' outputs (``run_<output>`` over ``sample``, and ``time`` where
+        the output has it) and their ``run_status``.
 
     Returns
     -------
@@ -231,11 +235,14 @@ def evaluate_design(
     seed = resolve_seed(rng)
     d = _design_vector(problem, design)
     ds = problem.run(d, int(n_samples), seed, model_options=model_options, executor=executor,
-                     chunk_size=chunk_size)
+                     chunk_size=chunk_size, all_outputs=keep_runs)
     values = problem.values_of(ds)
     ests = {m.name: m.estimate(values[m.name], None, problem.confidence)
             for m in problem.measures}
     out = estimates_dataset(problem, d, ests, ds, seed)
+    if keep_runs:
+        for name in [*(o.name for o in problem.model.outputs), "status"]:
+            out[f"run_{name}"] = ds[name].compute()
     out.attrs["model_options"] = json.dumps(
         problem.model_options if model_options is None else dict(model_options), default=repr)
     return out
