@@ -270,6 +270,11 @@ def test_bad_input_names_the_parameter():
                       [DesignVariable("a", 1.0, 2.0, role="parameter")], Probability("g"))
     with pytest.raises(ValueError, match="reweight' needs every design variable"):
         optimize_design(p, strategy="reweight")
+    other = DesignProblem(gearuq.FunctionModel(lambda x: 3.0 - x, ["x"], ["g"]),
+                          gearuq.ParameterSpace.normal(x=(0.0, 1.0)),
+                          [DesignVariable("e", -2.0, 2.0, target="x")], Probability("g"))
+    with pytest.raises(ValueError, match="confirm_problem: its variables \\['e'\\]"):
+        optimize_design(_shift_problem(), confirm_problem=other)
     with pytest.raises(ValueError, match="d=5.0 is outside its bounds"):
         evaluate_design(_shift_problem(), [5.0], n_samples=10)
 

@@ -266,7 +266,7 @@ def _search_surrogate(problem: DesignProblem, s: Mapping[str, Any], seed: int,
     for m in problem.measures:
         y, noise = _surrogate_targets(m, [e[m.name] for e in ests], n, floor, z)
         kernel = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(
-            length_scale=np.full(k, 0.3), length_scale_bounds=(0.03, 10.0), nu=2.5)
+            length_scale=np.full(k, 0.3), length_scale_bounds=(0.1, 10.0), nu=2.5)
         gp = GaussianProcessRegressor(kernel=kernel, alpha=noise, normalize_y=True,
                                       n_restarts_optimizer=3, random_state=seed)
         gps[m.name] = (gp.fit(unit, y), m)
@@ -354,6 +354,7 @@ def optimize_design(
     conservative: bool = True,
     max_evaluations: int = 60,
     keep_confirmation_runs: bool = False,
+    confirm_problem: DesignProblem | None = None,
     executor: Any = None,
     chunk_size: int | None = None,
 ) -> xr.Dataset:
@@ -396,6 +397,9 @@ def optimize_design(
     keep_confirmation_runs : bool
         Keep the confirmation's outputs in the result (``run_<output>``, ``run_status``), e.g.
         for a response band.
+    confirm_problem : DesignProblem, optional
+        The problem of the confirmation when the expensive fidelity is more than model
+        options (another model, other output instants): same variable and measure names.
     executor, chunk_size
         As in :func:`gearuq.monte_carlo`.
 
@@ -422,6 +426,7 @@ def optimize_design(
         raise ValueError("strategy='reweight' needs every design variable to shift an input "
                          "law of an independent space; use 'surrogate' or 'crn'")
     s = _settings(locals(), problem)
+    judge = _check_confirm_problem(problem, confirm_problem)
     seed = resolve_seed(rng)
     t0 = time.perf_counter()
     run_kw = {"executor": executor, "chunk_size": chunk_size}
@@ -430,11 +435,25 @@ def optimize_design(
     confirm = None
     if s["confirm_samples"] > 0:
         cseed = int(np.random.SeedSequence([seed, 2**31 - 1]).generate_state(1)[0])
-        confirm = evaluate_design(problem, found["design"], n_samples=s["confirm_samples"],
+        confirm = evaluate_design(judge, found["design"], n_samples=s["confirm_samples"],
                                   rng=cseed, model_options=confirm_options,
                                   keep_runs=keep_confirmation_runs, **run_kw)
     return _result(problem, strategy, s, seed, found, confirm, confirm_options,
                    time.perf_counter() - t0)
+
+
+def _check_confirm_problem(problem: DesignProblem, other: DesignProblem | None
+                           ) -> DesignProblem:
+    if other is None:
+        return problem
+    if not isinstance(other, DesignProblem):
+        raise TypeError(f"confirm_problem: expected a DesignProblem, got {type(other).__name__}")
+    for what, a, b in (("variables", problem.names, other.names),
+                       ("measures", [m.name for m in problem.measures],
+                        [m.name for m in other.measures])):
+        if a != b:
+            raise ValueError(f"confirm_problem: its {what} {b} differ from the search's {a}")
+    return other
 
 
 def _settings(given: Mapping[str, Any], problem: DesignProblem) -> dict[str, Any]:
