@@ -37,7 +37,8 @@ What the study does:
 3. **Deterministic optimum**: nominal gears (germ 0), design torque, nominal relief, the same
    response on the search grid of designs; its Pf under scatter confirmed the same way.
 4. **Brute force**: crude Monte Carlo at a grid of designs, fresh seeds; its best design should
-   agree with the optimiser's choice within the intervals.
+   agree with the optimiser's choice within the intervals. And the chosen design against its
+   four neighbours (+-10 % of each range), one seed for the five (common random numbers).
 
 Figures: the Pf landscape over amount x length with its interval; the chosen design's response
 band against speed beside the deterministic optimum's. Run: ``gearuq study relief_design
@@ -182,6 +183,28 @@ def brute_force(problem: DesignProblem, per_dim: int, n: int, seed: int) -> xr.D
                               "brute_length": ("brute_length", lengths, {"units": "mm"})})
 
 
+def neighbours(problem: DesignProblem, chosen: list[float], n: int, seed: int,
+               step: float = 0.1) -> xr.Dataset:
+    """Pf at the chosen design and at its four neighbours (+-``step`` of each range), all
+    with one seed (common random numbers: the differences are sharper than the values)."""
+    span = np.array([np.ptp(AMOUNT_BOUNDS), np.ptp(LENGTH_BOUNDS)])
+    lower = np.array([AMOUNT_BOUNDS[0], LENGTH_BOUNDS[0]])
+    upper = np.array([AMOUNT_BOUNDS[1], LENGTH_BOUNDS[1]])
+    points = [np.array(chosen)]
+    for j in range(2):
+        for sign in (-1.0, 1.0):
+            d = np.array(chosen, dtype=float)
+            d[j] = np.clip(d[j] + sign * step * span[j], lower[j], upper[j])
+            points.append(d)
+    rows = [evaluate_design(problem, d, n_samples=n, rng=seed) for d in points]
+    return xr.Dataset({
+        "neighbour_amount": ("neighbour", [p[0] for p in points], {"units": "um"}),
+        "neighbour_length": ("neighbour", [p[1] for p in points], {"units": "mm"}),
+        **{f"neighbour_pf{s}": ("neighbour", [float(r[f"pf{s}"]) for r in rows], {"units": "1"})
+           for s in ("", "_lower", "_upper")}},
+        coords={"neighbour": ["chosen", "amount-", "amount+", "length-", "length+"]})
+
+
 def landscape_figure(res: xr.Dataset, det: np.ndarray, brute: xr.Dataset, tag: str) -> Figure:
     """Pf over amount x length (the surrogate's mean and its interval width)."""
     fig = Figure(figsize=(11, 4.4))
@@ -268,12 +291,14 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
     det_conf = evaluate_design(confirm_problem, det, n_samples=size["confirm"],
                                rng=seed + 2, keep_runs=True)
     brute = brute_force(problem, size["grid"], size["brute"], seed + 100)
+    near = neighbours(problem, chosen, size["brute"], seed + 200)
     wall = time.perf_counter() - t0
-    status = _status(res, conf, det_conf, brute)
+    status = _status(res, conf, det_conf, brute, near)
     n_runs = {"search": int(res["n_model_runs_search"]),
               "confirm": int(conf["n_model_runs"]), "deterministic": size["det_grid"] ** 2,
               "deterministic_confirm": int(det_conf["n_model_runs"]),
               "brute_force": size["grid"] ** 2 * size["brute"],
+              "neighbours": 5 * size["brute"],
               "naive_nested_loop": int(res["n_model_runs_naive"])}
     n_total = sum(v for k, v in n_runs.items() if k != "naive_nested_loop")
     tag = f"\nquick: {n_total} runs, not a result" if quick else ""
@@ -284,6 +309,10 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
                                  "pf_under_scatter": float(det_conf["pf"]),
                                  "pf_interval": [float(det_conf["pf_lower"]),
                                                  float(det_conf["pf_upper"])]},
+               "neighbours": {str(k): [float(near["neighbour_pf"][i]),
+                                       float(near["neighbour_pf_lower"][i]),
+                                       float(near["neighbour_pf_upper"][i])]
+                              for i, k in enumerate(near["neighbour"].values)},
                "limit_m": LIMIT, "response": RESPONSE, "model_runs": n_runs,
                "speed_points_per_run": {"search": len(search_speeds),
                                         "confirm": len(confirm_speeds)},
@@ -296,7 +325,7 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
     gearuq.save(xr.merge([det_grid, det_conf.drop_vars(
         [v for v in det_conf.data_vars if str(v).startswith("run_")])],
         combine_attrs="drop_conflicts"), out / "deterministic.nc")
-    gearuq.save(brute, out / "brute.nc")
+    gearuq.save(xr.merge([brute, near]), out / "brute.nc")
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     save_figure(landscape_figure(res, det, brute, tag), out / "pf_landscape.png")
     save_figure(band_figure(res, det_conf, tag), out / "response_band.png")
@@ -312,10 +341,16 @@ def _confirmation(res: xr.Dataset) -> xr.Dataset:
                        "n_invalid": (res["run_status"] != 0).sum()})
 
 
-def _status(res: xr.Dataset, conf: xr.Dataset, det_conf: xr.Dataset, brute: xr.Dataset
-            ) -> tuple[int, str]:
-    """0 when the brute force agrees with the choice and every run was valid."""
+def _status(res: xr.Dataset, conf: xr.Dataset, det_conf: xr.Dataset, brute: xr.Dataset,
+            near: xr.Dataset) -> tuple[int, str]:
+    """0 when the brute force and the neighbours agree with the choice, every run valid."""
     words = []
+    chosen_lo = float(near["neighbour_pf_lower"][0])
+    better = [str(k) for k, up in zip(near["neighbour"].values[1:],
+                                     near["neighbour_pf_upper"].values[1:], strict=True)
+              if up < chosen_lo]
+    if better:
+        words.append(f"neighbour(s) {better} shown better than the chosen design (same seed)")
     if int(conf["n_invalid"]) or int(det_conf["n_invalid"]):
         words.append("invalid rotor runs in a confirmation")
     best = float(brute["brute_pf_upper"].min())
