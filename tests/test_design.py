@@ -208,8 +208,10 @@ def test_surrogate_finds_the_two_sided_minimum():
     space = gearuq.ParameterSpace.normal(x=(0.0, 1.0))
     p = DesignProblem(model, space, [DesignVariable("d", -2.0, 2.0, target="x")],
                       Probability("g", name="pf"))
-    r = optimize_design(p, strategy="surrogate", n_samples=4000, rng=4, n_designs=9,
-                        grid=21, confirm_samples=20_000, executor="serial")
+    r = optimize_design(p, strategy="surrogate", n_samples=4000, rng=4, n_designs=6,
+                        n_infill=3, grid=21, confirm_samples=20_000, executor="serial")
+    history = __import__("json").loads(r.attrs["search_history"])
+    assert 6 <= len(history) <= 9 and int(r["n_model_runs_search"]) == 4000 * len(history)
     assert abs(float(r["design_d"])) < 0.3
     d = float(r["design_d"])
     exact_at = stats.norm.cdf(-2.5 - d) + stats.norm.sf(2.5 - d)
@@ -263,6 +265,8 @@ def test_bad_input_names_the_parameter():
             [DesignVariable("d", 0.0, 1.0, target="nope")], Probability("g"))
     with pytest.raises(ValueError, match="strategy: unknown 'best'"):
         optimize_design(_shift_problem(), strategy="best")
+    with pytest.raises(ValueError, match="n_infill: -1 must be an integer >= 0"):
+        optimize_design(_shift_problem(), strategy="surrogate", n_infill=-1)
     with pytest.raises(ValueError, match="n_samples: 0 must be a positive integer"):
         optimize_design(_shift_problem(), n_samples=0)
     model = gearuq.FunctionModel(lambda x, a: a - x, [("x"), ("a")], ["g"])

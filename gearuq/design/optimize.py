@@ -249,19 +249,53 @@ def _search_loop(problem: DesignProblem, s: Mapping[str, Any], seed: int, run_kw
 
 def _search_surrogate(problem: DesignProblem, s: Mapping[str, Any], seed: int,
                       run_kw: dict) -> dict[str, Any]:
+    """Latin hypercube of designs, then ``n_infill`` designs at the surrogate's optimum."""
+    n, k = s["n_samples"], len(problem.variables)
+    floor = 0.5 / n
+    units = list(qmc.LatinHypercube(d=k, seed=seed).random(s["n_designs"]))
+    ests = [_crn_estimate(problem, u, n, seed, run_kw) for u in units]
+    n_naive, infill = 0, 0
+    while True:
+        est = _fit_surrogate(problem, np.array(units), ests, n, floor, seed)
+        sc = _Scaled(problem, est, floor, 0.5 * np.ones(k))
+        u0 = _grid_start(sc, _grid(problem, s["grid"]))
+        n_grid = len(sc.cache)
+        res = _slsqp(sc, u0, conservative=s["conservative"])
+        u = np.clip(res.x, 0, 1)
+        n_naive += (len(sc.cache) - n_grid + 1) * n
+        near = min(float(np.max(np.abs(u - v))) for v in units)
+        if infill >= s["n_infill"] or near < s["xtol"]:
+            break
+        # the surrogate's optimum is where its error matters most: run it there
+        units.append(u)
+        ests.append(_crn_estimate(problem, u, n, seed, run_kw))
+        infill += 1
+    land = _landscape(problem, s["grid"], est)
+    history = [{"design": (problem.lower + uu * (problem.upper - problem.lower)).tolist(),
+                "infill": i >= s["n_designs"], **{m: e[m].value for m in e}}
+               for i, (uu, e) in enumerate(zip(units, ests, strict=True))]
+    return {"design": sc.design(u), "search": sc.at(u), "n_runs": len(units) * n,
+            "n_naive": n_naive, "history": history, "landscape": land,
+            "reasons": [] if res.success else [(1, f"SLSQP on the surrogate: {res.message}")],
+            "batches": []}
+
+
+def _crn_estimate(problem: DesignProblem, u: np.ndarray, n: int, seed: int, run_kw: dict
+                  ) -> dict[str, Estimate]:
+    ds = problem.run(problem.lower + u * (problem.upper - problem.lower), n, seed, **run_kw)
+    vals = problem.values_of(ds)
+    return {m.name: m.estimate(vals[m.name], None, problem.confidence)
+            for m in problem.measures}
+
+
+def _fit_surrogate(problem: DesignProblem, units: np.ndarray, ests: list[dict[str, Estimate]],
+                   n: int, floor: float, seed: int) -> Estimator:
+    """A Gaussian process per measure; returns the estimator of its mean and band."""
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import ConstantKernel, Matern
 
-    n, k = s["n_samples"], len(problem.variables)
-    unit = qmc.LatinHypercube(d=k, seed=seed).random(s["n_designs"])
-    floor = 0.5 / n
+    k = units.shape[1]
     z = stats.norm.isf((1.0 - problem.confidence) / 2.0)
-    ests = []
-    for u in unit:
-        ds = problem.run(problem.lower + u * (problem.upper - problem.lower), n, seed, **run_kw)
-        vals = problem.values_of(ds)
-        ests.append({m.name: m.estimate(vals[m.name], None, problem.confidence)
-                     for m in problem.measures})
     gps = {}
     for m in problem.measures:
         y, noise = _surrogate_targets(m, [e[m.name] for e in ests], n, floor, z)
@@ -269,7 +303,7 @@ def _search_surrogate(problem: DesignProblem, s: Mapping[str, Any], seed: int,
             length_scale=np.full(k, 0.3), length_scale_bounds=(0.1, 10.0), nu=2.5)
         gp = GaussianProcessRegressor(kernel=kernel, alpha=noise, normalize_y=True,
                                       n_restarts_optimizer=3, random_state=seed)
-        gps[m.name] = (gp.fit(unit, y), m)
+        gps[m.name] = (gp.fit(units, y), m)
 
     def est(d: np.ndarray) -> dict[str, Estimate]:
         u = ((d - problem.lower) / (problem.upper - problem.lower))[None, :]
@@ -278,24 +312,14 @@ def _search_surrogate(problem: DesignProblem, s: Mapping[str, Any], seed: int,
             mu, sd = gp.predict(u, return_std=True)
             mu, sd = float(mu[0]), float(sd[0])
             if isinstance(m, Probability):
-                out[name] = Estimate(float(stats.norm.cdf(mu)), float(stats.norm.cdf(mu - z * sd)),
+                out[name] = Estimate(float(stats.norm.cdf(mu)),
+                                     float(stats.norm.cdf(mu - z * sd)),
                                      float(stats.norm.cdf(mu + z * sd)), math.nan)
             else:
                 out[name] = Estimate(mu, mu - z * sd, mu + z * sd, math.nan)
         return out
 
-    sc = _Scaled(problem, est, floor, 0.5 * np.ones(k))
-    u0 = _grid_start(sc, _grid(problem, s["grid"]))
-    n_grid = len(sc.cache)
-    res = _slsqp(sc, u0, conservative=s["conservative"])
-    u = np.clip(res.x, 0, 1)
-    land = _landscape(problem, s["grid"], est)
-    history = [{"design": (problem.lower + uu * (problem.upper - problem.lower)).tolist(),
-                **{m: e[m].value for m in e}} for uu, e in zip(unit, ests, strict=True)]
-    return {"design": sc.design(u), "search": sc.at(u), "n_runs": s["n_designs"] * n,
-            "n_naive": (len(sc.cache) - n_grid + 1) * n, "history": history, "landscape": land,
-            "reasons": [] if res.success else [(1, f"SLSQP on the surrogate: {res.message}")],
-            "batches": []}
+    return est
 
 
 def _surrogate_targets(m: Any, ests: list[Estimate], n: int, floor: float, z: float
@@ -351,6 +375,7 @@ def optimize_design(
     xtol: float = 0.01,
     grid: int = 21,
     n_designs: int = 16,
+    n_infill: int = 0,
     conservative: bool = True,
     max_evaluations: int = 60,
     keep_confirmation_runs: bool = False,
@@ -390,6 +415,10 @@ def optimize_design(
         Points per variable of the landscape (and of the grid that starts SLSQP).
     n_designs : int
         ``surrogate``: designs of the Latin hypercube.
+    n_infill : int
+        ``surrogate``: further designs, each run at the surrogate's current optimum (common
+        random numbers) and added to its fit; stops early when the optimum is within ``xtol``
+        of a design already run.
     conservative : bool
         ``surrogate``: constraints on the upper end of the surrogate's band.
     max_evaluations : int
@@ -458,12 +487,16 @@ def _check_confirm_problem(problem: DesignProblem, other: DesignProblem | None
 
 def _settings(given: Mapping[str, Any], problem: DesignProblem) -> dict[str, Any]:
     s = {k: given[k] for k in ("n_samples", "confirm_samples", "x0", "max_batches", "min_ess",
-                               "min_failures", "xtol", "grid", "n_designs", "conservative",
+                               "min_failures", "xtol", "grid", "n_designs", "n_infill",
+                               "conservative",
                                "max_evaluations")}
     for key in ("n_samples", "max_batches", "grid", "n_designs", "max_evaluations"):
         v = s[key]
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"{key}: {v!r} must be a positive integer")
+    if isinstance(s["n_infill"], bool) or not isinstance(s["n_infill"], (int, np.integer)) \
+            or s["n_infill"] < 0:
+        raise ValueError(f"n_infill: {s['n_infill']!r} must be an integer >= 0")
     s["confirm_samples"] = s["n_samples"] if s["confirm_samples"] is None \
         else int(s["confirm_samples"])
     if s["confirm_samples"] < 0:
