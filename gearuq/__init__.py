@@ -60,6 +60,7 @@ _SUBMODULES = {
     "model", "registry", "space", "ode", "engines", "failure", "interop",
     "fitting", "signal", "execution", "io", "plot", "cli", "gears", "rotor", "testing",
     "links",
+    "design",
 }
 
 __all__ = ["__version__", *_LAZY]
