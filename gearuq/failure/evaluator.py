@@ -31,7 +31,7 @@ import xarray as xr
 from scipy import linalg, special
 
 from gearuq.engines.common import resolve_model_and_space
-from gearuq.execution import evaluate_chunks
+from gearuq.execution import AllSamplesFailedError, evaluate_chunks
 from gearuq.failure.modes import System, as_limit_state
 from gearuq.model import Model, Request
 from gearuq.space import ParameterSpace
@@ -101,7 +101,7 @@ class LimitStateEvaluator:
         self.store = None if store is None else Path(store)
         self.engine, self.seed = engine, seed
         self.extra_fingerprint = dict(fingerprint or {})
-        self.n_runs = 0
+        self.n_runs = 0  # samples passed to the model, re-runs of bisected chunks included
         self.n_invalid = 0
         self.time_dependent = False
         self._grid_fail = 0  # valid failing samples on the full grid ...
@@ -196,14 +196,18 @@ class LimitStateEvaluator:
             ds = evaluate_chunks(self.model, x, self.request, executor=self.executor,
                                  chunk_size=self.chunk_size or (n if n <= 4096 else None),
                                  store=store, progress=False, fingerprint=fp)
-        except RuntimeError as exc:  # every sample failed: flag them, keep going
+        except AllSamplesFailedError as exc:  # every sample failed: flag them, keep going
             self.errors.append(f"{tag}: {str(exc).split(chr(10))[0][:300]}")
-            self.n_runs += n
+            self.n_runs += exc.n_evaluations
             self.n_invalid += n
             nan = np.full(n, np.nan)
             return {"g": nan, "g_half": nan.copy(),
                     "leaf": np.full((n, len(self.leaves)), np.nan),
                     "status": np.full(n, STATUS_ALL_FAILED, dtype=np.int8), "x": x}
+        # every call to the model counts, re-runs of a chunk that raised and was bisected
+        # included; samples taken from a store were paid for by the run that wrote them
+        self.n_runs += int(ds.attrs.get("n_evaluations", n)) + int(
+            ds.attrs.get("n_reused_samples", 0))
         return self._limit_state_values(ds, x, n, tag)
 
     def _limit_state_values(self, ds: xr.Dataset, x: dict[str, np.ndarray], n: int,
@@ -237,7 +241,6 @@ class LimitStateEvaluator:
             groups = json.loads(ds.attrs["failures"])
             self.errors += [f"{tag}: {len(grp['samples'])} sample(s): {grp['error'][:300]}"
                             for grp in groups]
-        self.n_runs += n
         self.n_invalid += int(invalid.sum())
         fails = g <= 0.0
         self._grid_fail += int(fails.sum())
