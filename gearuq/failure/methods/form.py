@@ -24,6 +24,7 @@ correlated inputs, because the correlation is inside the map from ``u`` to ``x``
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Mapping
@@ -38,7 +39,8 @@ from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
 __all__ = ["FORM_SETTINGS", "SORM_SETTINGS", "run_form", "design_point_search",
-           "sorm_probabilities", "resolve_starts", "search_reasons", "check_starts"]
+           "sorm_probabilities", "resolve_starts", "search_reasons", "check_starts",
+           "no_design_point_reason"]
 
 def check_starts(value: Any) -> Any:
     if isinstance(value, str) and value == "auto":
@@ -353,11 +355,12 @@ def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
                        {"units": "1", "long_name": "beta found from each start"}),
     }
     if not found:
-        failed = any(r["error"].startswith("model failed") for r in starts)
-        msg = "; ".join(r["error"] or "not converged" for r in starts)
-        return failure_report(ev, method, pf=math.nan, status=2 if failed else 1,
-                              message=msg, wall_time=time.perf_counter() - t0,
-                              extra=start_vars, **common)
+        code, msg = no_design_point_reason(starts, s)
+        errors = sorted({r["error"] for r in starts if r["error"]})
+        return failure_report(ev, method, pf=math.nan, status=code, message=msg,
+                              wall_time=time.perf_counter() - t0, extra=start_vars,
+                              extra_attrs={"start_errors": json.dumps(errors[:20])},
+                              **common)
     best = found[0]
     beta = best["beta"]
     pf_form = float(stats.norm.sf(beta))
@@ -403,6 +406,40 @@ def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
     return failure_report(ev, method, pf=pf, status=status, message=message, reasons=reasons,
                           wall_time=time.perf_counter() - t0, design_points=found, extra=extra,
                           extra_attrs=attrs, **common)
+
+
+def no_design_point_reason(starts: list[dict[str, Any]], s: Mapping[str, Any]
+                           ) -> tuple[int, str]:
+    """Why no start converged, in one sentence, and what to use instead.
+
+    Returns ``(status, sentence)``: status 2 when the model failed at every start, else 1.
+    """
+    n = len(starts)
+    failed = sum(1 for r in starts if r["error"].startswith("model failed"))
+    flat = sum(1 for r in starts if r["error"].startswith("zero gradient"))
+    cycling = [r for r in starts if not r["error"]]
+    parts = []
+    if cycling:
+        ratios = [abs(r["g"]) / abs(r["g_start"]) for r in cycling
+                  if math.isfinite(r["g"]) and r["g_start"]]
+        best = f" (the closest reached |G| = {min(ratios):.2g} |G(start)|)" if ratios else ""
+        parts.append(f"{len(cycling)} ran out of max_iter={s['max_iter']} iterations without "
+                     f"settling on a point of G = 0{best}")
+    if flat:
+        parts.append(f"{flat} stopped where the limit state is flat (zero gradient)")
+    if failed:
+        parts.append(f"{failed} stopped where the model failed (attrs start_errors)")
+    if failed == n:
+        advice = "the model fails near the failure domain: look at its errors first"
+    elif cycling:
+        advice = ("a limit state that is kinked, windowed or made of several modes makes the "
+                  "design-point iteration cycle: use subset simulation (method='subset')")
+    else:
+        advice = ("the limit state gives FORM no gradient to follow: use subset simulation "
+                  "(method='subset')")
+    sentence = (f"FORM found no design point: of its {n} starts, " + ", ".join(parts)
+                + f"; {advice}")
+    return (2 if failed == n else 1), sentence
 
 
 def resolve_starts(ev: LimitStateEvaluator, s: Mapping[str, Any]) -> dict[str, Any]:
