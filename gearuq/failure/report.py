@@ -127,7 +127,7 @@ Reason = tuple[int, str]
 def _invalid_reason(ev: LimitStateEvaluator, reasons: Sequence[Reason]) -> list[Reason]:
     if ev.n_invalid == 0 or any(code in (2, 6) for code, _ in reasons):
         return []
-    return [(6, f"{ev.n_invalid} of {ev.n_runs} model runs were invalid; this method's "
+    return [(6, f"{ev.n_invalid} of {ev.n_points} model runs were invalid; this method's "
              "interval does not account for them")]
 
 
@@ -206,8 +206,8 @@ def failure_report(
     all_reasons += [r for r in reasons if r[0]]
     all_reasons += _invalid_reason(ev, all_reasons)
     all_reasons += _surrogate_reason(ev)
-    if ev.n_runs and ev.n_invalid == ev.n_runs and not any(c == 2 for c, _ in all_reasons):
-        all_reasons.insert(0, (2, f"all {ev.n_runs} model runs failed: no estimate is "
+    if ev.n_points and ev.n_invalid == ev.n_points and not any(c == 2 for c, _ in all_reasons):
+        all_reasons.insert(0, (2, f"all {ev.n_points} model runs failed: no estimate is "
                                "possible (see attrs errors)"))
         pf = pf_lower = pf_upper = cov = math.nan
         pf_is_upper_bound = False

@@ -27,6 +27,8 @@ random-phase process   X1, X2 ~ N(0, 1)                  y(t) = X1 sin(w t) + X2
                                                          rate and exact first passage
 Gaussian process       A_k, B_k ~ N(0, 1)                y(t) = sum_k s_k (A_k cos w_k t + B_k
 (K harmonics)                                            sin w_k t): spectral moments m0, m2
+modes in units         u1, u2 ~ N(0, 1)                  min of two linear margins scaled by
+                                                         factors (units): Pf by 1-D quadrature
 =====================  ================================  =======================================
 """
 
@@ -65,6 +67,8 @@ __all__ = [
     "random_phase", "random_phase_model", "random_phase_rate", "random_phase_first_passage",
     "gaussian_process", "gaussian_process_model", "gaussian_process_moments",
     "rice_rate_gaussian", "reliability_problems",
+    "unit_modes_model", "unit_modes_pf", "unit_modes_limit_state", "UNIT_MODES_BETAS",
+    "UNIT_MODES_ANGLE",
 ]
 
 
@@ -625,3 +629,64 @@ def geared_rotor_reference(n_samples: int = 10_000, seed: int = 77, executor: An
     return failure_probability(p["model"], p["space"], p["limit_state"], method="mfis",
                                rng=seed, executor=executor, chunk_size=chunk_size,
                                model_options=p["model_options"], **settings)
+
+
+# =========================================================================== modes in units
+#: Distances of the two modes of :func:`unit_modes_model` (standard normal space).
+UNIT_MODES_BETAS = (3.0, 3.5)
+#: Angle between the two modes' directions (radians): neither orthogonal nor aligned.
+UNIT_MODES_ANGLE = 1.2
+
+
+def _unit_modes(u1: Any, u2: Any, *, scales: tuple[float, float], betas: tuple[float, float],
+                angle: float) -> dict[str, np.ndarray]:
+    a1 = np.array([1.0, 0.0])
+    a2 = np.array([math.cos(angle), math.sin(angle)])
+    u1 = np.asarray(u1, dtype=float)
+    u2 = np.asarray(u2, dtype=float)
+    g1 = scales[0] * (betas[0] - (a1[0] * u1 + a1[1] * u2))
+    g2 = scales[1] * (betas[1] - (a2[0] * u1 + a2[1] * u2))
+    return {"g1": g1, "g2": g2, "g": np.minimum(g1, g2)}
+
+
+def unit_modes_model(scales: tuple[float, float] = (1e3, 1e-3),
+                     betas: tuple[float, float] = UNIT_MODES_BETAS,
+                     angle: float = UNIT_MODES_ANGLE) -> FunctionModel:
+    """Two linear failure modes in different units: a load margin and a deflection margin.
+
+    Outputs ``g1 = s1 (beta1 - a1.u)``, ``g2 = s2 (beta2 - a2.u)`` (``u1, u2`` standard
+    normal, ``a1 = (1, 0)``, ``a2`` at ``angle`` from it) and their minimum ``g``, the same
+    series system written as one limit state. The factors ``scales`` change the units, never
+    the failure set: the reference is :func:`unit_modes_pf` whatever they are.
+    """
+    from gearuq.model import FunctionModel
+
+    fn = functools.partial(_unit_modes, scales=tuple(map(float, scales)),
+                           betas=tuple(map(float, betas)), angle=float(angle))
+    return FunctionModel(fn, ["u1", "u2"], ["g1", "g2", "g"],
+                         name=f"unit_modes_{scales[0]:g}_{scales[1]:g}",
+                         description="two linear failure modes in different units")
+
+
+def unit_modes_pf(betas: tuple[float, float] = UNIT_MODES_BETAS,
+                  angle: float = UNIT_MODES_ANGLE) -> float:
+    """``P(a1.U >= beta1 or a2.U >= beta2)``: one minus a bivariate normal cdf with
+    correlation ``cos(angle)``, by one-dimensional quadrature over ``a1.U``."""
+    rho = math.cos(angle)
+    s = math.sqrt(1.0 - rho * rho)
+
+    def safe_density(z: float) -> float:  # density of a1.U = z times P(a2.U < beta2 | z)
+        return stats.norm.pdf(z) * stats.norm.cdf((betas[1] - rho * z) / s)
+
+    safe, _ = integrate.quad(safe_density, -12.0, betas[0], epsabs=1e-14, epsrel=1e-12,
+                             limit=200)
+    return float(1.0 - safe)
+
+
+def unit_modes_limit_state(as_system: bool = True) -> Any:
+    """The series system of ``g1`` and ``g2`` (or, ``as_system=False``, the output ``g``)."""
+    from gearuq.failure.modes import LimitState, SeriesSystem
+
+    if not as_system:
+        return "g"
+    return SeriesSystem([LimitState.output("g1"), LimitState.output("g2")])

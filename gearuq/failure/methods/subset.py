@@ -213,6 +213,9 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
     last level's failing samples of a cheap model.
     """
     n, p0 = s["n_per_level"], s["p0"]
+    # a system: its components' g divided by their gradients at the origin, so that the
+    # level thresholds follow every component alike whatever its units (failure set unchanged)
+    ev.calibrate_scales()
     sampler = _Sampler(s["mcmc"], s["proposal_std"])
     n_seeds = max(1, int(round(n * p0)))
     n_states = int(math.ceil(n / n_seeds))
