@@ -29,6 +29,8 @@ Gaussian process       A_k, B_k ~ N(0, 1)                y(t) = sum_k s_k (A_k c
 (K harmonics)                                            sin w_k t): spectral moments m0, m2
 modes in units         u1, u2 ~ N(0, 1)                  min of two linear margins scaled by
                                                          factors (units): Pf by 1-D quadrature
+ridge                  x1..x6 ~ N(0, 1)                  a thin wedge along x1 = x2 (chains do
+                                                         not mix): Pf by 1-D quadrature
 =====================  ================================  =======================================
 """
 
@@ -68,7 +70,7 @@ __all__ = [
     "gaussian_process", "gaussian_process_model", "gaussian_process_moments",
     "rice_rate_gaussian", "reliability_problems",
     "unit_modes_model", "unit_modes_pf", "unit_modes_limit_state", "UNIT_MODES_BETAS",
-    "UNIT_MODES_ANGLE",
+    "UNIT_MODES_ANGLE", "ridge_model", "ridge_pf", "RIDGE_K", "RIDGE_B",
 ]
 
 
@@ -690,3 +692,39 @@ def unit_modes_limit_state(as_system: bool = True) -> Any:
     if not as_system:
         return "g"
     return SeriesSystem([LimitState.output("g1"), LimitState.output("g2")])
+
+
+# =========================================================================== a thin ridge
+#: Sharpness and distance of :func:`ridge_model` (Pf = 2.16e-5).
+RIDGE_K, RIDGE_B = 10.0, 3.0
+
+
+def _ridge(x1: Any, x2: Any, x3: Any, x4: Any, x5: Any, x6: Any, *, k: float, b: float
+           ) -> np.ndarray:
+    along = (np.asarray(x1, dtype=float) + x2) / math.sqrt(2.0)
+    across = (np.asarray(x1, dtype=float) - x2) / math.sqrt(2.0)
+    return b - along + k * math.sqrt(2.0) * np.abs(across) + 0.0 * np.asarray(x3)
+
+
+def ridge_model(k: float = RIDGE_K, b: float = RIDGE_B) -> FunctionModel:
+    """A failure set that is a thin wedge along the diagonal ``x1 = x2``, four inert inputs.
+
+    ``g = b - (x1 + x2)/sqrt2 + k sqrt2 |x1 - x2|/sqrt2``, six standard normal inputs: the
+    shape of the helical pair's peak mesh force (a tent in the two face widths, the other
+    inputs nearly inert), where component-wise Markov chains cannot follow the ridge and
+    subset simulation's levels do not mix. Reference :func:`ridge_pf`.
+    """
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(functools.partial(_ridge, k=float(k), b=float(b)),
+                         [f"x{i}" for i in range(1, 7)], ["g"], name=f"ridge_{k:g}_{b:g}",
+                         description="a thin failure wedge along x1 = x2 (six inputs)")
+
+
+def ridge_pf(k: float = RIDGE_K, b: float = RIDGE_B) -> float:
+    """``E_c[Phi(-(b + k sqrt2 |c|))]`` over ``c ~ N(0, 1)``: one-dimensional quadrature."""
+    def integrand(c: float) -> float:
+        return 2.0 * stats.norm.pdf(c) * stats.norm.sf(b + k * math.sqrt(2.0) * c)
+
+    val, _ = integrate.quad(integrand, 0.0, 12.0, epsabs=1e-16, epsrel=1e-11, limit=200)
+    return float(val)
