@@ -47,10 +47,9 @@ def _disjoint_pairs(reps) -> int:
                if ints[i][1] < ints[j][0] or ints[j][1] < ints[i][0])
 
 
-@pytest.mark.e2e  # ten subset runs on six inputs: about 25 s on a loaded machine
 def test_ridge_runs_that_did_not_mix_say_so_and_status0_intervals_hold() -> None:
     truth = _ridge_truth()
-    reps = _runs(ridge_model(), SPACE6, range(10))
+    reps = _runs(ridge_model(), SPACE6, range(6))
     ok = [r for r in reps if int(r["status"]) == 0]
     flagged = [r for r in reps if int(r["status"]) != 0]
     assert all(float(r["pf_lower"]) <= truth <= float(r["pf_upper"]) for r in ok)
@@ -58,7 +57,7 @@ def test_ridge_runs_that_did_not_mix_say_so_and_status0_intervals_hold() -> None
     # the single-run scatter is real here: the runs' estimates span more than a decade
     pfs = np.array([float(r["pf"]) for r in reps])
     assert pfs.max() / pfs.min() > 10
-    assert len(flagged) >= 5
+    assert len(flagged) >= 4
     for r in flagged:
         reasons = json.loads(r.attrs["status_reasons"])
         assert any(x["status"] == 1 and "did not mix" in x["message"] for x in reasons)
