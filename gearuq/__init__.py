@@ -48,6 +48,8 @@ _LAZY = {
     "SeriesSystem": "gearuq.failure.modes",
     "ParallelSystem": "gearuq.failure.modes",
     "cut_set_system": "gearuq.failure.modes",
+    "ReportStatus": "gearuq.failure.report",
+    "describe_status": "gearuq.failure.report",
     "fit_distributions": "gearuq.fitting",
     # I/O
     "save": "gearuq.io",

@@ -111,7 +111,7 @@ def test_one_integrity_error_class():
 
 
 def test_status_tables_are_complete_and_plugin_codes_start_at_16():
-    assert set(REPORT_STATUS) == set(STATUS_TEXT) == set(range(9))
+    assert set(REPORT_STATUS) == set(STATUS_TEXT) == set(range(10))
     with pytest.raises(ValueError, match="plugin codes start at 16"):
         Evaluation(data={}, status=np.zeros(1, np.int8), status_meanings={5: "mine"})
     Evaluation(data={}, status=np.zeros(1, np.int8), status_meanings={16: "mine"})

@@ -332,21 +332,44 @@ def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]
                                                    "n_per_level": 1000, "max_samples": 20_000}))
         # the geared rotor at Pf ~ 1e-6 in 60 inputs, as the headline study runs it
         rows.append(("geared_rotor", "mfis", geared_rotor_mfis_settings()))
+    # issue 30: modes in different units (as a series system and as one limit state), a
+    # ridge whose chains do not mix, and the helical pair's deep level
+    for problem in ("unit_modes_system", "unit_modes_single", "ridge"):
+        if problem != "ridge":
+            rows.append((problem, "importance", {}))
+        rows.append((problem, "subset", {}))
+    if not quick:
+        rows.append(("helical_pair_deep", "subset", {}))
     return rows
 
 
 @functools.lru_cache(maxsize=1)
 def _problems() -> dict[str, dict[str, Any]]:
     """The problems, built once per process (every seed of every row reads them)."""
+    from gearuq.space import ParameterSpace
     from gearuq.testing.reliability_problems import (
         geared_rotor_problem,
         helical_pair_problem,
         reliability_problems,
+        ridge_model,
+        ridge_pf,
+        unit_modes_limit_state,
+        unit_modes_model,
+        unit_modes_pf,
     )
 
+    plane = ParameterSpace.normal(u1=(0.0, 1.0), u2=(0.0, 1.0))
+    units = {f"unit_modes_{kind}": {
+        "model": unit_modes_model((1e3, 1e-3)), "space": plane,
+        "limit_state": unit_modes_limit_state(kind == "system"), "pf": unit_modes_pf(),
+        "source": "1-D quadrature"} for kind in ("system", "single")}
+    ridge = {"model": ridge_model(), "space": ParameterSpace.normal(
+        **{f"x{i}": (0.0, 1.0) for i in range(1, 7)}), "limit_state": "g", "pf": ridge_pf(),
+        "source": "1-D quadrature"}
     return {**reliability_problems(), "helical_pair": helical_pair_problem("peak"),
             "helical_pair_grid": helical_pair_problem("grid"),
-            "geared_rotor": geared_rotor_problem()}
+            "geared_rotor": geared_rotor_problem(), **units, "ridge": ridge,
+            "helical_pair_deep": helical_pair_problem("deep")}
 
 
 def _coverage_task(args: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:

@@ -7,6 +7,7 @@ with failure isolation), :mod:`~gearuq.execution.store` (durable chunk stores),
 """
 
 from gearuq.execution.driver import (
+    AllSamplesFailedError,
     available_memory,
     chunk_bounds,
     default_chunk_size,
@@ -55,4 +56,5 @@ __all__ = [
     "StoreMismatchError",
     "StoreLockedError",
     "IntegrityError",
+    "AllSamplesFailedError",
 ]

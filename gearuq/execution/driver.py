@@ -49,8 +49,8 @@ from gearuq.execution.tasks import ChunkResult, failed_like, group_failures, inp
 from gearuq.io import netcdf_lock
 from gearuq.model import STATUS_MODEL_ERROR, Model, Request
 
-__all__ = ["evaluate_chunks", "default_chunk_size", "chunk_bounds", "estimate_bytes_per_sample",
-           "available_memory", "design_digest"]
+__all__ = ["evaluate_chunks", "AllSamplesFailedError", "default_chunk_size", "chunk_bounds",
+           "estimate_bytes_per_sample", "available_memory", "design_digest"]
 
 #: Largest default chunk (samples).
 MAX_DEFAULT_CHUNK = 10_000
@@ -61,6 +61,21 @@ MAX_CHUNK_BYTES = 64 * 2**20
 PROCESS_STARTUP_S = 3.0
 #: Results above this size are announced before the run.
 ANNOUNCE_BYTES = 512 * 2**20
+
+
+class AllSamplesFailedError(RuntimeError):
+    """Every sample of a design failed: nothing to return.
+
+    Attributes
+    ----------
+    n_evaluations : int
+        Samples passed to the model before giving up, re-runs of bisected chunks included,
+        so a caller can still count what the attempt cost.
+    """
+
+    def __init__(self, message: str, n_evaluations: int) -> None:
+        super().__init__(message)
+        self.n_evaluations = int(n_evaluations)
 
 
 # =========================================================================== sizes
@@ -232,6 +247,9 @@ class _Run:
         self.all_failed: dict[int, ChunkResult] = {}
         self.template: xr.Dataset | None = None
         self.measured = False
+        # samples passed to the model: re-runs of bisected chunks and attempts whose worker
+        # died count too, so the cost reported is the cost paid
+        self.n_evaluations = 0
 
     def task(self, i: int) -> Task:
         s, e = self.bounds[i]
@@ -240,6 +258,7 @@ class _Run:
     def accept(self, res: ChunkResult) -> None:
         """File a finished chunk: into the store or the accumulator."""
         self.failures.extend(res.failures)
+        self.n_evaluations += res.n_evaluations
         if res.ds is None and not res.stored:
             self.all_failed[res.index] = res
         else:
@@ -264,6 +283,7 @@ class _Run:
         """Bisect a chunk whose worker keeps dying, one piece at a time through ``runner``."""
         pieces: list[ChunkResult] = []
         failed: list[dict[str, Any]] = []
+        dead = [0]  # samples of attempts whose worker died (their evaluation was paid for)
 
         def go(t: Task, err: ExecutorFailure | None) -> None:
             if err is None:
@@ -272,6 +292,7 @@ class _Run:
                     pieces.append(outcome)
                     return
                 err = outcome
+                dead[0] += t.size
             if t.size == 1:
                 failed.append({"sample": t.start, "error": err.message,
                                "traceback": err.traceback[-3000:]})
@@ -281,12 +302,13 @@ class _Run:
                 go(Task(t.index, t.start + lo, {k: a[lo:hi] for k, a in t.params.items()}), None)
 
         go(task, failure)
-        return self._merge(task, pieces, failed)
+        return self._merge(task, pieces, failed, dead[0])
 
     def _merge(self, task: Task, pieces: list[ChunkResult],
-               failed: list[dict[str, Any]]) -> ChunkResult:
+               failed: list[dict[str, Any]], n_dead: int = 0) -> ChunkResult:
         res = ChunkResult(task.index, task.start, task.start + task.size,
-                          failures=failed + [f for p in pieces for f in p.failures])
+                          failures=failed + [f for p in pieces for f in p.failures],
+                          n_evaluations=n_dead + sum(p.n_evaluations for p in pieces))
         good = [p for p in pieces if p.ds is not None]
         if not good:
             return res
@@ -312,9 +334,9 @@ class _Run:
             return
         if self.template is None:
             first = self.failures[0] if self.failures else {"error": "?", "traceback": ""}
-            raise RuntimeError(
+            raise AllSamplesFailedError(
                 f"model {self.model.name!r}: every sample failed ({self.n}); first error: "
-                f"{first['error']}\n{first.get('traceback', '')}")
+                f"{first['error']}\n{first.get('traceback', '')}", self.n_evaluations)
         for i, res in sorted(self.all_failed.items()):
             s, e = self.bounds[i]
             inputs = inputs_of(self.model, {k: a[s:e] for k, a in self.params.items()})
@@ -374,6 +396,7 @@ def _run_rounds(runner: Runner, run: _Run, todo: list[int]) -> None:
         for task, outcome in runner.run(run.model, tasks, run.request, store_path):
             if isinstance(outcome, ExecutorFailure):
                 failed.append((task, outcome))
+                run.n_evaluations += task.size  # the dead worker was evaluating them
             else:
                 run.accept(outcome)
         if not failed:
@@ -446,7 +469,10 @@ def evaluate_chunks(
     xarray.Dataset
         All samples in order (coordinate ``0..n-1``). Attributes: the model's, plus
         ``executor``, ``executor_reason``, ``chunk_size``, ``n_chunks``, ``n_failed``
-        (samples with nonzero status), ``n_model_errors`` and, when samples raised,
+        (samples with nonzero status), ``n_model_errors``, ``n_evaluations`` (samples
+        passed to the model in this call, every re-run of a bisected chunk and every attempt
+        whose worker died included), ``n_reused_samples`` (taken from a store, not run
+        again), and, when samples raised,
         ``failures`` (JSON list of ``{"error", "samples", "traceback"}``), and
         ``store`` / ``reused_chunks`` for stored runs.
 
@@ -459,8 +485,9 @@ def evaluate_chunks(
     OSError
         A chunk cannot be written (the message names the file; a full device says so), or
         a store that cannot be written lacks chunks.
-    RuntimeError
-        If every sample failed (nothing to return; the message holds the first error).
+    AllSamplesFailedError
+        A RuntimeError: every sample failed (nothing to return; the message holds the first
+        error, ``n_evaluations`` what the attempt cost).
     """
     params = {k: np.asarray(v, dtype=float) for k, v in design.items()}
     if not params:
@@ -539,6 +566,8 @@ def _finish(ds: xr.Dataset, run: _Run, runner: Runner, reason: str, chunk_size: 
         "n_chunks": len(bounds),
         "n_failed": int(np.count_nonzero(status)),
         "n_model_errors": int(np.count_nonzero(status == STATUS_MODEL_ERROR)),
+        "n_evaluations": int(run.n_evaluations),
+        "n_reused_samples": int(sum(bounds[i][1] - bounds[i][0] for i in reused)),
     })
     if store is not None:
         ds.attrs["store"] = str(store.path)

@@ -41,6 +41,9 @@ class ChunkResult:
         Size of the chunk's result in memory.
     stored : bool
         The chunk was written to the store by the task.
+    n_evaluations : int
+        Samples passed to ``model.evaluate`` by the task, every call counted: a chunk that
+        raised and was bisected counts its first try and every re-run of its pieces.
     """
 
     index: int
@@ -50,6 +53,7 @@ class ChunkResult:
     failures: list[dict[str, Any]] = field(default_factory=list)
     n_bytes: int = 0
     stored: bool = False
+    n_evaluations: int = 0
 
 
 def _error_text(exc: BaseException) -> tuple[str, str]:
@@ -59,10 +63,14 @@ def _error_text(exc: BaseException) -> tuple[str, str]:
 def _evaluate_range(
     model: Model, params: Mapping[str, np.ndarray], request: Request, lo: int, hi: int,
     pieces: list[tuple[int, int, xr.Dataset]], failures: list[tuple[int, str, str]],
-    first_error: tuple[str, str] | None = None,
+    counter: list[int], first_error: tuple[str, str] | None = None,
 ) -> None:
-    """Evaluate samples ``[lo, hi)``; on an exception, bisect down to single samples."""
+    """Evaluate samples ``[lo, hi)``; on an exception, bisect down to single samples.
+
+    ``counter[0]`` grows by the samples of every call to ``model.evaluate`` (re-runs too).
+    """
     if first_error is None:
+        counter[0] += hi - lo
         try:
             ds = model.evaluate({k: a[lo:hi] for k, a in params.items()}, request)
         except Exception as exc:  # noqa: BLE001 - any model failure is isolated, not raised
@@ -78,8 +86,8 @@ def _evaluate_range(
         failures.append((lo, *first_error))
         return
     mid = (lo + hi) // 2
-    _evaluate_range(model, params, request, lo, mid, pieces, failures)
-    _evaluate_range(model, params, request, mid, hi, pieces, failures)
+    _evaluate_range(model, params, request, lo, mid, pieces, failures, counter)
+    _evaluate_range(model, params, request, mid, hi, pieces, failures, counter)
 
 
 def _fill_value(dtype: np.dtype) -> Any:
@@ -173,9 +181,11 @@ def run_chunk(
     n = len(next(iter(params.values())))
     pieces: list[tuple[int, int, xr.Dataset]] = []
     raw: list[tuple[int, str, str]] = []
-    _evaluate_range(model, params, request, 0, n, pieces, raw)
+    counter = [0]
+    _evaluate_range(model, params, request, 0, n, pieces, raw, counter)
     failures = [{"sample": start + i, "error": e, "traceback": tb} for i, e, tb in raw]
-    result = ChunkResult(index=index, start=start, stop=start + n, failures=failures)
+    result = ChunkResult(index=index, start=start, stop=start + n, failures=failures,
+                         n_evaluations=counter[0])
     if not pieces:
         return result  # every sample failed: the driver templates them from another chunk
     ds = _assemble(model, params, n, pieces, [i for i, _, _ in raw])

@@ -37,6 +37,7 @@ _LAZY = {
     "reliability": "samples",
     "LimitStateEvaluator": "evaluator",
     "failure_report": "report", "REPORT_STATUS": "report", "STATUS_TEXT": "report",
+    "ReportStatus": "report", "describe_status": "report",
     "failure_probability": "api", "method_settings": "api", "validate_settings": "api",
     "METHODS": "api", "METHOD_TABLE": "api",
     "rice_rate": "outcrossing", "first_passage": "outcrossing", "phi2": "outcrossing",

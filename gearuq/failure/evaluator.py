@@ -16,11 +16,21 @@ What a method must not hide is recorded here, once for all methods:
   the same value on every other instant (``g_half``), from which each method estimates how
   much first-passage probability the time grid itself can miss (the check of
   :func:`gearuq.reliability`).
+
+For a **system**, :meth:`LimitStateEvaluator.calibrate_scales` measures each component's
+gradient at the origin once (``d + 1`` runs) and from then on the system's ``g`` combines the
+components divided by it: the failure set is unchanged (a positive factor keeps every sign),
+but each component's ``g`` reads roughly as a distance in the standard normal space, so a load
+margin in newtons does not hide a deflection margin in millimetres from a method that follows
+``g`` (FORM's gradient, subset simulation's level thresholds). :meth:`component` gives the
+view of one component alone, and the nearest failing point seen so far is kept
+(:attr:`nearest_failure`) for the methods' checks of hidden failure regions.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -31,12 +41,13 @@ import xarray as xr
 from scipy import linalg, special
 
 from gearuq.engines.common import resolve_model_and_space
-from gearuq.execution import evaluate_chunks
+from gearuq.execution import AllSamplesFailedError, evaluate_chunks
 from gearuq.failure.modes import System, as_limit_state
 from gearuq.model import Model, Request
 from gearuq.space import ParameterSpace
 
-__all__ = ["LimitStateEvaluator", "STATUS_LIMIT_STATE_NONFINITE", "STATUS_ALL_FAILED"]
+__all__ = ["LimitStateEvaluator", "ComponentView", "STATUS_LIMIT_STATE_NONFINITE",
+           "STATUS_ALL_FAILED"]
 
 #: Per-sample status given to a valid model run whose limit-state value is NaN or infinite.
 STATUS_LIMIT_STATE_NONFINITE = 3
@@ -101,12 +112,17 @@ class LimitStateEvaluator:
         self.store = None if store is None else Path(store)
         self.engine, self.seed = engine, seed
         self.extra_fingerprint = dict(fingerprint or {})
-        self.n_runs = 0
+        self.n_runs = 0  # samples passed to the model, re-runs of bisected chunks included
+        self.n_points = 0  # points evaluated (each once, however often the model was called)
         self.n_invalid = 0
         self.time_dependent = False
         self._grid_fail = 0  # valid failing samples on the full grid ...
         self._grid_missed = 0  # ... of which every other instant misses the failure
         self.errors: list[str] = []
+        #: leaf name -> positive divisor of its g in the system's combination (None: raw)
+        self.leaf_scales: dict[str, float] | None = None
+        #: (distance from the origin, point u) of the nearest valid failing run so far
+        self.nearest_failure: tuple[float, np.ndarray] = (np.inf, np.zeros(self.dim))
 
     # ------------------------------------------------------------------ maps
     def to_correlated(self, u: np.ndarray) -> np.ndarray:
@@ -196,15 +212,28 @@ class LimitStateEvaluator:
             ds = evaluate_chunks(self.model, x, self.request, executor=self.executor,
                                  chunk_size=self.chunk_size or (n if n <= 4096 else None),
                                  store=store, progress=False, fingerprint=fp)
-        except RuntimeError as exc:  # every sample failed: flag them, keep going
+        except AllSamplesFailedError as exc:  # every sample failed: flag them, keep going
             self.errors.append(f"{tag}: {str(exc).split(chr(10))[0][:300]}")
-            self.n_runs += n
+            self.n_runs += exc.n_evaluations
+            self.n_points += n
             self.n_invalid += n
             nan = np.full(n, np.nan)
             return {"g": nan, "g_half": nan.copy(),
                     "leaf": np.full((n, len(self.leaves)), np.nan),
                     "status": np.full(n, STATUS_ALL_FAILED, dtype=np.int8), "x": x}
-        return self._limit_state_values(ds, x, n, tag)
+        # every call to the model counts, re-runs of a chunk that raised and was bisected
+        # included; samples taken from a store were paid for by the run that wrote them
+        self.n_runs += int(ds.attrs.get("n_evaluations", n)) + int(
+            ds.attrs.get("n_reused_samples", 0))
+        self.n_points += n
+        out = self._limit_state_values(ds, x, n, tag)
+        failing = np.flatnonzero((out["status"] == 0) & (out["g"] <= 0.0))
+        if failing.size:
+            r = np.linalg.norm(u[failing], axis=1)
+            i = int(np.argmin(r))
+            if r[i] < self.nearest_failure[0]:
+                self.nearest_failure = (float(r[i]), u[failing[i]].copy())
+        return out
 
     def _limit_state_values(self, ds: xr.Dataset, x: dict[str, np.ndarray], n: int,
                             tag: str) -> dict[str, np.ndarray]:
@@ -212,7 +241,8 @@ class LimitStateEvaluator:
         leaf = np.column_stack([leaf.sample_values(ds) for leaf in self.leaves])
         # per instant first, then over time: a parallel system of time-dependent components
         # fails at an instant where all fail, which min over time per component cannot see
-        g_t = self.limit_state.values(ds)
+        g_t = (self.limit_state.values(ds, self.leaf_scales) if self.leaf_scales
+               else self.limit_state.values(ds))
         if "time" in g_t.dims and g_t.sizes["time"] > 1:
             self.time_dependent = True
             # refined between instants as the limit state says, on the half grid alike: the
@@ -237,12 +267,53 @@ class LimitStateEvaluator:
             groups = json.loads(ds.attrs["failures"])
             self.errors += [f"{tag}: {len(grp['samples'])} sample(s): {grp['error'][:300]}"
                             for grp in groups]
-        self.n_runs += n
         self.n_invalid += int(invalid.sum())
         fails = g <= 0.0
         self._grid_fail += int(fails.sum())
         self._grid_missed += int(np.sum(fails & ~(g_half <= 0.0)))
         return {"g": g, "g_half": g_half, "leaf": leaf, "status": status, "x": x}
+
+    def calibrate_scales(self, step: float = 0.5) -> dict[str, float] | None:
+        """Measure each component's gradient at the origin and divide its ``g`` by it.
+
+        One design of ``d + 1`` runs (the origin and a step of ``step`` along each axis,
+        backwards where forwards leaves the model's range); a no-op for a single limit state
+        or when already calibrated. A component whose gradient is zero or not finite keeps
+        the scale ``|g(0)|`` (or 1).
+
+        Returns
+        -------
+        dict or None
+            Leaf name -> scale (None for a single limit state).
+        """
+        if not self.is_system or self.leaf_scales is not None:
+            return self.leaf_scales
+        eye = np.eye(self.dim) * step
+        fwd = self.in_range(eye)
+        design = np.vstack([np.zeros((1, self.dim)), np.where(fwd[:, None], eye, -eye)])
+        leaf = self.evaluate(design, "system_scales")["leaf"]
+        slope = (leaf[1:] - leaf[0]) / np.where(fwd, step, -step)[:, None]
+        scales = {}
+        for k, name in enumerate(lf.name for lf in self.leaves):
+            norm = float(np.linalg.norm(slope[:, k]))
+            if not (math.isfinite(norm) and norm > 0):
+                norm = abs(float(leaf[0, k])) if np.isfinite(leaf[0, k]) and leaf[0, k] else 1.0
+            scales[name] = norm
+        self.leaf_scales = scales
+        return scales
+
+    def component(self, k: int) -> ComponentView:
+        """The evaluator seen through the ``k``-th component (leaf) alone."""
+        if not 0 <= k < len(self.leaves):
+            raise ValueError(f"component: {k} is not in 0..{len(self.leaves) - 1}")
+        return ComponentView(self, k)
+
+    @property
+    def series_leaves(self) -> bool:
+        """Whether the limit state is a series system whose every component fails the system
+        (a top-level series system: each component's failure set lies in the system's)."""
+        return isinstance(self.limit_state, System) and self.limit_state.kind == "series" \
+            and all(not isinstance(c, System) for c in self.limit_state.components)
 
     @property
     def grid_gap_fraction(self) -> float:
@@ -257,3 +328,26 @@ class LimitStateEvaluator:
     def is_system(self) -> bool:
         """Whether the limit state is a system of several components."""
         return isinstance(self.limit_state, System)
+
+
+class ComponentView:
+    """One component of a system evaluator: ``g`` is that component's value alone.
+
+    Every other attribute (maps, counts, settings) is the parent evaluator's, so runs made
+    through a view are counted once, in the parent.
+    """
+
+    def __init__(self, parent: LimitStateEvaluator, k: int) -> None:
+        self.parent = parent
+        self.index = k
+        self.name = parent.leaves[k].name
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.parent, name)
+
+    def evaluate(self, u: Any, tag: str) -> dict[str, np.ndarray]:
+        """As :meth:`LimitStateEvaluator.evaluate`, ``g`` and ``g_half`` of the component."""
+        res = dict(self.parent.evaluate(u, tag))
+        res["g"] = res["leaf"][:, self.index].copy()
+        res["g_half"] = res["g"].copy()
+        return res

@@ -650,9 +650,18 @@ class System(_GFunction):
         for leaf in self.leaves():
             leaf.check(ds)
 
-    def values(self, ds: xr.Dataset) -> xr.DataArray:
-        """System ``g`` per sample and instant (min for series, max for parallel)."""
-        parts = [c.values(ds) for c in self.components]
+    def values(self, ds: xr.Dataset, scales: Mapping[str, float] | None = None
+               ) -> xr.DataArray:
+        """System ``g`` per sample and instant (min for series, max for parallel).
+
+        ``scales`` (leaf name -> positive number) divides each component's ``g`` before they
+        are combined: the failure set is the same (a positive factor keeps every sign), but
+        a component in newtons no longer hides one in millimetres from a method that follows
+        the system's ``g`` (its gradient, its level thresholds).
+        """
+        parts = [c.values(ds, scales) if isinstance(c, System)
+                 else c.values(ds) / float(scales[c.name]) if scales else c.values(ds)
+                 for c in self.components]
         parts = xr.broadcast(*parts)
         stacked = xr.concat(parts, dim="_component", coords="minimal", compat="override")
         g = stacked.min("_component", skipna=False) if self.kind == "series" \

@@ -10,11 +10,18 @@ with importance factors.
 names what it could not vouch for (:data:`REPORT_STATUS`); several reasons can hold at once,
 ``status`` is then the method's own (or the first found) and ``attrs["status_reasons"]`` lists
 them all. Two checks are made here for every method: invalid model runs (the interval must
-cover both readings of them) and, for a first-passage limit state, the time grid.
+cover both readings of them) and, for a first-passage limit state, the time grid; a third
+for a model that is a surrogate which says it is not usable (status 9).
+
+:class:`ReportStatus` names the codes (an ``IntEnum``: the integers stay what they were) and
+:func:`describe_status` renders ``"status N: meaning"`` for a code or a report, the way a
+study or the command line prints it; the report itself carries the same words in
+``attrs["status_text"]``.
 """
 
 from __future__ import annotations
 
+import enum
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -27,20 +34,36 @@ from scipy import linalg, stats
 from gearuq.engines.common import provenance
 from gearuq.failure.evaluator import LimitStateEvaluator
 
-__all__ = ["failure_report", "REPORT_STATUS", "STATUS_TEXT", "Reason"]
+__all__ = ["failure_report", "REPORT_STATUS", "STATUS_TEXT", "Reason", "ReportStatus",
+           "describe_status"]
+
+
+class ReportStatus(enum.IntEnum):
+    """The codes of a failure-probability report's ``status`` (0: the method vouches).
+
+    An ``IntEnum``: ``ReportStatus(int(report["status"]))`` names a report's code, compares
+    equal to the integer, and :attr:`meaning` gives its words (:data:`STATUS_TEXT`).
+    """
+
+    OK = 0
+    NOT_CONVERGED = 1
+    MODEL_FAILURE = 2
+    WEIGHTS_DEGENERATE = 3
+    UPPER_BOUND_ONLY = 4
+    APPROXIMATION_INVALID = 5
+    INVALID_SAMPLES = 6
+    TIME_GRID_TOO_COARSE = 7
+    FAILURE_REGIONS_MAY_BE_MISSED = 8
+    SURROGATE_NOT_USABLE = 9
+
+    @property
+    def meaning(self) -> str:
+        """What the status says to a user, in words."""
+        return STATUS_TEXT[int(self)]
+
 
 #: Meaning of the report's ``status`` flag (short name).
-REPORT_STATUS = {
-    0: "ok",
-    1: "not_converged",
-    2: "model_failure",
-    3: "weights_degenerate",
-    4: "upper_bound_only",
-    5: "approximation_invalid",
-    6: "invalid_samples",
-    7: "time_grid_too_coarse",
-    8: "failure_regions_may_be_missed",
-}
+REPORT_STATUS = {int(s): s.name.lower() for s in ReportStatus}
 
 #: What each status says to a user, in words (docs/reliability.md has the table).
 STATUS_TEXT = {
@@ -57,7 +80,45 @@ STATUS_TEXT = {
     7: "the output time grid may miss first passages between instants: refine t",
     8: "the method may have missed part of the failure domain (design points or failure "
        "regions it did not find): the estimate may be low",
+    9: "the model is a surrogate that does not reproduce what it replaces (its corrected "
+       "leave-one-out error is near 1): the result is not usable",
 }
+
+def describe_status(report_or_code: xr.Dataset | int, *, details: bool = True) -> str:
+    """``"status N: meaning"``: a report's status (or a code) in words.
+
+    Parameters
+    ----------
+    report_or_code : xarray.Dataset or int
+        A report of :func:`failure_probability` (or any Dataset with a scalar ``status``) or
+        a status code.
+    details : bool
+        For a report with a nonzero status, append the method's own reasons
+        (``attrs["message"]``) after the meaning.
+
+    Returns
+    -------
+    str
+        For example ``"status 3: the importance weights are degenerate (...)"``.
+
+    Raises
+    ------
+    ValueError
+        If the code is not one of :class:`ReportStatus`.
+    """
+    message = ""
+    if isinstance(report_or_code, xr.Dataset):
+        code = int(report_or_code["status"].values)
+        message = str(report_or_code.attrs.get("message", ""))
+    else:
+        code = int(report_or_code)
+    if code not in STATUS_TEXT:
+        raise ValueError(f"status: {report_or_code!r} is not a report status; valid codes: "
+                         f"{sorted(STATUS_TEXT)}")
+    text = f"status {code}: {STATUS_TEXT[code]}"
+    if details and code and message and message not in (REPORT_STATUS[code], STATUS_TEXT[code]):
+        text += f" ({message})"
+    return text
 
 #: A reason the method could not vouch for its answer: (status code, message in words).
 Reason = tuple[int, str]
@@ -66,7 +127,7 @@ Reason = tuple[int, str]
 def _invalid_reason(ev: LimitStateEvaluator, reasons: Sequence[Reason]) -> list[Reason]:
     if ev.n_invalid == 0 or any(code in (2, 6) for code, _ in reasons):
         return []
-    return [(6, f"{ev.n_invalid} of {ev.n_runs} model runs were invalid; this method's "
+    return [(6, f"{ev.n_invalid} of {ev.n_points} model runs were invalid; this method's "
              "interval does not account for them")]
 
 
@@ -82,6 +143,15 @@ def _grid_reason(grid_gap: float, pf: float, pf_upper: float) -> list[Reason]:
              f"({rel:.0%}), more than half the interval's width: the grid itself may miss "
              "about as much; refine the output instants t (or check with "
              "gearuq.failure.first_passage and the derivative output)")]
+
+
+def _surrogate_reason(ev: LimitStateEvaluator) -> list[Reason]:
+    """Status 9 when the model is a surrogate that says it is not usable."""
+    check = getattr(ev.model, "surrogate_status", None)  # a fitted PolynomialChaos has it
+    if check is None:
+        return []
+    code, message = check()
+    return [(9, message)] if code else []
 
 
 def failure_report(
@@ -135,8 +205,9 @@ def failure_report(
                                  if status else [])
     all_reasons += [r for r in reasons if r[0]]
     all_reasons += _invalid_reason(ev, all_reasons)
-    if ev.n_runs and ev.n_invalid == ev.n_runs and not any(c == 2 for c, _ in all_reasons):
-        all_reasons.insert(0, (2, f"all {ev.n_runs} model runs failed: no estimate is "
+    all_reasons += _surrogate_reason(ev)
+    if ev.n_points and ev.n_invalid == ev.n_points and not any(c == 2 for c, _ in all_reasons):
+        all_reasons.insert(0, (2, f"all {ev.n_points} model runs failed: no estimate is "
                                "possible (see attrs errors)"))
         pf = pf_lower = pf_upper = cov = math.nan
         pf_is_upper_bound = False
@@ -193,6 +264,8 @@ def failure_report(
         "failure_definition": "a sample fails where the limit state g <= 0 (boundary fails); "
                               "time-dependent g: first passage, min over the output instants",
         "message": message or REPORT_STATUS[int(status)],
+        "status_text": f"status {int(status)}: {STATUS_TEXT[int(status)]}",
+        "status_meanings": json.dumps({str(k): v for k, v in STATUS_TEXT.items()}),
         "status_reasons": json.dumps([{"status": c, "meaning": REPORT_STATUS[c],
                                        "message": m} for c, m in all_reasons]),
     })

@@ -356,5 +356,6 @@ def _comparison(rel_mc: xr.Dataset, rel_pce: xr.Dataset, mc: xr.Dataset, pce: Po
     out.attrs.update(provenance("compare_mc_surrogate", model, request, space, rng))
     out.attrs.update({"pce": pce.description, "pce_fit_time_s": wall["fit"],
                       "n_surrogate_samples": int(n_surrogate), "confidence": confidence,
-                      "evaluation_ratio": pce.n_evaluations / int(mc.sizes["sample"])})
+                      "evaluation_ratio": pce.n_evaluations / int(mc.sizes["sample"]),
+                      **pce._status_attrs()})
     return out

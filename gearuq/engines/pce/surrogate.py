@@ -28,7 +28,16 @@ from gearuq.engines.pce.storage import from_dataset, to_dataset
 from gearuq.model import STATUS_NONFINITE, Evaluation, Model, Output, Parameter
 from gearuq.space import ParameterSpace
 
-__all__ = ["PolynomialChaos", "ChaosSettings", "ChaosFit", "OutputInfo", "METHODS"]
+__all__ = ["PolynomialChaos", "ChaosSettings", "ChaosFit", "OutputInfo", "METHODS",
+           "SURROGATE_UNUSABLE_ERROR", "STATUS_SURROGATE_NOT_USABLE"]
+
+#: Relative leave-one-out error (corrected where available, error variance over output
+#: variance) from which a surrogate is not usable: its out-of-sample error then carries half
+#: the output's variance or more, so its tails and its variance split are mostly its own error.
+SURROGATE_UNUSABLE_ERROR = 0.5
+#: Status carried by results built on a surrogate that is not usable; the same code as
+#: ``surrogate_not_usable`` in the failure report's table (``gearuq.failure.ReportStatus``).
+STATUS_SURROGATE_NOT_USABLE = 9
 
 #: Rows of the basis matrix evaluated at once when predicting (bounds the memory).
 _PREDICT_CHUNK = 20_000
@@ -120,6 +129,9 @@ class PolynomialChaos(Model):
         fit.info.update({"n_design": int(data.valid.size),
                          "fit_time_s": time.perf_counter() - wall0})
         self._set_fitted(fit)
+        code, message = self.surrogate_status()
+        if code:
+            warnings.warn(message, UserWarning, stacklevel=2)
         return self
 
     def _set_fitted(self, fit: ChaosFit) -> None:
@@ -250,6 +262,37 @@ class PolynomialChaos(Model):
     def source_model(self) -> str:
         """Name of the fitted model."""
         return self._require_fitted().source.get("model", "data")
+
+    def surrogate_status(self) -> tuple[int, str]:
+        """Whether the fitted surrogate is usable: ``(0, "")`` or ``(9, reason in words)``.
+
+        Not usable when, for some output, the relative leave-one-out error (the corrected one
+        where the design allows it, else the plain one; the hold-out error when larger) is at
+        least :data:`SURROGATE_UNUSABLE_ERROR`. Sobol' indices and reliability results of the
+        surrogate, and a failure-probability report run on it, carry this status.
+        """
+        fit = self._require_fitted()
+        bad = []
+        for o in fit.outputs:
+            errs = [fit.corrected_loo_error.get(o, math.nan)]
+            if not math.isfinite(errs[0]):
+                errs = [fit.loo_error.get(o, math.nan)]
+            errs.append(fit.holdout_error.get(o, math.nan))
+            worst = max((e for e in errs if math.isfinite(e)), default=math.nan)
+            if worst >= SURROGATE_UNUSABLE_ERROR:
+                bad.append(f"{o} {worst:.2f}")
+        if not bad:
+            return 0, ""
+        return STATUS_SURROGATE_NOT_USABLE, (
+            f"the polynomial chaos surrogate is not usable: its relative leave-one-out error "
+            f"({', '.join(bad)}) is at least {SURROGATE_UNUSABLE_ERROR}, so it explains at "
+            f"most half of the variance of what it replaces; enlarge the design or the "
+            f"degree, or use the model itself")
+
+    def _status_attrs(self) -> dict[str, Any]:
+        code, message = self.surrogate_status()
+        return {"status": code, "status_text": (
+            f"status {code}: {message}" if code else "status 0: ok")}
 
     def settings(self) -> dict[str, Any]:
         """Provenance of the surrogate (its fitting settings and size)."""
@@ -443,6 +486,7 @@ class PolynomialChaos(Model):
             "loo_error": self.loo_error.get(o, math.nan),
             "corrected_loo_error": self.corrected_loo_error.get(o, math.nan),
             "note": "independent inputs",
+            **self._status_attrs(),
         })
         if not self.space.independent:
             ds = ds.assign_coords(germ_variable=("parameter", self._germ.labels()))
@@ -490,7 +534,7 @@ class PolynomialChaos(Model):
         rel.attrs.update({"engine": "pce_surrogate", "surrogate": self.description,
                           "n_surrogate_samples": n_samples, "seed": seed,
                           "n_model_evaluations": self.n_evaluations,
-                          "surrogate_wall_time_s": _now() - t0})
+                          "surrogate_wall_time_s": _now() - t0, **self._status_attrs()})
         return rel
 
     # ------------------------------------------------------------------ storage

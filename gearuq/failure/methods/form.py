@@ -24,6 +24,7 @@ correlated inputs, because the correlation is inside the map from ``u`` to ``x``
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Mapping
@@ -38,7 +39,8 @@ from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
 __all__ = ["FORM_SETTINGS", "SORM_SETTINGS", "run_form", "design_point_search",
-           "sorm_probabilities", "resolve_starts", "search_reasons", "check_starts"]
+           "sorm_probabilities", "resolve_starts", "search_reasons", "check_starts",
+           "no_design_point_reason", "hidden_mode_notes", "PROBE_RADII"]
 
 def check_starts(value: Any) -> Any:
     if isinstance(value, str) and value == "auto":
@@ -353,11 +355,12 @@ def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
                        {"units": "1", "long_name": "beta found from each start"}),
     }
     if not found:
-        failed = any(r["error"].startswith("model failed") for r in starts)
-        msg = "; ".join(r["error"] or "not converged" for r in starts)
-        return failure_report(ev, method, pf=math.nan, status=2 if failed else 1,
-                              message=msg, wall_time=time.perf_counter() - t0,
-                              extra=start_vars, **common)
+        code, msg = no_design_point_reason(starts, s)
+        errors = sorted({r["error"] for r in starts if r["error"]})
+        return failure_report(ev, method, pf=math.nan, status=code, message=msg,
+                              wall_time=time.perf_counter() - t0, extra=start_vars,
+                              extra_attrs={"start_errors": json.dumps(errors[:20])},
+                              **common)
     best = found[0]
     beta = best["beta"]
     pf_form = float(stats.norm.sf(beta))
@@ -405,6 +408,40 @@ def run_form(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
                           extra_attrs=attrs, **common)
 
 
+def no_design_point_reason(starts: list[dict[str, Any]], s: Mapping[str, Any]
+                           ) -> tuple[int, str]:
+    """Why no start converged, in one sentence, and what to use instead.
+
+    Returns ``(status, sentence)``: status 2 when the model failed at every start, else 1.
+    """
+    n = len(starts)
+    failed = sum(1 for r in starts if r["error"].startswith("model failed"))
+    flat = sum(1 for r in starts if r["error"].startswith("zero gradient"))
+    cycling = [r for r in starts if not r["error"]]
+    parts = []
+    if cycling:
+        ratios = [abs(r["g"]) / abs(r["g_start"]) for r in cycling
+                  if math.isfinite(r["g"]) and r["g_start"]]
+        best = f" (the closest reached |G| = {min(ratios):.2g} |G(start)|)" if ratios else ""
+        parts.append(f"{len(cycling)} ran out of max_iter={s['max_iter']} iterations without "
+                     f"settling on a point of G = 0{best}")
+    if flat:
+        parts.append(f"{flat} stopped where the limit state is flat (zero gradient)")
+    if failed:
+        parts.append(f"{failed} stopped where the model failed (attrs start_errors)")
+    if failed == n:
+        advice = "the model fails near the failure domain: look at its errors first"
+    elif cycling:
+        advice = ("a limit state that is kinked, windowed or made of several modes makes the "
+                  "design-point iteration cycle: use subset simulation (method='subset')")
+    else:
+        advice = ("the limit state gives FORM no gradient to follow: use subset simulation "
+                  "(method='subset')")
+    sentence = (f"FORM found no design point: of its {n} starts, " + ", ".join(parts)
+                + f"; {advice}")
+    return (2 if failed == n else 1), sentence
+
+
 def resolve_starts(ev: LimitStateEvaluator, s: Mapping[str, Any]) -> dict[str, Any]:
     """Settings with ``n_starts`` resolved ('auto': by the dimension)."""
     n = s["n_starts"]
@@ -415,17 +452,20 @@ def resolve_starts(ev: LimitStateEvaluator, s: Mapping[str, Any]) -> dict[str, A
 
 def search_reasons(starts: list[dict[str, Any]], n_found: int) -> list[Reason]:
     """Status 8 when the multi-start search may have missed design points (Good-Turing:
-    a design point reached by one start only, or a start that did not converge)."""
+    a design point reached by one start only, or a start that did not converge), or when
+    the probes for hidden failure regions found one (``starts[0]["hidden_notes"]``)."""
     reached = [r["design_point"] for r in starts if r["converged"]]
     counts = np.bincount(np.asarray(reached, dtype=int), minlength=n_found) if reached else \
         np.zeros(n_found, dtype=int)
     singles = int(np.sum(counts == 1))
     lost = sum(1 for r in starts if not r["converged"])
+    hidden: list[Reason] = [(8, note) for note in (starts[0].get("hidden_notes", [])
+                                                     if starts else [])]
     if len(starts) == 1:
         return [(8, "one FORM start: other design points, if any, were not looked for "
-                 "(n_starts='auto' or more)")]
+                 "(n_starts='auto' or more)")] + hidden
     if singles == 0 and lost == 0:
-        return []
+        return hidden
     parts = []
     if singles:
         parts.append(f"{singles} of {n_found} design point(s) were reached by one start only "
@@ -435,7 +475,7 @@ def search_reasons(starts: list[dict[str, Any]], n_found: int) -> list[Reason]:
         parts.append(f"{lost} of {len(starts)} start(s) did not converge and may lead to "
                      "a design point not found")
     return [(8, "the design-point search may have missed failure regions: " + "; ".join(parts)
-             + "; raise n_starts or check with subset simulation")]
+             + "; raise n_starts or check with subset simulation")] + hidden
 
 
 def form_design_points(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
@@ -443,7 +483,9 @@ def form_design_points(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
     """Run the iHLRF search from every start; return the distinct converged design points
     (nearest first) and the per-start records."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
+    ev.calibrate_scales()  # a system: components in any units weigh alike in its g
     starts = []
+    directions = []
     g_origin = None
     spread = _spread_directions(ev.dim, s["n_starts"] - 1, rng)
     for k in range(s["n_starts"]):
@@ -459,6 +501,8 @@ def form_design_points(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
         else:
             direction = rng.standard_normal(ev.dim)
             u0 = s["start_radius"] * direction / np.linalg.norm(direction)
+        if k:
+            directions.append(u0 / max(float(np.linalg.norm(u0)), 1e-300))
         rec = design_point_search(ev, u0, s, f"form/start{k}")
         if k == 0 and math.isfinite(rec["g_start"]):
             g_origin = rec["g_start"]
@@ -466,13 +510,120 @@ def form_design_points(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
         rec["beta"] = sign * float(np.linalg.norm(rec["u"]))
         starts.append(rec)
     converged = [r for r in starts if r["converged"]]
+    origin_safe = g_origin is not None and g_origin > 0
+    if origin_safe and ev.series_leaves:
+        converged += _component_points(ev, s)
     found = _distinct(converged, s["distinct"])
+    if origin_safe and found and directions:
+        found, notes = _probe_hidden_regions(ev, s, found, np.array(directions))
+        # kept with the starts, so every method built on this search reports them
+        starts[0]["hidden_notes"] = hidden_mode_notes(found, notes, ev)
     for r in starts:  # which design point each converged start reached (-1: none)
         r["design_point"] = -1
         if r["converged"]:
             dist = [np.linalg.norm(r["u"] - q["u"]) for q in found]
             r["design_point"] = int(np.argmin(dist))
     return found, starts
+
+
+def _component_points(ev: LimitStateEvaluator, s: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Each component's own design point (a search from the origin on its ``g`` alone).
+
+    In a series system every component's failure set lies in the system's, so its design
+    point is one of the system's, whatever the units of its ``g``; a search on the system's
+    ``g`` (a minimum) can be led past it by a component in larger or smaller units.
+    """
+    out = []
+    for k, leaf in enumerate(ev.leaves):
+        rec = design_point_search(ev.component(k), np.zeros(ev.dim), s, f"form/component{k}")
+        if rec["converged"] and math.isfinite(rec["g_start"]) and rec["g_start"] > 0:
+            rec["beta"] = float(np.linalg.norm(rec["u"]))
+            rec["source"] = f"component {leaf.name}"
+            out.append(rec)
+    return out
+
+
+#: Radii of the probes for hidden failure regions, in units of the nearest design point's
+#: beta: inside it (a failing probe there proves a nearer failure point) and beyond it (a
+#: failing probe that no design point's half-space explains is a region the starts missed).
+PROBE_RADII = (0.95, 1.1, 1.25)
+
+
+def _explained(found: list[dict[str, Any]], points: np.ndarray) -> np.ndarray:
+    """Whether the half-space of some design point found (FORM's picture) holds each point,
+    within 2 % of its beta (the search's own tolerance and its finite differences)."""
+    alphas = np.array([p["u"] / p["beta"] for p in found])
+    betas = np.array([p["beta"] for p in found])
+    return np.any(points @ alphas.T >= 0.98 * betas[None, :], axis=1)
+
+
+def _probe_hidden_regions(ev: LimitStateEvaluator, s: Mapping[str, Any],
+                          found: list[dict[str, Any]], directions: np.ndarray
+                          ) -> tuple[list[dict[str, Any]], list[str]]:
+    """Look for failure that the design points found do not explain; search from it.
+
+    Probes along the start directions at :data:`PROBE_RADII` times the nearest beta
+    (``3 (n_starts - 1)`` runs per round), together with the nearest failing run seen so far.
+    A failing point outside every found design point's half-space starts a new search; a new
+    design point found that way is kept with ``source = "probe"`` (the starts missed it: a
+    hidden mode). A curved limit state sends the search back to a known design point, which
+    is not a hidden mode and ends the probing. Returns the design points and, in words, the
+    failing points FORM's picture still does not explain.
+    """
+    for rnd in range(3):
+        beta = found[0]["beta"]
+        pts = np.vstack([r * beta * directions for r in PROBE_RADII])
+        pts = pts[ev.in_range(pts)]
+        if pts.size == 0:
+            return found, []
+        res = ev.evaluate(pts, f"form/probe{rnd}")
+        failing = pts[(res["status"] == 0) & (res["g"] <= 0.0)]
+        r_seen, u_seen = ev.nearest_failure
+        if math.isfinite(r_seen):
+            failing = np.vstack([failing, u_seen[None, :]])
+        unexplained = failing[~_explained(found, failing)] if failing.size else failing
+        if unexplained.size == 0:
+            return found, []
+        u0 = unexplained[int(np.argmin(np.linalg.norm(unexplained, axis=1)))]
+        rec = design_point_search(ev, u0, s, f"form/probe{rnd}/search")
+        if not rec["converged"]:
+            return found, [
+                f"a failing point at distance {np.linalg.norm(u0):.3g} from the origin lies "
+                f"outside every design point's half-space and the search from it did not "
+                f"converge (a kink where margins in different units meet?): the failure "
+                f"region there is not in pf"]
+        rec["beta"] = float(np.linalg.norm(rec["u"]))
+        rec["source"] = "probe"
+        rec["probe_point"] = u0
+        merged = _distinct(found + [rec], s["distinct"])
+        if not any(p is rec for p in merged):
+            # back to a known design point: the failing point stays outside FORM's picture
+            # (a strongly curved boundary, or a mode the search slides off at a kink)
+            angle = math.degrees(math.acos(np.clip(
+                u0 @ found[0]["u"] / (np.linalg.norm(u0) * found[0]["beta"]), -1.0, 1.0)))
+            return found, [
+                f"a failing point at distance {np.linalg.norm(u0):.3g} from the origin, "
+                f"{angle:.0f} degrees from the nearest design point, lies outside every "
+                f"design point's half-space, and the search from it slid back to a known "
+                f"design point: the design points miss failure there and pf may be low"]
+        found = merged
+    return found, []
+
+
+def hidden_mode_notes(found: list[dict[str, Any]], notes: list[str],
+                      ev: LimitStateEvaluator) -> list[str]:
+    """In words: design points only the probes found, and failure they leave unexplained."""
+    hidden = [p for p in found if p.get("source") == "probe"]
+    advice = ("write it as a SeriesSystem of its components, which are then analysed one by "
+              "one" if not ev.is_system else "check the components' units and limits")
+    out = [f"{note}; {advice}" for note in notes]
+    if hidden:
+        betas = ", ".join(f"{p['beta']:.3g}" for p in hidden)
+        out.append(f"no start reached the design point(s) at beta = {betas}: a failing point "
+                   f"that none of the others explains led to them, so the limit state has "
+                   f"modes its starts do not see (a minimum of margins in different units?); "
+                   f"they are included, but others may hide the same way: {advice}")
+    return out
 
 
 def _spread_directions(dim: int, n: int, rng: np.random.Generator) -> np.ndarray | None:
