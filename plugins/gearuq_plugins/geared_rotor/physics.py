@@ -29,7 +29,21 @@ STATUS_MEANINGS = {
     STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
 }
 _FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
-_RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max")
+#: Outputs over the speed range -> (quantity of DynamicRange, kind).
+_DYNAMIC_OUTPUTS = {
+    "kv_max": ("kv", "max"), "speed_at_kv_max": ("kv", "speed"),
+    "kv_over_speed": ("kv", "curve"),
+    "dte_mesh_band_rms_max": ("dte_mesh_band_rms", "max"),
+    "speed_at_dte_mesh_band_rms_max": ("dte_mesh_band_rms", "speed"),
+    "dte_mesh_band_rms_over_speed": ("dte_mesh_band_rms", "curve"),
+    "dte_mesh_order_max": ("dte_mesh_orders", "max"),
+    "speed_at_dte_mesh_order_max": ("dte_mesh_orders", "speed"),
+    "dte_mesh_order_over_speed": ("dte_mesh_orders", "curve"),
+    "bearing1_acceleration_y_mesh_order_max": ("acceleration_mesh_orders", "max"),
+    "speed_at_bearing1_acceleration_y_mesh_order_max": ("acceleration_mesh_orders", "speed"),
+    "bearing1_acceleration_y_mesh_order_over_speed": ("acceleration_mesh_orders", "curve"),
+}
+_RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max", *_DYNAMIC_OUTPUTS)
 _BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
 _SEAT_DIAMETER = 0.110  # gear seat of both shafts (Yuan, Liu and Liu Sec. 2.2): the gear-blank bore
 
@@ -289,6 +303,22 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
             _put_spectrum(data[name], i, ch["bearing 1 acceleration y"])
 
 
+def _fill_dynamic(data: dict, i: int, dyn: Any, names: list[str]) -> None:
+    """Range outputs of one sample from its :class:`DynamicRange`."""
+    for name in names:
+        quantity, kind = _DYNAMIC_OUTPUTS[name]
+        curve = getattr(dyn, quantity)
+        if kind == "curve":
+            data[name][i] = curve
+        elif curve.ndim == 1:
+            value, speed, _ = dyn.peaks[quantity]
+            data[name][i] = value if kind == "max" else speed
+        else:
+            for c in range(curve.shape[1]):
+                value, speed, _ = dyn.peaks[f"{quantity}_{c + 1}"]
+                data[name][i, c] = value if kind == "max" else speed
+
+
 def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str],
              **options: Any) -> Evaluation:
     """Run every sample; failures are flagged per sample (NaN outputs), never dropped."""
@@ -324,13 +354,14 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     speed_values = params.get("speed", np.full(n, model.parameter("speed").nominal))
     per_sample = [mesh_harmonics(options, float(v)) for v in speed_values]
     H = max(per_sample, default=mesh_harmonics(options, 4000.0)) * n_cycles
-    shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
-                                    for d in o.dims[1:]) for o in model.outputs}
+    sizes = {"time": t.size, "order": H + 1, "bearing": 4, "range_speed": speeds.size,
+             "mesh_harmonic": options["range_mesh_harmonics"]}
+    shapes = {o.name: (n,) + tuple(sizes[d] for d in o.dims[1:]) for o in model.outputs}
     data = {name: np.full(shapes[name], np.nan) for name in outputs}
     status = np.zeros(n, dtype=np.int8)
     extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
                                               "drift", "range_newton_iterations",
-                                              "n_mesh_harmonics")}
+                                              "n_mesh_harmonics", "peak_refinement_runs")}
     branch = np.full(n, -1, dtype=np.int8)
     with single_threaded_blas():
         for i in range(n):
@@ -342,7 +373,25 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             except ValueError:
                 status[i] = STATUS_LTCA_FAILED
                 continue
-            if rng_prob is not None:
+            dynamic = [o for o in ranged if o in _DYNAMIC_OUTPUTS]
+            if dynamic:
+                dyn = rng_prob.dynamics_over_speeds(
+                    speeds, mesh_orders=options["range_mesh_harmonics"], tol=options["tol"],
+                    refine=sorted({_DYNAMIC_OUTPUTS[o][0] for o in dynamic}),
+                    peaks_refined=options["peaks_refined"],
+                    speed_tol=options["peak_speed_tol"])
+                status[i] = _FROM_SOLVER[dyn.worst_status()]
+                _fill_dynamic(data, i, dyn, dynamic)
+                extra["range_newton_iterations"][i] = float(dyn.iterations.sum())
+                extra["peak_refinement_runs"][i] = float(dyn.refinement_runs)
+                if "dte_rms_max" in ranged or "speed_at_dte_rms_max" in ranged:
+                    j = int(np.nanargmax(dyn.dte_rms)) if np.any(np.isfinite(dyn.dte_rms)) \
+                        else 0
+                    for name, value in (("dte_rms_max", dyn.dte_rms[j]),
+                                        ("speed_at_dte_rms_max", speeds[j])):
+                        if name in data and np.isfinite(dyn.dte_rms[j]):
+                            data[name][i] = value
+            elif rng_prob is not None:
                 res = rng_prob.rms_over_speeds(speeds, tol=options["tol"])
                 peak, at, code = res.maximum()
                 status[i] = _FROM_SOLVER[code]
@@ -365,7 +414,12 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                 sol.branch]
             if sol.status in (0, 3):
                 _fill_sample(data, i, sol, prob, t, single, values["speed"])
-    coords = {"bearing": ("bearing", np.array(_BEARINGS), {})}
+    coords = {"bearing": ("bearing", np.array(_BEARINGS), {}),
+              "range_speed": ("range_speed", speeds, {"units": "rpm", "long_name":
+                              "grid speeds of the range (pinion)"}),
+              "mesh_harmonic": ("mesh_harmonic",
+                                np.arange(1, options["range_mesh_harmonics"] + 1),
+                                {"units": "1", "long_name": "mesh harmonic m of m f_m"})}
     coords.update(order_coordinates(H, n_cycles, pair.z1, options["n_sidebands"]))
     return Evaluation(
         data=data, status=status, status_meanings=STATUS_MEANINGS, coords=coords,
@@ -373,6 +427,9 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             "n_modes": ("sample", extra["n_modes"], {"units": "1",
                         "long_name": "modes kept by the reduction"}),
             "hb_iterations": ("sample", extra["hb_iterations"], {"units": "1"}),
+            "peak_refinement_runs": ("sample", extra["peak_refinement_runs"], {
+                "units": "1", "long_name": "steady states solved to locate the peaks of the "
+                "range outputs beyond the grid (NaN: not computed)"}),
             "n_mesh_harmonics": ("sample", extra["n_mesh_harmonics"], {"units": "1",
                                  "long_name": "mesh harmonics of the steady state"}),
             "hb_residual": ("sample", extra["hb_residual"], {"units": "1"}),
