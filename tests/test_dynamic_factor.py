@@ -159,3 +159,97 @@ def test_range_outputs_of_the_plugin(model):
     alone = model.response(params, None, outputs=["dte_rms_max"], **opts)
     assert ds["dte_rms_max"].values[0] == pytest.approx(alone["dte_rms_max"].values[0],
                                                         rel=1e-10)
+
+
+# ------------------------------------------------------------------ ISO 6336-1 Method B
+def test_iso_method_b_against_a_hand_calculation():
+    """Yuan, Liu and Liu's 30/30 pair, 1000 N m, class 6, no relief, at one speed per range.
+
+    Written out from the standard's formulas with the pair's printed geometry (d = 189.263
+    mm, d_a = 201.263 mm, d_f = 174.263 mm, d_b = 176.761 mm, b = 40 mm, eps_gamma = 2.2005,
+    alpha_t = 20.942 deg) and the stiffness of :func:`mesh_stiffness` as inputs.
+    """
+    from gearuq.gears.geometry import seed002_pair
+    from gearuq.gears.iso6336 import mesh_stiffness, pair_dynamic_factor_method_b
+
+    pair = seed002_pair()
+    w = 2000.0 * 1000.0 / 189.2632 / 40.0                     # K_A F_t / b = 264.2 N/mm
+    st = mesh_stiffness(pair, load_per_width=w)               # no light-load correction
+    c1, cga = st.c_prime, st.c_gamma_alpha
+    d_m = (201.2632 + 174.2632) / 2.0
+    m_red = math.pi / 8.0 * (d_m / 176.7611) ** 2 * d_m**2 / (2.0 / 7.83e-6)
+    n_E1 = 30000.0 / (math.pi * 30) * math.sqrt(cga / m_red)
+    grade = math.sqrt(2.0)  # class 6 = 5 + 1
+    f_pt = (0.001 * 189.2632 + 0.4 * 6 + 5.0) * grade         # 10.89 um
+    f_pb = f_pt * math.cos(math.radians(20.9419))
+    f_f = (2.5 * math.sqrt(6.0) + 0.17 * math.sqrt(189.2632) + 0.5) * grade
+    y = 0.075 * f_pb
+    C_a = (1500.0 / 97.0 - 18.45) ** 2 / 18.0 + 1.5
+    B_p, B_f, B_k = c1 * (f_pb - y) / w, c1 * (f_f - y) / w, abs(1.0 - c1 * C_a / w)
+    e = 2.20054
+    C = (0.32, 0.57 / (e - 0.3), 0.096 / (e - 1.56), (0.57 - 0.05 * e) / (e - 1.44), 0.47,
+         0.12 / (e - 1.74), 0.125 * math.sin(math.pi * (e - 2.0)) + 0.875)
+    main = C[0] * B_p + C[1] * B_f + C[3] * B_k + 1.0
+    sup = C[4] * B_p + C[5] * B_f + C[6]
+    N = np.array([0.4, 1.0, 1.3, 1.8])
+    expected = [N[0] * (C[0] * B_p + C[1] * B_f + C[2] * B_k) + 1.0, main,
+                sup + (main - sup) * (1.5 - N[2]) / 0.35, sup]
+    assert 5300.0 < n_E1 < 5500.0
+    iso = pair_dynamic_factor_method_b(pair, 1000.0, N * n_E1, accuracy_grade=6)
+    assert iso.resonance_speed_rpm == pytest.approx(n_E1, rel=1e-5)
+    np.testing.assert_allclose(iso.kv, expected, rtol=1e-4)
+    assert list(iso.regime) == ["subcritical", "main_resonance", "intermediate",
+                                "supercritical"]
+
+
+def test_iso_method_b_is_continuous_where_the_standard_joins_its_ranges():
+    from gearuq.gears.geometry import seed002_pair
+    from gearuq.gears.iso6336 import pair_dynamic_factor_method_b
+
+    pair = seed002_pair()
+    for torque, relief in ((1000.0, 0.0), (1000.0, 20.0), (300.0, 0.0)):
+        n_E1 = pair_dynamic_factor_method_b(pair, torque, 1.0, accuracy_grade=7,
+                                            tip_relief_um=relief).resonance_speed_rpm
+        kv = pair_dynamic_factor_method_b(pair, torque, n_E1 * np.array(
+            [1.15 - 1e-9, 1.15 + 1e-9, 1.5 - 1e-9, 1.5 + 1e-9, 1e-6]), accuracy_grade=7,
+            tip_relief_um=relief).kv
+        assert kv[0] == pytest.approx(kv[1], abs=1e-6) and kv[2] == pytest.approx(kv[3], abs=1e-6)
+        assert kv[4] == pytest.approx(1.0, abs=1e-5)
+    # coarser class -> larger B_p, B_f -> larger K_v; relief matched to the load -> B_k ~ 0
+    a = pair_dynamic_factor_method_b(pair, 1000.0, 5000.0, accuracy_grade=6)
+    b = pair_dynamic_factor_method_b(pair, 1000.0, 5000.0, accuracy_grade=7)
+    c = pair_dynamic_factor_method_b(pair, 1000.0, 5000.0, accuracy_grade=6, tip_relief_um=20.0)
+    assert b.kv[0] > a.kv[0] > c.kv[0] and c.B_k < 0.1
+    with pytest.raises(ValueError, match=r"torque=-1\.0 is outside its valid range"):
+        pair_dynamic_factor_method_b(pair, -1.0, 5000.0, accuracy_grade=6)
+    with pytest.raises(ValueError, match=r"accuracy_grade=13"):
+        pair_dynamic_factor_method_b(pair, 1000.0, 5000.0, accuracy_grade=13)
+
+
+def test_plugin_iso_and_pitch_outputs_need_no_dynamics(model):
+    """kv_iso_* follow the sample's torque and class; F_p is max - min of the deviations."""
+    from gearuq.gears.deviations import cumulative_pitch_from_normals, iso1328_pitch_tolerances
+    from gearuq.gears.geometry import seed002_pair
+    from gearuq.gears.iso6336 import pair_dynamic_factor_method_b
+
+    pair = seed002_pair()
+    params = {"torque": np.array([500.0, 1000.0]), "iso_grade": np.array([6, 7]),
+              "pitch_xi_p_1": np.array([1.0, -0.3]), "pitch_xi_g_3": np.array([0.5, 2.0])}
+    ds = model.response(params, None, outputs=["kv_iso_max", "kv_iso_over_speed",
+                                               "pitch_total_deviation_pinion",
+                                               "pitch_total_deviation_wheel"])
+    speeds = ds["range_speed"].values
+    for i, (torque, grade) in enumerate(((500.0, 6), (1000.0, 7))):
+        iso = pair_dynamic_factor_method_b(pair, torque, speeds, accuracy_grade=grade)
+        np.testing.assert_allclose(ds["kv_iso_over_speed"].values[i], iso.kv, rtol=1e-12)
+        assert ds["kv_iso_max"].values[i] == pytest.approx(iso.kv.max())
+        f_pT, F_pT = iso1328_pitch_tolerances(pair.d2, pair.mn, grade)
+        xi = np.zeros(29)
+        xi[2] = params["pitch_xi_g_3"][i]
+        wheel = cumulative_pitch_from_normals(xi, 30, amplitude=F_pT / 2,
+                                              sigma=f_pT / (3 * math.sqrt(2)))
+        assert ds["pitch_total_deviation_wheel"].values[i] == pytest.approx(np.ptp(wheel))
+    # the pinion's once-per-revolution wave alone: F_p = 2 * amplitude/sqrt(2) * |xi|
+    F_pT = iso1328_pitch_tolerances(pair.d1, pair.mn, 6)[1]
+    assert ds["pitch_total_deviation_pinion"].values[0] == pytest.approx(
+        2.0 * F_pT / 2.0 / math.sqrt(2.0) * 1.0, rel=0.02)

@@ -39,6 +39,7 @@ __all__ = [
     "pitch_germ_scales",
     "pitch_deviation_germ",
     "iso1328_pitch_tolerances",
+    "iso1328_profile_form_tolerance",
     "pitch_deviations_from_cumulative",
     "random_cumulative_pitch_deviations",
 ]
@@ -75,6 +76,21 @@ def iso1328_pitch_tolerances(d: float, mn: float, accuracy_grade: int) -> tuple[
     return (0.001 * dm + 0.4 * mm + 5.0) * f * 1e-6, (
         0.002 * dm + 0.55 * math.sqrt(dm) + 0.7 * mm + 12.0
     ) * f * 1e-6
+
+
+def iso1328_profile_form_tolerance(d: float, mn: float, accuracy_grade: int) -> float:
+    """Return the ISO 1328-1:2013 profile form tolerance ``f_fT`` [m] of a gear.
+
+    ``f_fT = (2.5 sqrt(mn) + 0.17 sqrt(d) + 0.5) sqrt(2)^(A-5)`` um, ``d``, ``mn`` in mm;
+    classes as :func:`iso1328_pitch_tolerances`.
+    """
+    if int(accuracy_grade) != accuracy_grade or not 1 <= accuracy_grade <= 12:
+        raise ValueError(
+            f"accuracy_grade={accuracy_grade!r} is outside its valid range: integers 1..12"
+        )
+    dm, mm = d * 1e3, mn * 1e3
+    return (2.5 * math.sqrt(mm) + 0.17 * math.sqrt(dm) + 0.5) * math.sqrt(2.0) ** (
+        accuracy_grade - 5) * 1e-6
 
 
 #: Readings of the paper's "amplitude of the random cumulative pitch deviations".

@@ -134,6 +134,16 @@ _OUTPUTS = (
            "speed of bearing1_acceleration_y_mesh_order_max"),
     Output("bearing1_acceleration_y_mesh_order_over_speed", "m s-2", _SRM,
            "bearing-1 y acceleration amplitude at the mesh harmonics at each grid speed"),
+    Output("kv_iso_max", "1", _S, "largest ISO 6336-1:2019 Method B K_v over the grid speeds "
+           "of the range, for the sample's torque, tip relief and accuracy class (iso_grade, "
+           "or kv_iso_class when iso_grade = 0); K_A = 1, case-hardened running-in"),
+    Output("speed_at_kv_iso_max", "rpm", _S, "grid speed of kv_iso_max"),
+    Output("kv_iso_over_speed", "1", _SR, "ISO 6336-1 Method B K_v at each grid speed"),
+    Output("pitch_total_deviation_pinion", "m", _S, "total cumulative pitch deviation F_p "
+           "of the pinion (ISO 1328-1: largest minus smallest cumulative deviation over the "
+           "teeth); acceptance to a class is F_p <= F_pT"),
+    Output("pitch_total_deviation_wheel", "m", _S, "total cumulative pitch deviation F_p of "
+           "the wheel"),
     Output("ste_ptp", "m", _S, "peak-to-peak LTCA STE of the excitation"),
     Output("mesh_frequency", "Hz", _S, "mesh frequency z1 n / 60"),
     Output("shaft_frequency", "Hz", _S, "pinion shaft frequency n / 60"),
@@ -187,6 +197,9 @@ _OPTIONS = (
     _O("peaks_refined", 2, "local maxima of the grid located by golden-section search per "
        "peak output (kv_max and the *_max of the mesh band and orders); 0: the grid's "
        "maximum", kind=int, lower=0, upper=20),
+    _O("kv_iso_class", 6, "ISO 1328-1 accuracy class of kv_iso_* for samples with "
+       "iso_grade = 0 (their pitch deviations are not given as a class)", kind=int, lower=1,
+       upper=12),
     _O("peak_speed_tol", 1.0, "width of the final speed bracket of a located peak", lower=1e-3,
        upper=1000.0, units="rpm"),
     _O("end_inertias", "parameters", "drive and load inertias on the shaft ends: the "

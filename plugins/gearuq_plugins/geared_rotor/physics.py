@@ -44,6 +44,9 @@ _DYNAMIC_OUTPUTS = {
     "bearing1_acceleration_y_mesh_order_over_speed": ("acceleration_mesh_orders", "curve"),
 }
 _RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max", *_DYNAMIC_OUTPUTS)
+#: Outputs that need neither the LTCA nor the rotor (the drawing's numbers).
+_CHEAP_OUTPUTS = ("kv_iso_max", "speed_at_kv_iso_max", "kv_iso_over_speed",
+                  "pitch_total_deviation_pinion", "pitch_total_deviation_wheel")
 _BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
 _SEAT_DIAMETER = 0.110  # gear seat of both shafts (Yuan, Liu and Liu Sec. 2.2): the gear-blank bore
 
@@ -303,6 +306,36 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
             _put_spectrum(data[name], i, ch["bearing 1 acceleration y"])
 
 
+def iso_class(values: dict[str, float], options: dict[str, Any]) -> int:
+    """Accuracy class of ISO 6336-1's K_v: ``iso_grade``, or ``kv_iso_class`` when it is 0."""
+    grade = int(values["iso_grade"])
+    return grade if grade > 0 else int(options["kv_iso_class"])
+
+
+def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str, Any],
+                speeds: np.ndarray, names: list[str]) -> None:
+    """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations."""
+    from gearuq.gears.iso6336 import pair_dynamic_factor_method_b
+
+    pair = seed_pair()
+    if any(n.startswith(("kv_iso", "speed_at_kv_iso")) for n in names):
+        iso = pair_dynamic_factor_method_b(
+            pair, values["torque"], speeds, accuracy_grade=iso_class(values, options),
+            tip_relief_um=values["tip_relief_amount"])
+        j = int(np.argmax(iso.kv))
+        for name, value in (("kv_iso_max", iso.kv[j]), ("speed_at_kv_iso_max", speeds[j]),
+                            ("kv_iso_over_speed", iso.kv)):
+            if name in data:
+                data[name][i] = value
+    if any(n.startswith("pitch_total") for n in names):
+        dev = sample_deviations(pair, values, options["pitch_phases"], options["pitch_model"],
+                                options["pitch_harmonics"])
+        for name, fp in (("pitch_total_deviation_pinion", dev.Fp1),
+                         ("pitch_total_deviation_wheel", dev.Fp2)):
+            if name in data:
+                data[name][i] = float(np.ptp(fp))
+
+
 def _fill_dynamic(data: dict, i: int, dyn: Any, names: list[str]) -> None:
     """Range outputs of one sample from its :class:`DynamicRange`."""
     for name in names:
@@ -349,7 +382,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             f"> {2 * options['range_mesh_harmonics']} (got {options['positions_per_cycle']})")
     speeds = np.linspace(options["speed_min"], options["speed_max"], options["n_speeds"])
     ranged = [o for o in outputs if o in _RANGE_OUTPUTS]
-    single = [o for o in outputs if o not in _RANGE_OUTPUTS]
+    cheap = [o for o in outputs if o in _CHEAP_OUTPUTS]
+    single = [o for o in outputs if o not in _RANGE_OUTPUTS and o not in _CHEAP_OUTPUTS]
     n = next(iter(params.values())).shape[0]
     speed_values = params.get("speed", np.full(n, model.parameter("speed").nominal))
     per_sample = [mesh_harmonics(options, float(v)) for v in speed_values]
@@ -366,6 +400,10 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     with single_threaded_blas():
         for i in range(n):
             values = {k: float(v[i]) for k, v in params.items()}
+            if cheap:
+                _fill_cheap(data, i, values, options, speeds, cheap)
+            if not (single or ranged):
+                continue
             try:
                 prob = problem_for(model, values, options) if single else None
                 rng_prob = (problem_for(model, values, options, speed_range=True) if ranged
