@@ -253,3 +253,77 @@ def test_plugin_iso_and_pitch_outputs_need_no_dynamics(model):
     F_pT = iso1328_pitch_tolerances(pair.d1, pair.mn, 6)[1]
     assert ds["pitch_total_deviation_pinion"].values[0] == pytest.approx(
         2.0 * F_pT / 2.0 / math.sqrt(2.0) * 1.0, rel=0.02)
+
+
+# ------------------------------------------------------------------ laws of production
+def _total_deviation_draws(z, amplitude, sigma, n, seed):
+    """F_p of n germs through the public expansion (one gear), an independent estimator."""
+    from gearuq.gears.deviations import cumulative_pitch_from_normals
+
+    xi = np.random.default_rng(seed).standard_normal((n, z - 1))
+    return np.array([np.ptp(cumulative_pitch_from_normals(x, z, amplitude=amplitude,
+                                                          sigma=sigma)) for x in xi])
+
+
+def test_capable_process_puts_the_stated_share_beyond_F_pT():
+    from gearuq.gears.deviations import capable_pitch_scatter, iso1328_pitch_tolerances
+    from gearuq.gears.geometry import seed002_pair
+
+    pair = seed002_pair()
+    f_pT, F_pT = iso1328_pitch_tolerances(pair.d1, pair.mn, 6)
+    n = 8000
+    # today's reading of a class: about half of the gears exceed the class's own F_pT
+    untruncated = _total_deviation_draws(30, 0.5 * F_pT, f_pT / (3 * math.sqrt(2)), n, 7)
+    assert 0.42 < np.mean(untruncated > F_pT) < 0.55
+    for share in (0.05, 0.0027):
+        A, s = capable_pitch_scatter(30, f_pT, F_pT, share)
+        assert s / A == pytest.approx((f_pT / (3 * math.sqrt(2))) / (0.5 * F_pT))
+        beyond = np.mean(_total_deviation_draws(30, A, s, n, 11) > F_pT)
+        se = math.sqrt(share * (1 - share) / n)
+        assert abs(beyond - share) < 4.0 * se + 0.003 * share
+    with pytest.raises(ValueError, match=r"share_beyond=0\.7 is outside its valid range"):
+        capable_pitch_scatter(30, f_pT, F_pT, 0.7)
+
+
+def test_inspected_normal_is_the_capable_process_truncated_to_the_tolerance():
+    from scipy.stats import norm
+
+    from gearuq.gears.deviations import inspected_normal_spec
+    from gearuq.space import ParameterSpace
+
+    spec = inspected_normal_spec(20.0, 5.0, 0.01)
+    assert 2.0 * norm.sf(5.0 / spec["std"]) == pytest.approx(0.01, rel=1e-12)
+    draws = ParameterSpace({"tip_relief_amount": spec}).sample(4000, rng=3)["tip_relief_amount"]
+    assert draws.min() >= 15.0 and draws.max() <= 20.0 + 5.0
+    # truncating a normal at +-2.576 sigma shrinks its variance by 2.6 %: close to the process
+    assert np.std(draws) == pytest.approx(spec["std"] * math.sqrt(1 - 2 * 2.5758 *
+                                          norm.pdf(2.5758) / 0.99), rel=0.05)
+
+
+def test_failure_given_acceptance_is_a_parallel_system(model):
+    """P(F_p1 > 0.9 F_pT | both gears pass) from the failure package against plain counting."""
+    from gearuq import ParallelSystem
+    from gearuq.failure import LimitState, failure_probability
+    from gearuq.gears.deviations import capable_pitch_scatter, iso1328_pitch_tolerances
+    from gearuq.gears.geometry import seed002_pair
+    from gearuq.space import ParameterSpace
+
+    pair = seed002_pair()
+    f1, F1 = iso1328_pitch_tolerances(pair.d1, pair.mn, 7)
+    space = ParameterSpace({f"pitch_xi_{g}_{i}": {"dist": "normal", "mean": 0.0, "std": 1.0}
+                            for g in "pg" for i in range(1, 30)})
+    opts = {"pitch_tolerance_law": "capable_process", "process_share_beyond": 0.2}
+    rotor = model.with_nominal(iso_grade=7)
+    fails = LimitState.upper("pitch_total_deviation_pinion", 0.9 * F1, name="large_Fp")
+    accepted = LimitState.upper("pitch_acceptance_margin", 0.0, name="accepted")
+    both = failure_probability(rotor, space, ParallelSystem([fails, accepted]), method="mc",
+                               n_samples=3000, rng=5, model_options=opts, executor="serial")
+    acc = failure_probability(rotor, space, accepted, method="mc", n_samples=3000, rng=5,
+                              model_options=opts, executor="serial")
+    conditional = float(both["pf"]) / float(acc["pf"])
+    # independent: the pinion alone decides the numerator given the wheel passes
+    A, s = capable_pitch_scatter(30, f1, F1, 0.2)
+    Fp = _total_deviation_draws(30, A, s, 10_000, 13)
+    exact = np.mean((Fp > 0.9 * F1) & (Fp <= F1)) / np.mean(Fp <= F1)
+    assert float(acc["pf"]) == pytest.approx(0.8**2, abs=0.03)
+    assert conditional == pytest.approx(exact, abs=0.025)

@@ -144,6 +144,9 @@ _OUTPUTS = (
            "teeth); acceptance to a class is F_p <= F_pT"),
     Output("pitch_total_deviation_wheel", "m", _S, "total cumulative pitch deviation F_p of "
            "the wheel"),
+    Output("pitch_acceptance_margin", "1", _S, "inspection margin min over both gears of "
+           "1 - F_p / F_pT (class iso_grade, or kv_iso_class when iso_grade = 0): the pair "
+           "passes inspection where it is >= 0"),
     Output("ste_ptp", "m", _S, "peak-to-peak LTCA STE of the excitation"),
     Output("mesh_frequency", "Hz", _S, "mesh frequency z1 n / 60"),
     Output("shaft_frequency", "Hz", _S, "pinion shaft frequency n / 60"),
@@ -197,6 +200,14 @@ _OPTIONS = (
     _O("peaks_refined", 2, "local maxima of the grid located by golden-section search per "
        "peak output (kv_max and the *_max of the mesh band and orders); 0: the grid's "
        "maximum", kind=int, lower=0, upper=20),
+    _O("pitch_tolerance_law", "untruncated_iso", "law of the pitch deviations of an ISO "
+       "class (iso_grade > 0): 'untruncated_iso' (amplitude F_pT/2, scatter f_pT/(3 sqrt 2): "
+       "about half of these gears exceed F_pT, i.e. fail inspection) or 'capable_process' "
+       "(the same shape scaled so that process_share_beyond of the gears exceed F_pT; "
+       "condition on pitch_acceptance_margin >= 0 for the gears that pass inspection)",
+       choices=("untruncated_iso", "capable_process")),
+    _O("process_share_beyond", 0.05, "with pitch_tolerance_law='capable_process': share of "
+       "the process beyond F_pT (rejected at inspection), per gear", lower=1e-6, upper=0.5),
     _O("kv_iso_class", 6, "ISO 1328-1 accuracy class of kv_iso_* for samples with "
        "iso_grade = 0 (their pitch deviations are not given as a class)", kind=int, lower=1,
        upper=12),

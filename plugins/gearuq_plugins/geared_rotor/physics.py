@@ -46,7 +46,8 @@ _DYNAMIC_OUTPUTS = {
 _RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max", *_DYNAMIC_OUTPUTS)
 #: Outputs that need neither the LTCA nor the rotor (the drawing's numbers).
 _CHEAP_OUTPUTS = ("kv_iso_max", "speed_at_kv_iso_max", "kv_iso_over_speed",
-                  "pitch_total_deviation_pinion", "pitch_total_deviation_wheel")
+                  "pitch_total_deviation_pinion", "pitch_total_deviation_wheel",
+                  "pitch_acceptance_margin")
 _BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
 _SEAT_DIAMETER = 0.110  # gear seat of both shafts (Yuan, Liu and Liu Sec. 2.2): the gear-blank bore
 
@@ -65,21 +66,30 @@ def compliance_model(pair: Any) -> Any:
     return ComplianceModel(pair, bore_ratio=_SEAT_DIAMETER / pair.df1)
 
 
-def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int
+def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int,
+                          law: tuple[str, float] = ("untruncated_iso", 0.05)
                           ) -> tuple[float, float]:
-    """Sine amplitude and scatter sigma [m] of one gear: ISO grade or the parameters."""
-    from gearuq.gears.deviations import iso1328_pitch_tolerances
+    """Sine amplitude and scatter sigma [m] of one gear: ISO grade or the parameters.
+
+    ``law``: ``(pitch_tolerance_law, process_share_beyond)``; with ``"capable_process"`` an
+    ISO grade sets the process of :func:`gearuq.gears.deviations.capable_pitch_scatter`.
+    """
+    from gearuq.gears.deviations import capable_pitch_scatter, iso1328_pitch_tolerances
 
     grade = int(values["iso_grade"])
     if grade > 0:
+        z = pair.z1 if gear == 1 else pair.z2
         f_pT, F_pT = iso1328_pitch_tolerances(pair.d1 if gear == 1 else pair.d2, pair.mn,
                                               grade)
+        if law[0] == "capable_process":
+            return capable_pitch_scatter(z, f_pT, F_pT, law[1])
         return 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
     return values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
 
 
 def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
-                      pitch_model: str = "germ", pitch_harmonics: int | None = None) -> Any:
+                      pitch_model: str = "germ", pitch_harmonics: int | None = None,
+                      law: tuple[str, float] = ("untruncated_iso", 0.05)) -> Any:
     """Flank deviations of one sample: pitch deviations (germ or seeded) and tip relief.
 
     ``pitch_model="germ"``: each gear's cumulative deviations are the smooth expansion
@@ -99,7 +109,7 @@ def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
     fp = []
     if pitch_model == "germ":
         for gear, z in ((1, pair.z1), (2, pair.z2)):
-            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear, law)
             xi = pitch_germ_from_values(values, z, gear, pitch_harmonics)
             fp.append(cumulative_pitch_from_normals(xi, z, amplitude=amp, sigma=sigma))
     else:
@@ -107,7 +117,7 @@ def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
         if phases == "parameters":
             germ[0], germ[2] = values["pitch_phase_pinion"], values["pitch_phase_wheel"]
         for gear, phase, normals in ((1, germ[0], germ[1]), (2, germ[2], germ[3])):
-            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear, law)
             fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
     amount, length = values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3
     tip = (amount, length) if amount > 0 else None
@@ -166,13 +176,15 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
     setup = _cached(model, ("setup", ppc, n_pts),
                     lambda: ltca_setup(pair, compliance=compliance_model(pair),
                                        positions_per_cycle=ppc, n_pts=n_pts))
+    law = (options["pitch_tolerance_law"], options["process_share_beyond"])
     lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
-            options["pitch_harmonics"]) + tuple(values[k] for k in _LTCA_KEYS) + tuple(
+            options["pitch_harmonics"]) + law + tuple(values[k] for k in _LTCA_KEYS) + tuple(
         values.get(k, 0.0) for k in _GERM_KEYS)
     excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
         setup, values["torque"],
         deviations=sample_deviations(pair, values, options["pitch_phases"],
-                                     options["pitch_model"], options["pitch_harmonics"])))
+                                     options["pitch_model"], options["pitch_harmonics"],
+                                     law)))
     harmonics, cutoff_factor = ((options["range_mesh_harmonics"], options["range_cutoff_factor"])
                                 if speed_range else (mesh_harmonics(options, values["speed"]),
                                                      options["cutoff_factor"]))
@@ -315,6 +327,7 @@ def iso_class(values: dict[str, float], options: dict[str, Any]) -> int:
 def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str, Any],
                 speeds: np.ndarray, names: list[str]) -> None:
     """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations."""
+    from gearuq.gears.deviations import iso1328_pitch_tolerances
     from gearuq.gears.iso6336 import pair_dynamic_factor_method_b
 
     pair = seed_pair()
@@ -327,13 +340,20 @@ def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str,
                             ("kv_iso_over_speed", iso.kv)):
             if name in data:
                 data[name][i] = value
-    if any(n.startswith("pitch_total") for n in names):
+    if any(n.startswith(("pitch_total", "pitch_acceptance")) for n in names):
         dev = sample_deviations(pair, values, options["pitch_phases"], options["pitch_model"],
-                                options["pitch_harmonics"])
-        for name, fp in (("pitch_total_deviation_pinion", dev.Fp1),
-                         ("pitch_total_deviation_wheel", dev.Fp2)):
+                                options["pitch_harmonics"], (options["pitch_tolerance_law"],
+                                                             options["process_share_beyond"]))
+        totals = (float(np.ptp(dev.Fp1)), float(np.ptp(dev.Fp2)))
+        for name, fp in zip(("pitch_total_deviation_pinion", "pitch_total_deviation_wheel"),
+                            totals, strict=True):
             if name in data:
-                data[name][i] = float(np.ptp(fp))
+                data[name][i] = fp
+        if "pitch_acceptance_margin" in data:
+            grade = iso_class(values, options)
+            F_pT = [iso1328_pitch_tolerances(d, pair.mn, grade)[1] for d in (pair.d1, pair.d2)]
+            data["pitch_acceptance_margin"][i] = min(1.0 - fp / tol
+                                                     for fp, tol in zip(totals, F_pT, strict=True))
 
 
 def _fill_dynamic(data: dict, i: int, dyn: Any, names: list[str]) -> None:
