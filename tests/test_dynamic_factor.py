@@ -327,3 +327,22 @@ def test_failure_given_acceptance_is_a_parallel_system(model):
     exact = np.mean((Fp > 0.9 * F1) & (Fp <= F1)) / np.mean(Fp <= F1)
     assert float(acc["pf"]) == pytest.approx(0.8**2, abs=0.03)
     assert conditional == pytest.approx(exact, abs=0.025)
+
+
+@pytest.mark.e2e
+def test_quick_dynamic_factor_study(tmp_path):
+    """The study's quick mode: its answers are consistent and its figures say what they are."""
+    import json
+
+    from gearuq import registry
+
+    assert registry.get_study("geared_rotor_dynamic_factor")(
+        out=tmp_path, quick=True, executor="serial") == 0
+    info = json.loads((tmp_path / "summary.json").read_text())
+    assert info["quick"] and info["X"] > 1.0
+    count, ss = info["crude_mc"], info["subset"]
+    assert count["lower"] <= count["pf"] <= count["upper"]
+    assert ss["p_pass"] == pytest.approx(0.95**2)
+    assert min(info["kv_max_quantiles"]) >= 1.0 and min(info["kv_iso_max_quantiles"]) >= 1.0
+    assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
+                                                       "campbell_map.png"}
