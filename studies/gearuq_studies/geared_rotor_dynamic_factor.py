@@ -270,7 +270,7 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         How rotor runs are spread over the cores; the answers do not depend on them.
     n_runs, n_per_level, sobol_base : int
         Crude Monte Carlo runs, subset-simulation samples per level, Saltelli base samples
-        (``sobol_base (G + 2)`` = 7 ``sobol_base`` runs); ``quick`` sets 16, 20 and none.
+        (``sobol_base (G + 2)`` = 7 ``sobol_base`` runs); ``quick`` sets 12, 16 and none.
 
     Returns
     -------
@@ -286,11 +286,11 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
                              ("sobol_base", sobol_base, 2)):
         if int(value) != value or value < low:
             raise ValueError(f"{name}={value!r} is outside its valid range: integers >= {low}")
-    n_mc, n_level = (16, 20) if quick else (int(n_runs), int(n_per_level))
+    n_mc, n_level = (12, 16) if quick else (int(n_runs), int(n_per_level))
     t0, c0 = time.perf_counter(), time.process_time()
     stages = {}
     if quick:
-        print(f"quick run: {n_mc} rotor runs, subset simulation with 20 per level, no "
+        print(f"quick run: {n_mc} rotor runs, subset simulation with 16 per level, no "
               "Sobol' indices: a check, not the answer", flush=True)
     ds = population(n_mc, seed, grade, out, execution)
     stages["population"] = (time.perf_counter() - t0, time.process_time() - c0)
