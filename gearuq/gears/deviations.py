@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import brentq
@@ -39,6 +40,11 @@ __all__ = [
     "pitch_germ_scales",
     "pitch_deviation_germ",
     "iso1328_pitch_tolerances",
+    "iso1328_profile_form_tolerance",
+    "PITCH_TOLERANCE_LAWS",
+    "capable_pitch_scatter",
+    "inspected_normal_spec",
+    "total_cumulative_pitch_deviation",
     "pitch_deviations_from_cumulative",
     "random_cumulative_pitch_deviations",
 ]
@@ -75,6 +81,21 @@ def iso1328_pitch_tolerances(d: float, mn: float, accuracy_grade: int) -> tuple[
     return (0.001 * dm + 0.4 * mm + 5.0) * f * 1e-6, (
         0.002 * dm + 0.55 * math.sqrt(dm) + 0.7 * mm + 12.0
     ) * f * 1e-6
+
+
+def iso1328_profile_form_tolerance(d: float, mn: float, accuracy_grade: int) -> float:
+    """Return the ISO 1328-1:2013 profile form tolerance ``f_fT`` [m] of a gear.
+
+    ``f_fT = (2.5 sqrt(mn) + 0.17 sqrt(d) + 0.5) sqrt(2)^(A-5)`` um, ``d``, ``mn`` in mm;
+    classes as :func:`iso1328_pitch_tolerances`.
+    """
+    if int(accuracy_grade) != accuracy_grade or not 1 <= accuracy_grade <= 12:
+        raise ValueError(
+            f"accuracy_grade={accuracy_grade!r} is outside its valid range: integers 1..12"
+        )
+    dm, mm = d * 1e3, mn * 1e3
+    return (2.5 * math.sqrt(mm) + 0.17 * math.sqrt(dm) + 0.5) * math.sqrt(2.0) ** (
+        accuracy_grade - 5) * 1e-6
 
 
 #: Readings of the paper's "amplitude of the random cumulative pitch deviations".
@@ -486,3 +507,89 @@ class FlankDeviations:
         if self.user is not None:
             xi = xi + np.asarray(self.user(s, y, k1, k2), dtype=float)
         return xi
+
+
+# ---------------------------------------------------------------- laws of production
+#: Laws of the pitch deviations of a gear of an ISO 1328 class (plugin option
+#: ``pitch_tolerance_law``): ``"untruncated_iso"`` reads the class as the germ model's scale
+#: (sine amplitude F_pT / 2, scatter f_pT / (3 sqrt 2)): about half of such gears exceed
+#: F_pT, i.e. would be rejected; ``"capable_process"`` scales that law so that a stated share
+#: of the process exceeds F_pT; inspection (F_p <= F_pT) then removes those gears, an event
+#: the reliability engines handle as a limit state (docs/reliability.md).
+PITCH_TOLERANCE_LAWS = ("untruncated_iso", "capable_process")
+
+
+def total_cumulative_pitch_deviation(Fp: np.ndarray) -> np.ndarray:
+    """ISO 1328-1 total cumulative pitch deviation ``F_p = max_k F_p,k - min_k F_p,k`` [m].
+
+    ``Fp``: cumulative deviations over the teeth on the last axis (any leading shape).
+    """
+    Fp = np.asarray(Fp, dtype=float)
+    return Fp.max(axis=-1) - Fp.min(axis=-1)
+
+
+@lru_cache(maxsize=64)
+def _unit_total_deviation_quantile(z: int, ratio: float, share: float, n_draws: int,
+                                   seed: int) -> float:
+    xi = np.random.default_rng(seed).standard_normal((n_draws, pitch_germ_dimension(z)))
+    scales = pitch_germ_scales(z, amplitude=1.0, sigma=ratio)
+    k, c = np.arange(z), np.arange(scales.size)
+    arg = 2.0 * math.pi * np.outer(c // 2 + 1, k) / z
+    basis = np.where((c % 2 == 0)[:, None], np.cos(arg), np.sin(arg))
+    Fp = (xi * scales) @ basis
+    return float(np.quantile(total_cumulative_pitch_deviation(Fp), 1.0 - share))
+
+
+def capable_pitch_scatter(z: int, f_pT: float, F_pT: float, share_beyond: float, *,
+                          n_draws: int = 200_000, seed: int = 1328) -> tuple[float, float]:
+    """Sine amplitude and scatter ``(A, sigma)`` [m] of a process with a share beyond F_pT.
+
+    The germ model of :func:`cumulative_pitch_from_normals` with ISO's shape (``sigma / A =
+    (f_pT / (3 sqrt 2)) / (F_pT / 2)``, as the class reading of ``"untruncated_iso"``),
+    scaled so that ``P(F_p > F_pT) = share_beyond`` before inspection. ``F_p`` is positively
+    homogeneous in ``(A, sigma)``, so the scale is ``F_pT`` over the ``1 - share_beyond``
+    quantile of ``F_p`` at unit amplitude, estimated once from ``n_draws`` germs of a fixed
+    ``seed`` (the relative error of the quantile is about
+    ``sqrt(p (1 - p) / n) / (q f(q))``: 0.3 % at p = 0.05 with the defaults).
+
+    Parameters
+    ----------
+    z : int
+        Number of teeth.
+    f_pT, F_pT : float
+        Single and total cumulative pitch tolerances [m] (:func:`iso1328_pitch_tolerances`).
+    share_beyond : float
+        Share of the process beyond ``F_pT`` (rejected at inspection), in (0, 0.5].
+    """
+    if not 0.0 < share_beyond <= 0.5:
+        raise ValueError(f"share_beyond={share_beyond!r} is outside its valid range (0, 0.5]")
+    for name, value in (("f_pT", f_pT), ("F_pT", F_pT)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}={value!r} is outside its valid range (0, inf) m")
+    amplitude, sigma = 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
+    q = _unit_total_deviation_quantile(int(z), sigma / amplitude, float(share_beyond),
+                                       int(n_draws), int(seed))
+    scale = F_pT / (q * amplitude)
+    return amplitude * scale, sigma * scale
+
+
+def inspected_normal_spec(nominal: float, tolerance: float, share_beyond: float) -> dict:
+    """Parameter-space spec of an inspected quantity: a capable normal process truncated.
+
+    The process is normal about ``nominal`` with the standard deviation that puts
+    ``share_beyond`` outside ``nominal +- tolerance`` (``sigma = tolerance /
+    Phi^-1(1 - share_beyond / 2)``); inspection removes those parts, so the accepted parts
+    follow the normal truncated to the tolerance band (``{"dist": "truncnormal", ...}`` of
+    :class:`gearuq.space.ParameterSpace`).
+    """
+    from scipy.stats import norm
+
+    if not 0.0 < share_beyond < 1.0:
+        raise ValueError(f"share_beyond={share_beyond!r} is outside its valid range (0, 1)")
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"tolerance={tolerance!r} is outside its valid range (0, inf)")
+    if not math.isfinite(nominal):
+        raise ValueError(f"nominal={nominal!r} is outside its valid range (-inf, inf)")
+    sigma = tolerance / float(norm.ppf(1.0 - 0.5 * share_beyond))
+    return {"dist": "truncnormal", "mean": float(nominal), "std": sigma,
+            "lower": float(nominal - tolerance), "upper": float(nominal + tolerance)}

@@ -13,11 +13,21 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
 
 from gearuq.gears.geometry import HelicalGearPair
 
 __all__ = [
     "C_M_SOLID",
+    "DynamicFactorB",
+    "dynamic_factor_coefficients",
+    "dynamic_factor_method_b",
+    "pair_dynamic_factor_method_b",
+    "reduced_mass_per_width",
+    "resonance_speed",
+    "running_in_allowance",
     "Q_COEFFICIENTS",
     "MeshStiffness",
     "basic_rack_factor",
@@ -288,3 +298,237 @@ def mesh_stiffness(
         face_width_mm=b_mm,
         use_virtual_teeth=use_virtual_teeth,
     )
+
+
+# ---------------------------------------------------------------------- dynamic factor K_v
+#: Density of steel used by the standard's reduced mass [kg/mm^3].
+STEEL_DENSITY_KG_PER_MM3: float = 7.83e-6
+
+
+def reduced_mass_per_width(d_m1: float, d_b1: float, u: float, *, q1: float = 0.0,
+                           q2: float = 0.0, rho1: float = STEEL_DENSITY_KG_PER_MM3,
+                           rho2: float = STEEL_DENSITY_KG_PER_MM3) -> float:
+    """Reduced mass of a gear pair per unit face width on the line of action [kg/mm].
+
+    ISO 6336-1 (Formula for ``m_red`` of clause 6, Method B):
+    ``m_red = (pi/8) (d_m1/d_b1)^2 d_m1^2 / (1/((1 - q1^4) rho1) + 1/((1 - q2^4) rho2 u^2))``,
+    the two gear bodies as discs of the mean diameter ``d_m = (d_a + d_f)/2`` with bore
+    ratio ``q = d_i / d_m``, each referred to its base circle.
+
+    Parameters
+    ----------
+    d_m1, d_b1 : float
+        Mean and base diameters of the pinion [mm].
+    u : float
+        Gear ratio ``z2 / z1`` (>= 1 for the standard's form, any positive value accepted).
+    q1, q2 : float
+        Bore ratios in [0, 1).
+    rho1, rho2 : float
+        Densities [kg/mm^3].
+    """
+    for name, value in (("d_m1", d_m1), ("d_b1", d_b1), ("u", u), ("rho1", rho1),
+                        ("rho2", rho2)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}={value!r} is outside its valid range (0, inf)")
+    for name, value in (("q1", q1), ("q2", q2)):
+        if not 0.0 <= value < 1.0:
+            raise ValueError(f"{name}={value!r} is outside its valid range [0, 1)")
+    return (math.pi / 8.0 * (d_m1 / d_b1) ** 2 * d_m1**2
+            / (1.0 / ((1.0 - q1**4) * rho1) + 1.0 / ((1.0 - q2**4) * rho2 * u**2)))
+
+
+def resonance_speed(z1: int, c_gamma_alpha: float, m_red: float) -> float:
+    """Pinion resonance speed ``n_E1 = 30000 / (pi z1) sqrt(c_gamma_alpha / m_red)`` [rpm].
+
+    ``c_gamma_alpha`` in N/(mm um), ``m_red`` in kg/mm (ISO 6336-1, clause 6, Method B):
+    the speed at which the mesh frequency equals the natural frequency of the two gear
+    bodies on the mean mesh stiffness.
+    """
+    if int(z1) != z1 or z1 < 1:
+        raise ValueError(f"z1={z1!r} is outside its valid range: integers >= 1")
+    for name, value in (("c_gamma_alpha", c_gamma_alpha), ("m_red", m_red)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}={value!r} is outside its valid range (0, inf)")
+    return 30000.0 / (math.pi * z1) * math.sqrt(c_gamma_alpha / m_red)
+
+
+def dynamic_factor_coefficients(eps_gamma: float) -> tuple[float, ...]:
+    """``(C_v1, ..., C_v7)`` of ISO 6336-1 Method B for the total contact ratio ``eps_gamma``.
+
+    ``1 < eps_gamma <= 2``: 0.32, 0.34, 0.23, 0.90, 0.47, 0.47 and ``C_v7`` = 0.75
+    (``eps_gamma <= 1.5``) or ``0.125 sin(pi (eps_gamma - 2)) + 0.875``; ``eps_gamma > 2``:
+    ``C_v2 = 0.57/(eps_gamma - 0.3)``, ``C_v3 = 0.096/(eps_gamma - 1.56)``,
+    ``C_v4 = (0.57 - 0.05 eps_gamma)/(eps_gamma - 1.44)``, ``C_v6 = 0.12/(eps_gamma -
+    1.74)``, ``C_v7`` as above up to 2.5 and 1.0 beyond; ``C_v1 = 0.32``, ``C_v5 = 0.47``.
+    """
+    e = float(eps_gamma)
+    if not (math.isfinite(e) and e > 1.0):
+        raise ValueError(f"eps_gamma={eps_gamma!r} is outside its valid range (1, inf)")
+    if e <= 1.5:
+        cv7 = 0.75
+    elif e <= 2.5:
+        cv7 = 0.125 * math.sin(math.pi * (e - 2.0)) + 0.875
+    else:
+        cv7 = 1.0
+    if e <= 2.0:
+        return 0.32, 0.34, 0.23, 0.90, 0.47, 0.47, cv7
+    return (0.32, 0.57 / (e - 0.3), 0.096 / (e - 1.56), (0.57 - 0.05 * e) / (e - 1.44),
+            0.47, 0.12 / (e - 1.74), cv7)
+
+
+def running_in_allowance(f_pb_um: float, material: str = "case_hardened",
+                         sigma_hlim: float = 1500.0) -> float:
+    """Running-in allowance ``y_alpha`` [um] of ISO 6336-1 for a base pitch deviation.
+
+    ``"case_hardened"`` (and nitrided): ``0.075 f_pb``, at most 3 um;
+    ``"through_hardened"``: ``160 / sigma_Hlim f_pb``, at most ``6400 / sigma_Hlim`` um
+    (with ``sigma_Hlim`` in N/mm^2) for speeds above 10 m/s.
+    """
+    if not (math.isfinite(f_pb_um) and f_pb_um >= 0):
+        raise ValueError(f"f_pb_um={f_pb_um!r} is outside its valid range [0, inf) um")
+    if material == "case_hardened":
+        return min(0.075 * f_pb_um, 3.0)
+    if material == "through_hardened":
+        if not (math.isfinite(sigma_hlim) and sigma_hlim > 0):
+            raise ValueError(f"sigma_hlim={sigma_hlim!r} is outside its valid range (0, inf)")
+        return min(160.0 / sigma_hlim * f_pb_um, 6400.0 / sigma_hlim)
+    raise ValueError(f"material={material!r} is outside its valid set "
+                     "{'case_hardened', 'through_hardened'}")
+
+
+@dataclass(frozen=True)
+class DynamicFactorB:
+    """ISO 6336-1 Method B dynamic factor and its intermediate values.
+
+    Attributes
+    ----------
+    kv : ndarray
+        ``K_v`` at each speed [-].
+    resonance_ratio : ndarray
+        ``N = n1 / n_E1`` [-].
+    regime : ndarray of str
+        "subcritical", "main_resonance", "intermediate" or "supercritical" per speed.
+    resonance_speed_rpm : float
+        ``n_E1`` [rpm].
+    N_S : float
+        Lower limit of the main resonance range [-].
+    B_p, B_f, B_k : float
+        Non-dimensional pitch, profile-form and relief parameters [-].
+    C_v : tuple of float
+        ``C_v1 .. C_v7``.
+    """
+
+    kv: np.ndarray
+    resonance_ratio: np.ndarray
+    regime: np.ndarray
+    resonance_speed_rpm: float
+    N_S: float
+    B_p: float
+    B_f: float
+    B_k: float
+    C_v: tuple[float, ...]
+
+
+def dynamic_factor_method_b(speed_rpm: Any, *, z1: int, c_prime: float, c_gamma_alpha: float,
+                            m_red: float, eps_gamma: float, line_load: float,
+                            f_pb_eff: float, f_f_eff: float, C_a: float) -> DynamicFactorB:
+    """Dynamic factor ``K_v`` of ISO 6336-1:2019 Method B (clause 6) at pinion speeds.
+
+    With the resonance ratio ``N = n1 / n_E1`` (:func:`resonance_speed`),
+    ``B_p = c' f_pb,eff / (K_A F_t / b)``, ``B_f = c' f_f,eff / (K_A F_t / b)`` and
+    ``B_k = |1 - c' C_a / (K_A F_t / b)|``:
+
+    - subcritical, ``N <= N_S``: ``K_v = N (C_v1 B_p + C_v2 B_f + C_v3 B_k) + 1``, with
+      ``N_S = 0.85``, or ``0.5 + 0.35 sqrt(K_A F_t / (100 b))`` below 100 N/mm;
+    - main resonance, ``N_S < N <= 1.15``: ``K_v = C_v1 B_p + C_v2 B_f + C_v4 B_k + 1``;
+    - supercritical, ``N >= 1.5``: ``K_v = C_v5 B_p + C_v6 B_f + C_v7``;
+    - intermediate, ``1.15 < N < 1.5``: linear in ``N`` between the values at 1.15 and 1.5.
+
+    Parameters
+    ----------
+    speed_rpm : float or array_like
+        Pinion speeds [rpm], > 0.
+    z1 : int
+        Pinion teeth.
+    c_prime, c_gamma_alpha : float
+        Single and mesh stiffness per unit face width [N/(mm um)] (:func:`mesh_stiffness`).
+    m_red : float
+        Reduced mass per unit face width [kg/mm] (:func:`reduced_mass_per_width`).
+    eps_gamma : float
+        Total contact ratio.
+    line_load : float
+        ``K_A F_t / b`` [N/mm], > 0.
+    f_pb_eff, f_f_eff : float
+        Effective base pitch and profile form deviations after running-in [um], >= 0.
+    C_a : float
+        Tip relief amount [um] (the running-in amount ``C_ay`` when unmodified), >= 0.
+    """
+    n = np.atleast_1d(np.asarray(speed_rpm, dtype=float))
+    if not np.all(np.isfinite(n) & (n > 0)):
+        raise ValueError(f"speed_rpm={speed_rpm!r} is outside its valid range (0, inf) rpm")
+    if not (math.isfinite(line_load) and line_load > 0):
+        raise ValueError(f"line_load={line_load!r} is outside its valid range (0, inf) N/mm")
+    for name, value in (("f_pb_eff", f_pb_eff), ("f_f_eff", f_f_eff), ("C_a", C_a),
+                        ("c_prime", c_prime)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name}={value!r} is outside its valid range [0, inf)")
+    nE1 = resonance_speed(z1, c_gamma_alpha, m_red)
+    cv = dynamic_factor_coefficients(eps_gamma)
+    B_p = c_prime * f_pb_eff / line_load
+    B_f = c_prime * f_f_eff / line_load
+    B_k = abs(1.0 - c_prime * C_a / line_load)
+    N_S = 0.85 if line_load >= 100.0 else 0.5 + 0.35 * math.sqrt(line_load / 100.0)
+    N = n / nE1
+    sub = N * (cv[0] * B_p + cv[1] * B_f + cv[2] * B_k) + 1.0
+    main = cv[0] * B_p + cv[1] * B_f + cv[3] * B_k + 1.0
+    sup = cv[4] * B_p + cv[5] * B_f + cv[6]
+    inter = sup + (main - sup) / 0.35 * (1.5 - N)
+    kv = np.where(N <= N_S, sub, np.where(N <= 1.15, main, np.where(N < 1.5, inter, sup)))
+    regime = np.where(N <= N_S, "subcritical", np.where(
+        N <= 1.15, "main_resonance", np.where(N < 1.5, "intermediate", "supercritical")))
+    return DynamicFactorB(kv=kv, resonance_ratio=N, regime=regime, resonance_speed_rpm=nE1,
+                          N_S=N_S, B_p=B_p, B_f=B_f, B_k=B_k, C_v=cv)
+
+
+def pair_dynamic_factor_method_b(pair: HelicalGearPair, torque: float, speed_rpm: Any, *,
+                                 accuracy_grade: int, tip_relief_um: float = 0.0,
+                                 application_factor: float = 1.0,
+                                 material: str = "case_hardened") -> DynamicFactorB:
+    """ISO 6336-1 Method B ``K_v`` of a pair at a pinion torque, its class and its relief.
+
+    The inputs the standard asks for, from the drawing: ``F_t = 2000 T / d_1`` [N];
+    ``c'`` and ``c_gamma_alpha`` by :func:`mesh_stiffness` (solid discs, light-load
+    correction below 100 N/mm); ``m_red`` of solid discs of diameter ``(d_a + d_f)/2``;
+    ``f_pb`` the larger of the two gears' single pitch tolerances ``f_pT`` of ISO 1328-1
+    for ``accuracy_grade`` projected on the base circle (``f_pT cos alpha_t``: ISO
+    1328-1:2013 no longer tolerances the base pitch) and ``f_f_alpha`` the larger profile
+    form tolerance ``f_fT``, each less the running-in allowance :func:`running_in_allowance`;
+    ``C_a`` the tip relief, or for an unmodified pair the running-in relief
+    ``C_ay = (sigma_Hlim/97 - 18.45)^2 / 18 + 1.5`` um of a case-hardened pair
+    (``sigma_Hlim`` = 1500 N/mm^2: 2.0 um).
+    """
+    from gearuq.gears.deviations import iso1328_pitch_tolerances, iso1328_profile_form_tolerance
+
+    if not (math.isfinite(torque) and torque > 0):
+        raise ValueError(f"torque={torque!r} is outside its valid range (0, inf) N m")
+    if not (math.isfinite(application_factor) and application_factor >= 1.0):
+        raise ValueError(f"application_factor={application_factor!r} is outside its valid "
+                         "range [1, inf)")
+    if not (math.isfinite(tip_relief_um) and tip_relief_um >= 0):
+        raise ValueError(f"tip_relief_um={tip_relief_um!r} is outside its valid range "
+                         "[0, inf) um")
+    d1_mm, b_mm = pair.d1 * 1e3, pair.face_width * 1e3
+    line_load = application_factor * 2000.0 * torque / d1_mm / b_mm
+    stiff = mesh_stiffness(pair, load_per_width=line_load)
+    d_m1 = 0.5 * (pair.da1 + pair.df1) * 1e3
+    m_red = reduced_mass_per_width(d_m1, pair.db1 * 1e3, pair.z2 / pair.z1)
+    f_pb = max(iso1328_pitch_tolerances(d, pair.mn, accuracy_grade)[0]
+               for d in (pair.d1, pair.d2)) * 1e6 * math.cos(pair.alpha_t)
+    f_f = max(iso1328_profile_form_tolerance(d, pair.mn, accuracy_grade)
+              for d in (pair.d1, pair.d2)) * 1e6
+    y_a = running_in_allowance(f_pb, material)
+    C_a = tip_relief_um if tip_relief_um > 0 else (1500.0 / 97.0 - 18.45) ** 2 / 18.0 + 1.5
+    return dynamic_factor_method_b(
+        speed_rpm, z1=pair.z1, c_prime=stiff.c_prime, c_gamma_alpha=stiff.c_gamma_alpha,
+        m_red=m_red, eps_gamma=pair.eps_gamma, line_load=line_load,
+        f_pb_eff=max(f_pb - y_a, 0.0), f_f_eff=max(f_f - y_a, 0.0), C_a=C_a)

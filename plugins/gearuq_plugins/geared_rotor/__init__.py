@@ -33,6 +33,8 @@ __all__ = ["GearedRotor"]
 
 _S, _ST, _SO, _SBT = ("sample",), ("sample", "time"), ("sample", "order"), (
     "sample", "bearing", "time")
+_SR, _SM, _SRM = ("sample", "range_speed"), ("sample", "mesh_harmonic"), (
+    "sample", "range_speed", "mesh_harmonic")
 
 _P = Parameter
 _PARAMETERS = (
@@ -110,6 +112,41 @@ _OUTPUTS = (
            "(n_speeds equally spaced speeds; the parameter speed is not used)"),
     Output("speed_at_dte_rms_max", "rpm", _S, "speed of the range at which dte_rms_max is "
            "reached"),
+    Output("kv_max", "1", _S, "largest dynamic factor K_v over the speed range speed_min.."
+           "speed_max: K_v(n) = largest mesh force over the long period / static normal "
+           "mesh force (ISO 6336-1's definition; 1 in the quasi-static limit); the peak is "
+           "located between the grid speeds (peaks_refined, peak_speed_tol)"),
+    Output("speed_at_kv_max", "rpm", _S, "speed at which kv_max is reached"),
+    Output("kv_over_speed", "1", _SR, "K_v at each grid speed of the range"),
+    Output("dte_mesh_band_rms_max", "m", _S, "largest mesh-band RMS DTE (orders >= f_m / 2) "
+           "over the speed range, peak located"),
+    Output("speed_at_dte_mesh_band_rms_max", "rpm", _S, "speed of dte_mesh_band_rms_max"),
+    Output("dte_mesh_band_rms_over_speed", "m", _SR, "mesh-band RMS DTE at each grid speed"),
+    Output("dte_mesh_order_max", "m", _SM, "largest DTE amplitude at mesh harmonic m f_m "
+           "(m = 1..range_mesh_harmonics) over the speed range, peak located"),
+    Output("speed_at_dte_mesh_order_max", "rpm", _SM, "speed of dte_mesh_order_max"),
+    Output("dte_mesh_order_over_speed", "m", _SRM, "DTE amplitude at the mesh harmonics at "
+           "each grid speed"),
+    Output("bearing1_acceleration_y_mesh_order_max", "m s-2", _SM, "largest bearing-1 y "
+           "acceleration amplitude at mesh harmonic m f_m over the speed range (the whine "
+           "the housing sees), peak located"),
+    Output("speed_at_bearing1_acceleration_y_mesh_order_max", "rpm", _SM,
+           "speed of bearing1_acceleration_y_mesh_order_max"),
+    Output("bearing1_acceleration_y_mesh_order_over_speed", "m s-2", _SRM,
+           "bearing-1 y acceleration amplitude at the mesh harmonics at each grid speed"),
+    Output("kv_iso_max", "1", _S, "largest ISO 6336-1:2019 Method B K_v over the grid speeds "
+           "of the range, for the sample's torque, tip relief and accuracy class (iso_grade, "
+           "or kv_iso_class when iso_grade = 0); K_A = 1, case-hardened running-in"),
+    Output("speed_at_kv_iso_max", "rpm", _S, "grid speed of kv_iso_max"),
+    Output("kv_iso_over_speed", "1", _SR, "ISO 6336-1 Method B K_v at each grid speed"),
+    Output("pitch_total_deviation_pinion", "m", _S, "total cumulative pitch deviation F_p "
+           "of the pinion (ISO 1328-1: largest minus smallest cumulative deviation over the "
+           "teeth); acceptance to a class is F_p <= F_pT"),
+    Output("pitch_total_deviation_wheel", "m", _S, "total cumulative pitch deviation F_p of "
+           "the wheel"),
+    Output("pitch_acceptance_margin", "1", _S, "inspection margin min over both gears of "
+           "1 - F_p / F_pT (class iso_grade, or kv_iso_class when iso_grade = 0): the pair "
+           "passes inspection where it is >= 0"),
     Output("ste_ptp", "m", _S, "peak-to-peak LTCA STE of the excitation"),
     Output("mesh_frequency", "Hz", _S, "mesh frequency z1 n / 60"),
     Output("shaft_frequency", "Hz", _S, "pinion shaft frequency n / 60"),
@@ -160,6 +197,22 @@ _OPTIONS = (
        lower=1, upper=20),
     _O("range_cutoff_factor", 1.0, "modal cut-off factor of the range", lower=1.0,
        upper=50.0),
+    _O("peaks_refined", 2, "local maxima of the grid located by golden-section search per "
+       "peak output (kv_max and the *_max of the mesh band and orders); 0: the grid's "
+       "maximum", kind=int, lower=0, upper=20),
+    _O("pitch_tolerance_law", "untruncated_iso", "law of the pitch deviations of an ISO "
+       "class (iso_grade > 0): 'untruncated_iso' (amplitude F_pT/2, scatter f_pT/(3 sqrt 2): "
+       "about half of these gears exceed F_pT, i.e. fail inspection) or 'capable_process' "
+       "(the same shape scaled so that process_share_beyond of the gears exceed F_pT; "
+       "condition on pitch_acceptance_margin >= 0 for the gears that pass inspection)",
+       choices=("untruncated_iso", "capable_process")),
+    _O("process_share_beyond", 0.05, "with pitch_tolerance_law='capable_process': share of "
+       "the process beyond F_pT (rejected at inspection), per gear", lower=1e-6, upper=0.5),
+    _O("kv_iso_class", 6, "ISO 1328-1 accuracy class of kv_iso_* for samples with "
+       "iso_grade = 0 (their pitch deviations are not given as a class)", kind=int, lower=1,
+       upper=12),
+    _O("peak_speed_tol", 1.0, "width of the final speed bracket of a located peak", lower=1e-3,
+       upper=1000.0, units="rpm"),
     _O("end_inertias", "parameters", "drive and load inertias on the shaft ends: the "
        "parameters drive_inertia / load_inertia, or 'none' (Yuan, Liu and Liu's rotor as printed, "
        "whose 448 Hz mode has no inertia at the shaft ends)", choices=("parameters", "none")),

@@ -29,7 +29,25 @@ STATUS_MEANINGS = {
     STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
 }
 _FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
-_RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max")
+#: Outputs over the speed range -> (quantity of DynamicRange, kind).
+_DYNAMIC_OUTPUTS = {
+    "kv_max": ("kv", "max"), "speed_at_kv_max": ("kv", "speed"),
+    "kv_over_speed": ("kv", "curve"),
+    "dte_mesh_band_rms_max": ("dte_mesh_band_rms", "max"),
+    "speed_at_dte_mesh_band_rms_max": ("dte_mesh_band_rms", "speed"),
+    "dte_mesh_band_rms_over_speed": ("dte_mesh_band_rms", "curve"),
+    "dte_mesh_order_max": ("dte_mesh_orders", "max"),
+    "speed_at_dte_mesh_order_max": ("dte_mesh_orders", "speed"),
+    "dte_mesh_order_over_speed": ("dte_mesh_orders", "curve"),
+    "bearing1_acceleration_y_mesh_order_max": ("acceleration_mesh_orders", "max"),
+    "speed_at_bearing1_acceleration_y_mesh_order_max": ("acceleration_mesh_orders", "speed"),
+    "bearing1_acceleration_y_mesh_order_over_speed": ("acceleration_mesh_orders", "curve"),
+}
+_RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max", *_DYNAMIC_OUTPUTS)
+#: Outputs that need neither the LTCA nor the rotor (the drawing's numbers).
+_CHEAP_OUTPUTS = ("kv_iso_max", "speed_at_kv_iso_max", "kv_iso_over_speed",
+                  "pitch_total_deviation_pinion", "pitch_total_deviation_wheel",
+                  "pitch_acceptance_margin")
 _BEARINGS = ("bearing 1", "bearing 2", "bearing 3", "bearing 4")
 _SEAT_DIAMETER = 0.110  # gear seat of both shafts (Yuan, Liu and Liu Sec. 2.2): the gear-blank bore
 
@@ -48,21 +66,30 @@ def compliance_model(pair: Any) -> Any:
     return ComplianceModel(pair, bore_ratio=_SEAT_DIAMETER / pair.df1)
 
 
-def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int
+def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int,
+                          law: tuple[str, float] = ("untruncated_iso", 0.05)
                           ) -> tuple[float, float]:
-    """Sine amplitude and scatter sigma [m] of one gear: ISO grade or the parameters."""
-    from gearuq.gears.deviations import iso1328_pitch_tolerances
+    """Sine amplitude and scatter sigma [m] of one gear: ISO grade or the parameters.
+
+    ``law``: ``(pitch_tolerance_law, process_share_beyond)``; with ``"capable_process"`` an
+    ISO grade sets the process of :func:`gearuq.gears.deviations.capable_pitch_scatter`.
+    """
+    from gearuq.gears.deviations import capable_pitch_scatter, iso1328_pitch_tolerances
 
     grade = int(values["iso_grade"])
     if grade > 0:
+        z = pair.z1 if gear == 1 else pair.z2
         f_pT, F_pT = iso1328_pitch_tolerances(pair.d1 if gear == 1 else pair.d2, pair.mn,
                                               grade)
+        if law[0] == "capable_process":
+            return capable_pitch_scatter(z, f_pT, F_pT, law[1])
         return 0.5 * F_pT, f_pT / (3.0 * math.sqrt(2.0))
     return values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
 
 
 def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
-                      pitch_model: str = "germ", pitch_harmonics: int | None = None) -> Any:
+                      pitch_model: str = "germ", pitch_harmonics: int | None = None,
+                      law: tuple[str, float] = ("untruncated_iso", 0.05)) -> Any:
     """Flank deviations of one sample: pitch deviations (germ or seeded) and tip relief.
 
     ``pitch_model="germ"``: each gear's cumulative deviations are the smooth expansion
@@ -82,7 +109,7 @@ def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
     fp = []
     if pitch_model == "germ":
         for gear, z in ((1, pair.z1), (2, pair.z2)):
-            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear, law)
             xi = pitch_germ_from_values(values, z, gear, pitch_harmonics)
             fp.append(cumulative_pitch_from_normals(xi, z, amplitude=amp, sigma=sigma))
     else:
@@ -90,7 +117,7 @@ def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
         if phases == "parameters":
             germ[0], germ[2] = values["pitch_phase_pinion"], values["pitch_phase_wheel"]
         for gear, phase, normals in ((1, germ[0], germ[1]), (2, germ[2], germ[3])):
-            amp, sigma = pitch_amplitude_sigma(pair, values, gear)
+            amp, sigma = pitch_amplitude_sigma(pair, values, gear, law)
             fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
     amount, length = values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3
     tip = (amount, length) if amount > 0 else None
@@ -153,13 +180,15 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
                                        positions_per_cycle=ppc, n_pts=n_pts))
     germ_keys = _GERM_KEYS if stage is None else tuple(
         k for k in values if k.startswith(("pitch_xi_p_", "pitch_xi_g_")))
+    law = (options["pitch_tolerance_law"], options["process_share_beyond"])
     lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
-            options["pitch_harmonics"]) + tuple(values[k] for k in _LTCA_KEYS) + tuple(
+            options["pitch_harmonics"]) + law + tuple(values[k] for k in _LTCA_KEYS) + tuple(
         values.get(k, 0.0) for k in germ_keys)
     excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
         setup, values["torque"],
         deviations=sample_deviations(pair, values, options["pitch_phases"],
-                                     options["pitch_model"], options["pitch_harmonics"])))
+                                     options["pitch_model"], options["pitch_harmonics"],
+                                     law)))
     harmonics, cutoff_factor = ((options["range_mesh_harmonics"], options["range_cutoff_factor"])
                                 if speed_range else (mesh_harmonics(options, values["speed"],
                                                                     pair.z1),
@@ -303,6 +332,60 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
             _put_spectrum(data[name], i, ch["bearing 1 acceleration y"])
 
 
+def iso_class(values: dict[str, float], options: dict[str, Any]) -> int:
+    """Accuracy class of ISO 6336-1's K_v: ``iso_grade``, or ``kv_iso_class`` when it is 0."""
+    grade = int(values["iso_grade"])
+    return grade if grade > 0 else int(options["kv_iso_class"])
+
+
+def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str, Any],
+                speeds: np.ndarray, names: list[str]) -> None:
+    """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations."""
+    from gearuq.gears.deviations import iso1328_pitch_tolerances
+    from gearuq.gears.iso6336 import pair_dynamic_factor_method_b
+
+    pair = seed_pair()
+    if any(n.startswith(("kv_iso", "speed_at_kv_iso")) for n in names):
+        iso = pair_dynamic_factor_method_b(
+            pair, values["torque"], speeds, accuracy_grade=iso_class(values, options),
+            tip_relief_um=values["tip_relief_amount"])
+        j = int(np.argmax(iso.kv))
+        for name, value in (("kv_iso_max", iso.kv[j]), ("speed_at_kv_iso_max", speeds[j]),
+                            ("kv_iso_over_speed", iso.kv)):
+            if name in data:
+                data[name][i] = value
+    if any(n.startswith(("pitch_total", "pitch_acceptance")) for n in names):
+        dev = sample_deviations(pair, values, options["pitch_phases"], options["pitch_model"],
+                                options["pitch_harmonics"], (options["pitch_tolerance_law"],
+                                                             options["process_share_beyond"]))
+        totals = (float(np.ptp(dev.Fp1)), float(np.ptp(dev.Fp2)))
+        for name, fp in zip(("pitch_total_deviation_pinion", "pitch_total_deviation_wheel"),
+                            totals, strict=True):
+            if name in data:
+                data[name][i] = fp
+        if "pitch_acceptance_margin" in data:
+            grade = iso_class(values, options)
+            F_pT = [iso1328_pitch_tolerances(d, pair.mn, grade)[1] for d in (pair.d1, pair.d2)]
+            data["pitch_acceptance_margin"][i] = min(1.0 - fp / tol
+                                                     for fp, tol in zip(totals, F_pT, strict=True))
+
+
+def _fill_dynamic(data: dict, i: int, dyn: Any, names: list[str]) -> None:
+    """Range outputs of one sample from its :class:`DynamicRange`."""
+    for name in names:
+        quantity, kind = _DYNAMIC_OUTPUTS[name]
+        curve = getattr(dyn, quantity)
+        if kind == "curve":
+            data[name][i] = curve
+        elif curve.ndim == 1:
+            value, speed, _ = dyn.peaks[quantity]
+            data[name][i] = value if kind == "max" else speed
+        else:
+            for c in range(curve.shape[1]):
+                value, speed, _ = dyn.peaks[f"{quantity}_{c + 1}"]
+                data[name][i, c] = value if kind == "max" else speed
+
+
 def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str],
              **options: Any) -> Evaluation:
     """Run every sample; failures are flagged per sample (NaN outputs), never dropped."""
@@ -333,22 +416,28 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             f"> {2 * options['range_mesh_harmonics']} (got {options['positions_per_cycle']})")
     speeds = np.linspace(options["speed_min"], options["speed_max"], options["n_speeds"])
     ranged = [o for o in outputs if o in _RANGE_OUTPUTS]
-    single = [o for o in outputs if o not in _RANGE_OUTPUTS]
+    cheap = [o for o in outputs if o in _CHEAP_OUTPUTS]
+    single = [o for o in outputs if o not in _RANGE_OUTPUTS and o not in _CHEAP_OUTPUTS]
     n = next(iter(params.values())).shape[0]
     speed_values = params.get("speed", np.full(n, model.parameter("speed").nominal))
     per_sample = [mesh_harmonics(options, float(v), pair.z1) for v in speed_values]
     H = max(per_sample, default=mesh_harmonics(options, 4000.0, pair.z1)) * n_cycles
-    shapes = {o.name: (n,) + tuple({"time": t.size, "order": H + 1, "bearing": 4}[d]
-                                    for d in o.dims[1:]) for o in model.outputs}
+    sizes = {"time": t.size, "order": H + 1, "bearing": 4, "range_speed": speeds.size,
+             "mesh_harmonic": options["range_mesh_harmonics"]}
+    shapes = {o.name: (n,) + tuple(sizes[d] for d in o.dims[1:]) for o in model.outputs}
     data = {name: np.full(shapes[name], np.nan) for name in outputs}
     status = np.zeros(n, dtype=np.int8)
     extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
                                               "drift", "range_newton_iterations",
-                                              "n_mesh_harmonics")}
+                                              "n_mesh_harmonics", "peak_refinement_runs")}
     branch = np.full(n, -1, dtype=np.int8)
     with single_threaded_blas():
         for i in range(n):
             values = {k: float(v[i]) for k, v in params.items()}
+            if cheap:
+                _fill_cheap(data, i, values, options, speeds, cheap)
+            if not (single or ranged):
+                continue
             try:
                 prob = problem_for(model, values, options) if single else None
                 rng_prob = (problem_for(model, values, options, speed_range=True) if ranged
@@ -356,7 +445,25 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             except ValueError:
                 status[i] = STATUS_LTCA_FAILED
                 continue
-            if rng_prob is not None:
+            dynamic = [o for o in ranged if o in _DYNAMIC_OUTPUTS]
+            if dynamic:
+                dyn = rng_prob.dynamics_over_speeds(
+                    speeds, mesh_orders=options["range_mesh_harmonics"], tol=options["tol"],
+                    refine=sorted({_DYNAMIC_OUTPUTS[o][0] for o in dynamic}),
+                    peaks_refined=options["peaks_refined"],
+                    speed_tol=options["peak_speed_tol"])
+                status[i] = _FROM_SOLVER[dyn.worst_status()]
+                _fill_dynamic(data, i, dyn, dynamic)
+                extra["range_newton_iterations"][i] = float(dyn.iterations.sum())
+                extra["peak_refinement_runs"][i] = float(dyn.refinement_runs)
+                if "dte_rms_max" in ranged or "speed_at_dte_rms_max" in ranged:
+                    j = int(np.nanargmax(dyn.dte_rms)) if np.any(np.isfinite(dyn.dte_rms)) \
+                        else 0
+                    for name, value in (("dte_rms_max", dyn.dte_rms[j]),
+                                        ("speed_at_dte_rms_max", speeds[j])):
+                        if name in data and np.isfinite(dyn.dte_rms[j]):
+                            data[name][i] = value
+            elif rng_prob is not None:
                 res = rng_prob.rms_over_speeds(speeds, tol=options["tol"])
                 peak, at, code = res.maximum()
                 status[i] = _FROM_SOLVER[code]
@@ -379,7 +486,12 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                 sol.branch]
             if sol.status in (0, 3):
                 _fill_sample(data, i, sol, prob, t, single, values["speed"])
-    coords = {"bearing": ("bearing", np.array(_BEARINGS), {})}
+    coords = {"bearing": ("bearing", np.array(_BEARINGS), {}),
+              "range_speed": ("range_speed", speeds, {"units": "rpm", "long_name":
+                              "grid speeds of the range (pinion)"}),
+              "mesh_harmonic": ("mesh_harmonic",
+                                np.arange(1, options["range_mesh_harmonics"] + 1),
+                                {"units": "1", "long_name": "mesh harmonic m of m f_m"})}
     coords.update(order_coordinates(H, n_cycles, pair.z1, options["n_sidebands"]))
     return Evaluation(
         data=data, status=status, status_meanings=STATUS_MEANINGS, coords=coords,
@@ -387,6 +499,9 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             "n_modes": ("sample", extra["n_modes"], {"units": "1",
                         "long_name": "modes kept by the reduction"}),
             "hb_iterations": ("sample", extra["hb_iterations"], {"units": "1"}),
+            "peak_refinement_runs": ("sample", extra["peak_refinement_runs"], {
+                "units": "1", "long_name": "steady states solved to locate the peaks of the "
+                "range outputs beyond the grid (NaN: not computed)"}),
             "n_mesh_harmonics": ("sample", extra["n_mesh_harmonics"], {"units": "1",
                                  "long_name": "mesh harmonics of the steady state"}),
             "hb_residual": ("sample", extra["hb_residual"], {"units": "1"}),

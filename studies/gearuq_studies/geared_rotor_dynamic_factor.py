@@ -1,0 +1,360 @@
+"""How likely is the dynamic factor K_v of gears that pass inspection to exceed X over 25-8000 rpm?
+
+The dynamic question on the finite-element helical geared rotor of Yuan, Liu and Liu
+("Dynamic characteristics of a helical geared rotor system with random cumulative pitch
+deviations", Applied Sciences 10 (2020) 4403): with ISO 1328-1 class-6 (or 7) gears that
+passed inspection, a tip-relief tolerance, a load spread and uncertain damping, how likely is
+K_v = max dynamic mesh force / static mesh force (ISO 6336-1's definition, whose Method A is
+"a comprehensive dynamic analysis") to exceed X anywhere in the speed range, where do the
+resonances sit, and what drives it? ISO 6336-1 Method B's K_v for the same stage, class and
+load is drawn beside the simulated population.
+
+=====================  =========================================  ==========================
+input                  distribution                               why
+=====================  =========================================  ==========================
+pitch_xi_{p,g}_1..29   independent standard normals (58), the     each gear's cumulative
+                       germ of a capable process: 5 % of the      pitch deviations; the
+                       gears exceed F_pT (``capable_process``)    gears that fail
+                       and inspection removes them                inspection are removed:
+                                                                  Pf is conditioned on
+                                                                  ``pitch_acceptance_margin
+                                                                  >= 0``
+tip_relief_amount      normal about 42 um, 1 % beyond +-5 um,     the design relief with
+                       truncated to 37..47 um (inspected)         its drawing tolerance
+torque                 lognormal, mean 1000 N m, CoV 10 %         load spread
+damping_ratio          uniform 0.03 .. 0.08                       modal damping, uncertain
+=====================  =========================================  ==========================
+
+Failure given acceptance is the system event (kv_max >= X and the pair passes inspection)
+over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every method of
+:func:`gearuq.failure.failure_probability` applies. Steps:
+
+1. a crude Monte Carlo population (``kv_max``, K_v over speed, the ISO value, the mesh-band
+   and mesh-order responses, the acceptance margin);
+2. X at a moderate level (the population's 90 % quantile of accepted pairs), P(fail | pass)
+   by subset simulation on the system, checked against the population's count;
+3. grouped Sobol' indices of ``kv_max`` by cause (pitch of each gear, relief, load,
+   damping; SALib, Saltelli design on the untruncated process law, whose 95 % per-gear
+   acceptance makes it close to the accepted one);
+4. figures: K_v against speed with the population's bands and ISO 6336-1 Method B; a
+   Campbell-like map (speed of the K_v peak against K_v, failures marked, the speeds where
+   the mesh frequency meets the natural frequencies with the most mesh strain energy).
+
+The rare level (Pf ~ 1e-6 by multi-fidelity importance sampling and a second method) is not
+part of this study yet (docs/benchmarks.md says what was run). ``--quick`` runs a few dozen
+rotor runs (about a minute of CPU) and marks every figure "quick: N runs, not a result".
+
+Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import gearuq
+from gearuq.execution import evaluate_chunks
+from gearuq.failure import LimitState, failure_probability
+from gearuq.failure.intervals import clopper_pearson_interval
+from gearuq.gears.deviations import inspected_normal_spec
+from gearuq.space import ParameterSpace
+
+#: Model options of the study: the capable process law, 80 speeds (100 rpm steps; peaks
+#: located to 1 rpm between them), three mesh harmonics.
+OPTIONS: dict[str, Any] = {"pitch_tolerance_law": "capable_process",
+                           "process_share_beyond": 0.05, "n_speeds": 80,
+                           "range_mesh_harmonics": 3, "peaks_refined": 2}
+OUTPUTS = ["kv_max", "speed_at_kv_max", "kv_over_speed", "kv_iso_over_speed", "kv_iso_max",
+           "dte_mesh_band_rms_max", "bearing1_acceleration_y_mesh_order_max",
+           "pitch_acceptance_margin", "pitch_total_deviation_pinion",
+           "pitch_total_deviation_wheel"]
+#: Cause groups of the Sobol' indices.
+GROUPS = {"torque": "load", "tip_relief_amount": "relief", "damping_ratio": "damping"}
+DEFAULT_EXECUTION: dict[str, Any] = {"executor": "processes", "chunk_size": 25}
+
+
+def study_model(grade: int = 6) -> gearuq.Model:
+    """The rotor with both gears of ISO 1328-1 class ``grade``."""
+    return gearuq.get_model("geared_rotor").with_nominal(iso_grade=grade)
+
+
+def study_space() -> ParameterSpace:
+    """Pitch germs, inspected relief, load spread and damping (module docstring)."""
+    germ = {f"pitch_xi_{g}_{k}": {"dist": "normal", "mean": 0.0, "std": 1.0}
+            for g in ("p", "g") for k in range(1, 30)}
+    return ParameterSpace({
+        **germ,
+        "tip_relief_amount": inspected_normal_spec(42.0, 5.0, 0.01),
+        "torque": {"dist": "lognormal", "mean": 1000.0, "std": 100.0},
+        "damping_ratio": {"dist": "uniform", "lower": 0.03, "upper": 0.08},
+    })
+
+
+def accepted() -> LimitState:
+    """'Failure' side = the pair passes inspection (both F_p <= F_pT)."""
+    return LimitState.upper("pitch_acceptance_margin", 0.0, name="passes_inspection")
+
+
+def kv_exceeds(x: float) -> LimitState:
+    """K_v somewhere in the speed range at or above ``x``."""
+    return LimitState.upper("kv_max", x, name=f"kv_max >= {x:.4g}")
+
+
+def population(n: int, seed: int, grade: int, out: Path,
+               execution: dict[str, Any]) -> Any:
+    """``n`` rotor runs of the untruncated process, stored (a rerun reuses them)."""
+    return gearuq.monte_carlo(study_model(grade), study_space(), None, n_samples=n, rng=seed,
+                              outputs=OUTPUTS, store=out / f"mc_store_grade{grade}",
+                              progress=False, model_options=OPTIONS, **execution)
+
+
+def conditional_count(ds: Any, x: float) -> dict[str, float]:
+    """P(kv_max >= x | pass) by counting, Clopper-Pearson interval over the accepted runs."""
+    ok = ds["status"].values == 0
+    acc = (ds["pitch_acceptance_margin"].values >= 0) & ok
+    k = int(np.sum(acc & (ds["kv_max"].values >= x)))
+    n = int(acc.sum())
+    lo, up = clopper_pearson_interval(k, n)
+    return {"pf": k / max(n, 1), "lower": float(lo), "upper": float(up), "failures": k,
+            "accepted": n, "runs": int(ok.size), "invalid": int((~ok).sum())}
+
+
+def subset_given_acceptance(x: float, seed: int, grade: int, n_per_level: int,
+                            execution: dict[str, Any]) -> dict[str, Any]:
+    """P(fail and pass) by subset simulation on the parallel system, over P(pass)."""
+    model, space = study_model(grade), study_space()
+    system = gearuq.ParallelSystem([kv_exceeds(x), accepted()])
+    rep = failure_probability(model, space, system, method="subset", rng=seed,
+                              n_per_level=n_per_level, model_options=OPTIONS,
+                              **execution)
+    p_pass = (1.0 - OPTIONS["process_share_beyond"]) ** 2  # two independent gears
+    return {"pf": float(rep["pf"]) / p_pass, "lower": float(rep["pf_lower"]) / p_pass,
+            "upper": float(rep["pf_upper"]) / p_pass, "status": int(rep["status"]),
+            "message": rep.attrs.get("message", ""), "runs": int(rep["n_model_runs"]),
+            "wall": float(rep["wall_time"]), "p_pass": p_pass}
+
+
+def grouped_sobol(n_base: int, seed: int, grade: int,
+                  execution: dict[str, Any]) -> dict[str, Any]:
+    """First-order and total Sobol' indices of ``kv_max``, inputs grouped by cause."""
+    from SALib.analyze import sobol as sobol_analyze
+    from SALib.sample import sobol as sobol_sample
+
+    space = study_space()
+    names = space.names
+    groups = [GROUPS.get(n, "pinion pitch" if "_p_" in n else "wheel pitch") for n in names]
+    problem = {"num_vars": len(names), "names": names, "groups": groups,
+               "bounds": [[0.0, 1.0]] * len(names)}
+    unit = np.clip(sobol_sample.sample(problem, n_base, calc_second_order=False, seed=seed),
+                   1e-12, 1 - 1e-12)
+    model = study_model(grade)
+    ds = evaluate_chunks(model, space.transform(unit),
+                                model.prepare(None, outputs=["kv_max"], **OPTIONS),
+                                progress=False, **execution)
+    y = ds["kv_max"].values
+    if not np.all(ds["status"].values == 0) or not np.all(np.isfinite(y)):
+        raise RuntimeError("grouped Sobol': some rotor runs failed; indices not computed")
+    res = sobol_analyze.analyze(problem, y, calc_second_order=False, seed=seed)
+    return {"groups": list(dict.fromkeys(groups)), "S1": res["S1"].tolist(),
+            "S1_conf": res["S1_conf"].tolist(), "ST": res["ST"].tolist(),
+            "ST_conf": res["ST_conf"].tolist(), "runs": int(y.size)}
+
+
+def mesh_mode_speeds(grade: int) -> list[tuple[float, float]]:
+    """``(speed [rpm], mesh strain-energy share)`` where z1 n / 60 meets a natural frequency.
+
+    Natural frequencies of the nominal rotor linearised at its mean mesh stiffness; only
+    modes with more than 3 % of their strain energy in the mesh.
+    """
+    prob = study_model(grade).rotor_problem(speed_range=True)
+    modes = prob.modes.elastic
+    v = prob.rotor.mesh_vector()
+    share = prob.excitation.mean_stiffness * (v @ modes.shapes) ** 2 / modes.omega**2
+    speeds = modes.omega / (2.0 * math.pi) * 60.0 / prob.pinion_teeth
+    return [(float(s), float(e)) for s, e in zip(speeds, share, strict=True)
+            if e > 0.03 and s < 8000.0]
+
+
+def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
+            sobol: dict[str, Any] | None, quick: bool, grade: int) -> list[Path]:
+    """K_v against speed with bands and ISO; the Campbell-like map; the Sobol' bars."""
+    import matplotlib.pyplot as plt
+
+    ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
+    n = int(ok.sum())
+    mark = f"quick: {ds.sizes['sample']} runs, not a result" if quick else None
+    speeds = ds["range_speed"].values
+    kv = ds["kv_over_speed"].values[ok]
+    iso = ds["kv_iso_over_speed"].values[ok]
+    paths = []
+    fig, ax = plt.subplots(figsize=(7.5, 4.6))
+    for lo, hi, shade in ((0, 100, "0.85"), (5, 95, "0.7"), (25, 75, "0.55")):
+        ax.fill_between(speeds, np.percentile(kv, lo, axis=0), np.percentile(kv, hi, axis=0),
+                        color=shade, label=f"simulated K_v, {lo}-{hi} % of {n} accepted pairs")
+    ax.plot(speeds, np.median(kv, axis=0), color="k", lw=1, label="simulated median")
+    ax.plot(speeds, np.median(iso, axis=0), color="tab:red", lw=1.5,
+            label=f"ISO 6336-1 Method B, class {grade}, median load and relief")
+    ax.axhline(x, color="tab:blue", ls="--", lw=1, label=f"X = {x:.3g}")
+    for s, _ in modes:
+        ax.axvline(s, color="tab:green", lw=0.6, alpha=0.6)
+    ax.set(xlabel="pinion speed [rpm]", ylabel="K_v", title="Dynamic factor over the speed "
+           "range (green: mesh frequency = natural frequency)")
+    ax.legend(fontsize=7, loc="upper left")
+    if mark:
+        ax.text(0.5, 0.5, mark, transform=ax.transAxes, ha="center", fontsize=16,
+                color="red", alpha=0.5, rotation=20)
+    paths.append(out / "kv_over_speed.png")
+    fig.savefig(paths[-1], dpi=130, bbox_inches="tight")
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7.0, 4.6))
+    at, top = ds["speed_at_kv_max"].values[ok], ds["kv_max"].values[ok]
+    fail = top >= x
+    ax.scatter(at[~fail], top[~fail], s=10, color="0.5", label="accepted, K_v < X")
+    ax.scatter(at[fail], top[fail], s=18, color="tab:red", label="accepted, K_v >= X")
+    for s, e in modes:
+        ax.axvline(s, color="tab:green", lw=0.8, alpha=0.7)
+        ax.axvline(s / 2.0, color="tab:green", lw=0.8, alpha=0.5, ls=":")
+        ax.text(s, ax.get_ylim()[1], f"{e:.0%}", fontsize=6, ha="center", va="bottom",
+                color="tab:green")
+    ax.set(xlabel="speed of the K_v peak [rpm]", ylabel="kv_max",
+           title="Where the peaks sit (green: f_m, dotted: 2 f_m = a natural frequency; "
+           "share of mesh strain energy)")
+    ax.legend(fontsize=7)
+    if mark:
+        ax.text(0.5, 0.5, mark, transform=ax.transAxes, ha="center", fontsize=16,
+                color="red", alpha=0.5, rotation=20)
+    paths.append(out / "campbell_map.png")
+    fig.savefig(paths[-1], dpi=130, bbox_inches="tight")
+    plt.close(fig)
+
+    if sobol is not None:
+        fig, ax = plt.subplots(figsize=(6.0, 3.6))
+        pos = np.arange(len(sobol["groups"]))
+        ax.bar(pos - 0.2, sobol["S1"], 0.4, yerr=sobol["S1_conf"], label="first order")
+        ax.bar(pos + 0.2, sobol["ST"], 0.4, yerr=sobol["ST_conf"], label="total")
+        ax.set_xticks(pos, sobol["groups"])
+        ax.set(ylabel="Sobol' index of kv_max", title=f"What drives K_v ({sobol['runs']} "
+               "rotor runs)")
+        ax.legend(fontsize=7)
+        if mark:
+            ax.text(0.5, 0.5, mark, transform=ax.transAxes, ha="center", fontsize=14,
+                    color="red", alpha=0.5, rotation=20)
+        paths.append(out / "sobol_kv.png")
+        fig.savefig(paths[-1], dpi=130, bbox_inches="tight")
+        plt.close(fig)
+    return paths
+
+
+def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = False,
+        seed: int = 2028, grade: int = 6, executor: Any = DEFAULT_EXECUTION["executor"],
+        chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
+        n_per_level: int = 200, sobol_base: int = 16) -> int:
+    """P(K_v >= X anywhere in 25-8000 rpm | the gears pass inspection), where, and why.
+
+    Parameters
+    ----------
+    out : path
+        Output folder (created); the Monte Carlo store lives in it and is reused.
+    quick : bool
+        A few dozen rotor runs, no Sobol' indices: a check, not the answer.
+    seed : int
+        Seed of every random stage.
+    grade : int
+        ISO 1328-1 class of both gears (6 or 7 in the question).
+    executor, chunk_size :
+        How rotor runs are spread over the cores; the answers do not depend on them.
+    n_runs, n_per_level, sobol_base : int
+        Crude Monte Carlo runs, subset-simulation samples per level, Saltelli base samples
+        (``sobol_base (G + 2)`` = 7 ``sobol_base`` runs); ``quick`` sets 12, 16 and none.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    if grade not in range(1, 13):
+        raise ValueError(f"grade={grade!r} is outside its valid range: integers 1..12")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    execution = {"executor": executor, "chunk_size": chunk_size}
+    for name, value, low in (("n_runs", n_runs, 10), ("n_per_level", n_per_level, 10),
+                             ("sobol_base", sobol_base, 2)):
+        if int(value) != value or value < low:
+            raise ValueError(f"{name}={value!r} is outside its valid range: integers >= {low}")
+    n_mc, n_level = (12, 16) if quick else (int(n_runs), int(n_per_level))
+    t0, c0 = time.perf_counter(), time.process_time()
+    stages = {}
+    if quick:
+        print(f"quick run: {n_mc} rotor runs, subset simulation with 16 per level, no "
+              "Sobol' indices: a check, not the answer", flush=True)
+    ds = population(n_mc, seed, grade, out, execution)
+    stages["population"] = (time.perf_counter() - t0, time.process_time() - c0)
+    ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
+    x = float(np.quantile(ds["kv_max"].values[ok], 0.9))
+    count = conditional_count(ds, x)
+    t1, c1 = time.perf_counter(), time.process_time()
+    ss = subset_given_acceptance(x, seed + 1, grade, n_level, execution)
+    stages["subset"] = (time.perf_counter() - t1, time.process_time() - c1)
+    sobol = None
+    if not quick:
+        t2, c2 = time.perf_counter(), time.process_time()
+        sobol = grouped_sobol(int(sobol_base), seed + 2, grade, execution)
+        stages["sobol"] = (time.perf_counter() - t2, time.process_time() - c2)
+    modes = mesh_mode_speeds(grade)
+    paths = figures(out, ds, x, modes, sobol, quick, grade)
+    kv_iso = ds["kv_iso_max"].values[ok]
+    info = {"quick": quick, "grade": grade, "seed": seed, "X": x, "crude_mc": count,
+            "subset": ss, "sobol": sobol, "mesh_mode_speeds": modes,
+            "kv_max_quantiles": np.quantile(ds["kv_max"].values[ok], [0.05, 0.5, 0.95]),
+            "kv_iso_max_quantiles": np.quantile(kv_iso, [0.05, 0.5, 0.95]),
+            "accepted_share": float(ok.mean()), "options": OPTIONS,
+            "stages_wall_cpu_s": stages, "execution": execution}
+    gearuq.save(ds, out / "population.nc")
+    (out / "summary.json").write_text(json.dumps(info, indent=1, default=lambda v: (
+        v.tolist() if hasattr(v, "tolist") else float(v))))
+    print(f"X = {x:.4g} (90 % of accepted kv_max); accepted {ok.sum()} of {ok.size}")
+    print(f"  crude MC : P(kv_max >= X | pass) = {count['pf']:.3g} [{count['lower']:.3g}, "
+          f"{count['upper']:.3g}] ({count['failures']} of {count['accepted']})")
+    print(f"  subset   : {ss['pf']:.3g} [{ss['lower']:.3g}, {ss['upper']:.3g}], status "
+          f"{ss['status']}, {ss['runs']} rotor runs")
+    print("  kv_max 5/50/95 %: " + ", ".join(f"{v:.3f}" for v in info["kv_max_quantiles"])
+          + "; ISO Method B: " + ", ".join(f"{v:.3f}" for v in info["kv_iso_max_quantiles"]))
+    if sobol is not None:
+        print("  grouped Sobol' (first order / total): " + ", ".join(
+            f"{g} {a:.2f}/{b:.2f}" for g, a, b in
+            zip(sobol["groups"], sobol["S1"], sobol["ST"], strict=True)))
+    for name, (wall, cpu) in stages.items():
+        print(f"  stage {name}: {wall:.0f} s wall, {cpu:.0f} s CPU in this process "
+              "(worker processes' CPU not included)")
+    print(f"written: {out} ({', '.join(p.name for p in paths)}, population.nc, summary.json)")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m gearuq_studies.geared_rotor_dynamic_factor``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("gearuq_geared_rotor_dynamic_factor"))
+    parser.add_argument("--quick", action="store_true", help="a quick check, not the answer")
+    parser.add_argument("--seed", type=int, default=2028)
+    parser.add_argument("--grade", type=int, default=6)
+    parser.add_argument("--executor", default=DEFAULT_EXECUTION["executor"])
+    parser.add_argument("--chunk-size", type=int, default=DEFAULT_EXECUTION["chunk_size"])
+    parser.add_argument("--runs", type=int, default=400, help="crude Monte Carlo runs")
+    parser.add_argument("--per-level", type=int, default=200,
+                        help="subset-simulation samples per level")
+    parser.add_argument("--sobol-base", type=int, default=16, help="Saltelli base samples")
+    args = parser.parse_args(argv)
+    return run(args.out, quick=args.quick, seed=args.seed, grade=args.grade,
+               executor=args.executor, chunk_size=args.chunk_size, n_runs=args.runs,
+               n_per_level=args.per_level, sobol_base=args.sobol_base)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
