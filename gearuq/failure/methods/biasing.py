@@ -39,7 +39,7 @@ from gearuq.model import Option
 LOG = logging.getLogger("gearuq.failure.mfis")
 
 __all__ = ["BiasingDensity", "Gaussian", "VMFN", "Quadratic", "CheapFit", "FAMILIES",
-           "Widened"]
+           "FAMILY_SETTINGS", "Widened", "resolve_biasing", "cheap_estimate"]
 
 #: Largest number of cross-entropy levels on the cheap model.
 MAX_CE_LEVELS = 25
@@ -416,3 +416,32 @@ class Quadratic(BiasingDensity):
 
 #: The families by the name ``biasing=`` accepts.
 FAMILIES: dict[str, type[BiasingDensity]] = {c.name: c for c in (Gaussian, VMFN, Quadratic)}
+
+#: Each family setting once, in the order the families declare them (the flat keywords of
+#: method "mfis").
+FAMILY_SETTINGS: tuple[Option, ...] = tuple(
+    {o.name: o for c in FAMILIES.values() for o in c.SETTINGS}.values())
+
+
+def resolve_biasing(s: Mapping[str, Any]) -> BiasingDensity:
+    """The biasing family of validated settings ``s``: the ``biasing`` instance, or the named
+    family built from the flat keywords it owns (a keyword another family owns, changed from
+    its default, is refused)."""
+    b = s["biasing"]
+    changed = [o for o in FAMILY_SETTINGS if not _same(s[o.name], o.default)]
+    if isinstance(b, BiasingDensity):
+        if changed:
+            raise ValueError(f"{changed[0].name}: give it to {type(b).__name__}(...), which owns "
+                             "its settings, not as a keyword beside biasing=")
+        return b
+    cls = FAMILIES[b]
+    for o in changed:
+        if o not in cls.SETTINGS:
+            owner = next(c.name for c in FAMILIES.values() if o in c.SETTINGS)
+            raise ValueError(f"{o.name}: {s[o.name]!r} needs biasing={owner!r}, got "
+                             f"biasing={b!r}")
+    return cls.from_settings(s)
+
+
+def _same(a: Any, b: Any) -> bool:  # a setting left at its default
+    return a is b or (type(a) is type(b) and a == b)

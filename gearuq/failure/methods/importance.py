@@ -90,7 +90,7 @@ PARETO_LIMIT = 0.7
 
 #: The estimation stage is sized for ``target_cov / sqrt(SAFETY)``: the pilot's variance is
 #: itself an estimate.
-SAFETY = 1.25
+SAFETY = 1.5
 
 #: FORM starts tried before the full multi-start search; if none converges, the method stops.
 N_PROBE_STARTS = 3

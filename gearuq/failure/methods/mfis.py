@@ -25,12 +25,10 @@ one is run only on draws from a density fitted there (Peherstorfer, Cui, Marzouk
    ``mean(1_F w)`` is made from fresh draws only (unbiased: stopping once the running CoV
    reaches the target leans high), interval ``pf +- z se``.
 
-The defensive share bounds every weight by ``1 / defensive``: the estimator is unbiased
-whatever ``LF``'s quality; what it cannot do is see, in a budget, a failure region its
-density does not reach. The same checks as importance sampling set the status: degenerate or
-heavy-tailed weights (3), invalid runs (6, interval over both readings). High- and
-low-fidelity runs and wall times are reported apart (``n_model_runs`` counts the expensive
-model only, pilots included).
+The defensive share bounds every weight by ``1 / defensive``: unbiased whatever ``LF``'s
+quality, but blind, in a budget, to a failure region its density does not reach. The checks
+of importance sampling set the status too (3, 6). ``n_model_runs`` counts the expensive model
+only, pilots included; the cheap runs and wall times are reported apart.
 """
 
 from __future__ import annotations
@@ -44,7 +42,13 @@ import numpy as np
 import xarray as xr
 
 from gearuq.failure.evaluator import LimitStateEvaluator
-from gearuq.failure.methods.biasing import FAMILIES, BiasingDensity, CheapFit
+from gearuq.failure.methods.biasing import (
+    FAMILIES,
+    FAMILY_SETTINGS,
+    BiasingDensity,
+    CheapFit,
+    resolve_biasing,
+)
 from gearuq.failure.methods.importance import (
     draw_batch,
     sample_until,
@@ -109,9 +113,6 @@ def _check_discrepancy(value: Any) -> Any:
                      f"{value!r}")
 
 
-#: Each family setting once, in the order the families declare them.
-_FAMILY_SETTINGS = tuple({o.name: o for c in FAMILIES.values() for o in c.SETTINGS}.values())
-
 SETTINGS = (
     Option("low_fidelity", None, "the cheap model (Model or registered name) that explores the "
            "failure domain; its parameters must include every random parameter of the space",
@@ -135,31 +136,7 @@ SETTINGS = (
            lower=1e-4, upper=1.0),
     Option("max_samples", 10_000, "largest number of expensive-model samples (pilots and "
            "estimation)", lower=10),
-) + _FAMILY_SETTINGS
-
-
-def resolve_biasing(s: Mapping[str, Any]) -> BiasingDensity:
-    """The biasing family of validated settings ``s``: the ``biasing`` instance, or the named
-    family built from the flat keywords it owns (a keyword another family owns, changed from
-    its default, is refused)."""
-    b = s["biasing"]
-    changed = [o for o in _FAMILY_SETTINGS if not _same(s[o.name], o.default)]
-    if isinstance(b, BiasingDensity):
-        if changed:
-            raise ValueError(f"{changed[0].name}: give it to {type(b).__name__}(...), which owns "
-                             "its settings, not as a keyword beside biasing=")
-        return b
-    cls = FAMILIES[b]
-    for o in changed:
-        if o not in cls.SETTINGS:
-            owner = next(c.name for c in FAMILIES.values() if o in c.SETTINGS)
-            raise ValueError(f"{o.name}: {s[o.name]!r} needs biasing={owner!r}, got "
-                             f"biasing={b!r}")
-    return cls.from_settings(s)
-
-
-def _same(a: Any, b: Any) -> bool:
-    return a is b or (type(a) is type(b) and a == b)
+) + FAMILY_SETTINGS
 
 
 def _low_fidelity(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
@@ -280,14 +257,14 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], family: BiasingDensit
                     "cheap failure set widened by discrepancy_bound"),
     }
     extra = {k: ((), v, {"units": u, "long_name": n}) for k, (v, u, n) in var.items()}
-    for key, name in (("pf", "importance-sampling estimate of the cheap model's pf with the "
-                       "fitted density"), ("cov", "its coefficient of variation"),
-                      ("ess", "effective sample size of its failing draws")):
+    for key, name in (("pf", "the cheap model's pf by importance sampling with the density"),
+                      ("cov", "its coefficient of variation"), ("ess", "its effective sample "
+                                                                "size of failing draws")):
         if key in first.info and "n_fail" in first.info:
             extra[f"{key}_low_fidelity_is"] = ((), first.info[key], {"units": "1",
                                                                     "long_name": name})
-    settings = {k: (v.name if isinstance(v, Model) else str(v) if isinstance(
-        v, BiasingDensity) else v) for k, v in s.items()}
+    settings = {k: v.name if isinstance(v, Model) else str(v) if isinstance(
+        v, BiasingDensity) else v for k, v in s.items()}
     return failure_report(
         ev, "mfis", pf=pf, pf_lower=lower, pf_upper=upper, cov=est["cov"],
         interval_kind="normal approximation pf +- z se of the importance-sampling estimator "
