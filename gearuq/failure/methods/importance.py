@@ -63,7 +63,7 @@ from gearuq.model import Option
 __all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape",
            "weighted_estimate", "sample_until", "weight_status", "weight_diagnostics",
            "PARETO_LIMIT", "draw_batch", "plan_size", "SAFETY", "MIN_PILOT_FAILURES",
-           "OPTIMISTIC_PILOT", "N_PROBE_STARTS", "no_design_point_text"]
+           "OPTIMISTIC_PILOT", "N_PROBE_STARTS", "no_design_point_text", "PILOT_BATCH"]
 
 
 SETTINGS = (
@@ -91,6 +91,9 @@ PARETO_LIMIT = 0.7
 #: The estimation stage is sized for ``target_cov / sqrt(SAFETY)``: the pilot's variance is
 #: itself an estimate.
 SAFETY = 1.5
+
+#: Batch index of the pilot's stream (the estimation batches count 0, 1, ... as before).
+PILOT_BATCH = 2**20
 
 #: FORM starts tried before the full multi-start search; if none converges, the method stops.
 N_PROBE_STARTS = 3
@@ -318,17 +321,18 @@ def sample_until(ev: LimitStateEvaluator, mix: Any, s: Mapping[str, Any], confid
     so unbiased. Stopping once the running CoV reaches the target (the earlier rule) leans
     high: a run whose first draws happen to overestimate pf also underestimates its CoV and
     stops there. The failing draws and their ``g`` are returned as ``failing_u`` and
-    ``failing_g``. Batch ``b`` draws from ``SeedSequence(stream.entropy + [b])``, the pilot
-    being batch 0 (a stored run resumes batch by batch). ``pilot`` passes a pilot already
+    ``failing_g``. Estimation batch ``b`` draws from ``SeedSequence(stream.entropy + [b])``
+    as before the pilot existed, the pilot from batch :data:`PILOT_BATCH` of the same stream
+    (a stored run resumes batch by batch). ``pilot`` passes a pilot already
     drawn from ``mix``, or from another density (``w_new``: the pilot draws' weights
     ``phi / h`` under ``mix``; :func:`plan_size`)."""
     if pilot is None:
         m0 = max(min(s["n_samples"], s["max_samples"] // 2), 2)
-        pilot = draw_batch(ev, mix, m0, stream, 0, f"{tag}/pilot")
+        pilot = draw_batch(ev, mix, m0, stream, PILOT_BATCH, f"{tag}/pilot")
     n_plan, capped = plan_size(pilot, s, w_new)
     z = stats.norm.isf((1 - confidence) / 2)
     batches: list[dict[str, np.ndarray]] = []
-    n_est, b = 0, 1
+    n_est, b = 0, 0
     while n_est < n_plan:
         m = max(min(s["n_samples"], n_plan - n_est), 2)
         batches.append(draw_batch(ev, mix, m, stream, b, f"{tag}/batch{b}"))

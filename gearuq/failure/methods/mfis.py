@@ -50,6 +50,7 @@ from gearuq.failure.methods.biasing import (
     resolve_biasing,
 )
 from gearuq.failure.methods.importance import (
+    PILOT_BATCH,
     draw_batch,
     sample_until,
     weight_diagnostics,
@@ -173,8 +174,8 @@ def _widen(ev: LimitStateEvaluator, ev_lf: LimitStateEvaluator, family: BiasingD
     """A pilot from the density with paired cheap runs, the discrepancy bound, and the
     density refitted to the widened cheap failure set when it does not cover it (step 2)."""
     m0 = max(min(s["n_samples"], s["max_samples"] // 2), 2)
-    pilot = draw_batch(ev, first.density, m0, np.random.SeedSequence([seed, 31]), 0,
-                       "mfis/pilot")
+    pilot = draw_batch(ev, first.density, m0, np.random.SeedSequence([seed, 31]),
+                       PILOT_BATCH, "mfis/pilot")
     e = excess_margin(ev_lf.evaluate(pilot["u"], "mfis/pilot/cheap")["g"], pilot["g"])
     e = e[np.isfinite(e)]
     measured = max(float(np.max(e, initial=0.0)), 0.0)
@@ -196,7 +197,7 @@ def run_mfis(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
     first = family.fit(ev_lf, seed)
     t_lf = time.perf_counter() - t0
     w = _widen(ev, ev_lf, family, first, s, seed)
-    # the pilot is batch 0 of this stream, the estimate's fresh draws batches 1, 2, ...
+    # the pilot is batch PILOT_BATCH of this stream, the estimate's fresh draws 0, 1, ...
     est = sample_until(ev, w["fit"].density, s, confidence, np.random.SeedSequence([seed, 31]),
                        "mfis", pilot=w["pilot"], w_new=w["w_new"])
     reasons = list(first.reasons)
