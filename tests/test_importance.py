@@ -70,3 +70,30 @@ def test_degenerate_weights_are_reported():
     assert int(rep["status"]) == 3
     assert "weights degenerate" in rep.attrs["message"]
     assert float(rep["max_weight_share"]) > 0.5 or float(rep["effective_sample_size"]) < 10
+
+
+def _two_margins(x1, x2):
+    return {"g1": 3.0 - x1, "g2": 3.0 - x2}
+
+
+def test_a_parallel_system_without_a_design_point_stops_after_its_first_starts():
+    """``max(3 - x1, 3 - x2) <= 0`` (a parallel system, Pf = Phi(-3)^2): its failure set has a
+    corner, no smooth nearest point, and no FORM start converges. Importance sampling stops
+    after its first three starts with no estimate, status 1, and one sentence that says why
+    and names subset simulation (it used to run all 13 starts, then say "not converged" once
+    per start): its runs are exactly those of a 3-start FORM search with the same seed."""
+    import gearuq
+    from gearuq.failure.modes import LimitState, ParallelSystem
+
+    model = gearuq.FunctionModel(_two_margins, ["x1", "x2"], ["g1", "g2"], name="two_margins")
+    system = ParallelSystem([LimitState.output("g1"), LimitState.output("g2")])
+    space = standard_normal_space(2)
+    search = {"max_iter": 8, "max_line_search": 2, "rng": 1, "executor": "serial"}
+    rep = failure_probability(model, space, system, method="importance", **search)
+    assert int(rep["status"]) == 1 and np.isnan(float(rep["pf"]))
+    message = rep.attrs["message"]
+    assert message.startswith("no design point found from 3 FORM starts")
+    assert "method='subset'" in message and message.count("converge") == 1
+    three = failure_probability(model, space, system, method="form", n_starts=3, **search)
+    assert int(three["status"]) != 0
+    assert int(rep["n_model_runs"]) == int(three["n_model_runs"])

@@ -314,6 +314,10 @@ def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]
         if problem not in ("linear_100d", "offset", "exponential_sum") and not quick:
             rows.append((problem, "akmcs", {"max_runs": 150, "n_mc": 50_000,
                                             "max_mc": 400_000}))
+    # a partially informative cheap model: it sees one of two failure mechanisms (a third of
+    # Pf); MFIS must hold or say so, whatever its defensive draws happen to hit
+    rows.append(("two_mechanisms", "mfis", {"low_fidelity": _problems()["two_mechanisms"][
+        "low_fidelity"], "max_samples": 5000 if quick else 10_000}))
     if not quick:  # the gear model at Pf ~ 1e-4 against 2 x 10^6 crude MC runs
         rows.append(("helical_pair", "subset", {}))
         rows.append(("helical_pair", "subset", {"replicates": 5}))

@@ -22,6 +22,9 @@ four-branch, by        x1, x2 ~ N(0, 1)                  outputs g1..g4 of the f
 branch                                                   (series system): Pf = 4.4573e-3
 jump                   x1, x2 ~ N(0, 1)                  g = 3.5 - x1 - 1.5 [x2 > 1]: a
                                                          discontinuous response, Pf closed form
+two mechanisms         x1, x2 ~ N(0, 1)                  g = min(3 - x1, 3.2 - x2): Pf = 1 -
+                                                         Phi(3) Phi(3.2) = 2.036e-3; cheap model
+                                                         g = 2.9 - x1 sees one mechanism
 random-phase process   X1, X2 ~ N(0, 1)                  y(t) = X1 sin(w t) + X2 cos(w t):
                                                          stationary Gaussian, exact out-crossing
                                                          rate and exact first passage
@@ -72,6 +75,8 @@ __all__ = [
     "unit_modes_model", "unit_modes_pf", "unit_modes_limit_state", "UNIT_MODES_BETAS",
     "UNIT_MODES_ANGLE", "HELICAL_PAIR_DEEP_LEVEL", "HELICAL_PAIR_DEEP_PF", "ridge_model",
     "ridge_pf", "RIDGE_K", "RIDGE_B",
+    "two_mechanisms", "one_mechanism", "two_mechanisms_model", "one_mechanism_model",
+    "TWO_MECHANISMS_BETAS", "TWO_MECHANISMS_PF",
 ]
 
 
@@ -420,6 +425,43 @@ def nan_tail_model() -> FunctionModel:
                          description="g = 3 - x1, NaN where x1 > 3.2")
 
 
+# ============================================ two failure mechanisms, a cheap model of one
+#: Margins of the two mechanisms: ``g = min(3 - x1, 3.2 - x2)``.
+TWO_MECHANISMS_BETAS = (3.0, 3.2)
+#: ``1 - Phi(3) Phi(3.2)`` = 2.036e-3 (independent inputs, exact); the second mechanism is
+#: 34 % of it.
+TWO_MECHANISMS_PF = float(1.0 - stats.norm.cdf(TWO_MECHANISMS_BETAS[0])
+                          * stats.norm.cdf(TWO_MECHANISMS_BETAS[1]))
+
+
+def two_mechanisms(x1: Any, x2: Any) -> np.ndarray:
+    """``g = min(3 - x1, 3.2 - x2)``: two failure mechanisms on independent inputs."""
+    b1, b2 = TWO_MECHANISMS_BETAS
+    return np.minimum(b1 - np.asarray(x1, dtype=float), b2 - np.asarray(x2, dtype=float))
+
+
+def one_mechanism(x1: Any, x2: Any) -> np.ndarray:
+    """The partially informative cheap model of :func:`two_mechanisms`: the first mechanism
+    only, 0.1 on the safe side of it too little, blind to the second (a third of Pf)."""
+    return TWO_MECHANISMS_BETAS[0] - 0.1 - np.asarray(x1, dtype=float) + 0.0 * np.asarray(x2)
+
+
+def two_mechanisms_model() -> FunctionModel:
+    """:func:`two_mechanisms` as a model with inputs x1, x2 and output ``g``."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(two_mechanisms, ["x1", "x2"], ["g"], name="two_mechanisms",
+                         description="g = min(3 - x1, 3.2 - x2)")
+
+
+def one_mechanism_model() -> FunctionModel:
+    """:func:`one_mechanism` as a model (the cheap model of :func:`two_mechanisms_model`)."""
+    from gearuq.model import FunctionModel
+
+    return FunctionModel(one_mechanism, ["x1", "x2"], ["g"], name="one_mechanism",
+                         description="g = 2.9 - x1 (blind to the second mechanism)")
+
+
 # =========================================================================== the gear model
 #: Peak dynamic mesh force level [N] of the helical-pair rare-event case.
 HELICAL_PAIR_LEVEL = 76_220.0
@@ -542,6 +584,9 @@ def reliability_problems() -> dict[str, dict[str, Any]]:
                             "source": "exact (gamma tail)"},
         "nan_tail": {"model": nan_tail_model(), "space": standard_normal_space(2),
                      "limit_state": "g", "pf": NAN_TAIL_PF, "source": "exact"},
+        "two_mechanisms": {"model": two_mechanisms_model(), "space": standard_normal_space(2),
+                           "limit_state": "g", "pf": TWO_MECHANISMS_PF, "source": "exact",
+                           "low_fidelity": one_mechanism_model()},
     }
 
 

@@ -14,8 +14,14 @@ towards the identity), so that the density follows a curved failure domain; the 
 are counted, its samples are not used in the estimate.
 
 The estimator is ``pf = mean(1[G(u_i) <= 0] w_i)`` over the estimation batches, its variance
-``var(1 w) / n``; the interval is ``pf +- z se`` (clipped at 0), and batches continue until the
-CoV reaches ``target_cov`` (or ``max_samples``).
+``var(1 w) / n``; the interval is ``pf +- z se`` (clipped at 0). The number of estimation
+draws is chosen by a pilot of ``n_samples`` draws for ``target_cov`` and the estimate is made
+from fresh draws only (:func:`sample_until`): a rule that stops once the running CoV reaches
+the target leans high.
+
+Without a design point (no start converged: a kinked or windowed limit state, a parallel
+system) there is nothing to centre on: the method stops after its first few starts and says
+so in one sentence, naming subset simulation, which needs no design point.
 
 What the estimate cannot vouch for is said in its status (:mod:`gearuq.failure.report`):
 
@@ -56,14 +62,16 @@ from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape",
            "weighted_estimate", "sample_until", "weight_status", "weight_diagnostics",
-           "PARETO_LIMIT"]
+           "PARETO_LIMIT", "draw_batch", "plan_size", "SAFETY", "MIN_PILOT_FAILURES",
+           "OPTIMISTIC_PILOT", "N_PROBE_STARTS", "no_design_point_text", "PILOT_BATCH"]
 
 
 SETTINGS = (
     Option("n_samples", 1000, "samples per batch (and of each adaptation pilot)", lower=2),
-    Option("target_cov", 0.05, "stop when the CoV of pf reaches this", lower=1e-6, upper=1.0),
-    Option("max_samples", 20_000, "largest number of importance samples (estimation batches)",
-           lower=2),
+    Option("target_cov", 0.05, "CoV of pf the estimation stage is sized for (by a pilot of "
+           "n_samples draws)", lower=1e-6, upper=1.0),
+    Option("max_samples", 20_000, "largest number of importance samples (pilot and "
+           "estimation batches)", lower=2),
     Option("sampling_std", 1.0, "standard deviation of each mixture component before adaptation",
            lower=0.05, upper=10.0),
     Option("weights", "probability", "mixture weights: proportional to Phi(-beta_k) or equal",
@@ -79,6 +87,23 @@ SETTINGS = (
 
 #: Generalised Pareto shape above which the weights' variance is not trusted.
 PARETO_LIMIT = 0.7
+
+#: The estimation stage is sized for ``target_cov / sqrt(SAFETY)``: the pilot's variance is
+#: itself an estimate.
+SAFETY = 1.5
+
+#: Batch index of the pilot's stream (the estimation batches count 0, 1, ... as before).
+PILOT_BATCH = 2**20
+
+#: FORM starts tried before the full multi-start search; if none converges, the method stops.
+N_PROBE_STARTS = 3
+
+#: Failing pilot draws needed to judge the variance; with fewer the whole budget is used.
+MIN_PILOT_FAILURES = 10
+
+#: A final CoV above this times the target, the budget not exhausted, means the pilot
+#: understated the variance (status 1).
+OPTIMISTIC_PILOT = 1.25
 
 
 class Mixture:
@@ -201,15 +226,19 @@ def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, con
     """Importance sampling centred on the design points, defensive and adapted."""
     t0 = time.perf_counter()
     fs = resolve_starts(ev, s)
-    found, starts = form_design_points(ev, fs, seed)
+    # a probe of a few starts first: where none of them converges the limit state has no
+    # design point to centre on, and the other starts would only spend runs on the same
+    probe = min(N_PROBE_STARTS, fs["n_starts"])
+    found, starts = form_design_points(ev, {**fs, "n_starts": probe}, seed)
+    if found and fs["n_starts"] > probe:
+        found, starts = form_design_points(ev, fs, seed)
     form_runs = ev.n_runs
     if not found:
-        msg = "; ".join(r["error"] or "not converged" for r in starts)
         failed = any(r["error"].startswith("model failed") for r in starts)
         return failure_report(ev, "importance", pf=math.nan, interval_kind="none",
                               confidence=confidence, settings=fs, seed=seed,
                               wall_time=time.perf_counter() - t0, status=2 if failed else 1,
-                              message=f"FORM found no design point to centre on: {msg}")
+                              message=no_design_point_text(starts, s["max_iter"]))
     betas = np.array([p["beta"] for p in found])
     shares = stats.norm.sf(betas) if s["weights"] == "probability" else np.ones(len(found))
     d = ev.dim
@@ -233,32 +262,90 @@ def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, con
                    (form_runs, adapt_runs), t0)
 
 
-def sample_until(ev: LimitStateEvaluator, mix: Mixture, s: Mapping[str, Any], confidence: float,
-                 stream: np.random.SeedSequence, tag: str) -> dict[str, float]:
-    """Batches of ``n_samples`` draws of ``mix`` until the CoV reaches ``target_cov`` or
-    ``max_samples``; the estimate of :func:`weighted_estimate`. Batch ``b`` draws from
-    ``SeedSequence(stream.entropy + [b])`` (a stored run resumes batch by batch)."""
+def draw_batch(ev: LimitStateEvaluator, mix: Any, m: int, stream: np.random.SeedSequence,
+               b: int, tag: str) -> dict[str, np.ndarray]:
+    """``m`` draws of ``mix`` from ``SeedSequence(stream.entropy + [b])``, run on the model:
+    the draws ``u``, their weights ``w``, ``g`` and boolean ``fail``, ``invalid`` and ``gap``
+    (fails on the full time grid but not on every other instant)."""
+    rng = np.random.default_rng(np.random.SeedSequence([*stream.entropy, b]))
+    u = mix.sample(m, rng)
+    res = ev.evaluate(u, tag)
+    ok = res["status"] == 0
+    fail = ok & (res["g"] <= 0.0)
+    return {"u": u, "g": np.where(ok, res["g"], np.nan), "w": np.exp(mix.log_weights(u)),
+            "fail": fail, "invalid": ~ok, "gap": fail & ~(res["g_half"] <= 0.0)}
+
+
+def plan_size(pilot: Mapping[str, np.ndarray], s: Mapping[str, Any],
+              w_new: np.ndarray | None = None) -> tuple[int, bool]:
+    """Draws of the estimation stage sized from a pilot: ``SAFETY (cv_1 / target_cov)^2``,
+    ``cv_1`` the per-draw coefficient of variation of ``1_F w``, at least the pilot's size, at
+    most what ``max_samples`` leaves. ``w_new``: the pilot draws' weights ``phi / h_new``
+    under another density that the estimation stage will draw from; ``cv_1`` is then that
+    density's, by importance reweighting (``E_new[(1_F w_new)^2] = E_pilot[1_F w w_new]``).
+    With fewer than :data:`MIN_PILOT_FAILURES` failing pilot draws the variance is not judged
+    and the whole budget is used. Returns the size and whether the budget capped it."""
+    left = max(s["max_samples"] - pilot["w"].size, 1)
+    c = np.where(pilot["fail"], pilot["w"], 0.0)
+    if int(np.count_nonzero(c)) < MIN_PILOT_FAILURES:
+        return left, True
+    second = float(np.mean(c * (pilot["w"] if w_new is None else w_new)))
+    cv1 = math.sqrt(max(second / float(c.mean()) ** 2 - 1.0, 0.0))
+    want = max(math.ceil(SAFETY * (cv1 / s["target_cov"]) ** 2), pilot["w"].size)
+    return min(want, left), want > left
+
+
+def no_design_point_text(starts: list[dict[str, Any]], max_iter: int) -> str:
+    """One sentence on why importance sampling stopped without a design point, and what to
+    use instead."""
+    errors = [r["error"] for r in starts if r["error"]]
+    causes = [f"{len(starts) - len(errors)} did not converge in {max_iter} iterations"]
+    if errors:
+        causes.append(f"{len(errors)} stopped on an error (first: {errors[0]})")
+    return (f"no design point found from {len(starts)} FORM starts ({'; '.join(causes)}): the "
+            "limit state has no smooth nearest failure point to centre the sampling on (a "
+            "kink, a windowed peak or a parallel system are typical), so importance sampling "
+            "stopped here; use method='subset' (or 'mc'), which needs no design point")
+
+
+def sample_until(ev: LimitStateEvaluator, mix: Any, s: Mapping[str, Any], confidence: float,
+                 stream: np.random.SeedSequence, tag: str,
+                 pilot: Mapping[str, np.ndarray] | None = None,
+                 w_new: np.ndarray | None = None) -> dict[str, Any]:
+    """Two-stage sampling of ``mix``: a pilot of ``n_samples`` draws (at most half of
+    ``max_samples``) sizes the estimation stage (:func:`plan_size`); the estimate of
+    :func:`weighted_estimate` is made from fresh draws only, in batches of ``n_samples``.
+
+    The pilot's draws are counted as runs but kept out of the estimate: the size ``N`` then
+    depends on the pilot alone, the estimate is a mean of ``N`` draws independent of it, and
+    so unbiased. Stopping once the running CoV reaches the target (the earlier rule) leans
+    high: a run whose first draws happen to overestimate pf also underestimates its CoV and
+    stops there. The failing draws and their ``g`` are returned as ``failing_u`` and
+    ``failing_g``. Estimation batch ``b`` draws from ``SeedSequence(stream.entropy + [b])``
+    as before the pilot existed, the pilot from batch :data:`PILOT_BATCH` of the same stream
+    (a stored run resumes batch by batch). ``pilot`` passes a pilot already
+    drawn from ``mix``, or from another density (``w_new``: the pilot draws' weights
+    ``phi / h`` under ``mix``; :func:`plan_size`)."""
+    if pilot is None:
+        m0 = max(min(s["n_samples"], s["max_samples"] // 2), 2)
+        pilot = draw_batch(ev, mix, m0, stream, PILOT_BATCH, f"{tag}/pilot")
+    n_plan, capped = plan_size(pilot, s, w_new)
+    z = stats.norm.isf((1 - confidence) / 2)
     batches: list[dict[str, np.ndarray]] = []
     n_est, b = 0, 0
-    z = stats.norm.isf((1 - confidence) / 2)
-    est: dict[str, float] = {}
-    while n_est < s["max_samples"]:
-        rng = np.random.default_rng(np.random.SeedSequence([*stream.entropy, b]))
-        m = min(s["n_samples"], s["max_samples"] - n_est)
-        u = mix.sample(m, rng)
-        res = ev.evaluate(u, f"{tag}/batch{b}")
-        w = np.exp(mix.log_weights(u))
-        ok = res["status"] == 0
-        batches.append({"w": w, "fail": ok & (res["g"] <= 0.0), "invalid": ~ok,
-                        "gap": ok & (res["g"] <= 0.0) & ~(res["g_half"] <= 0.0)})
+    while n_est < n_plan:
+        m = max(min(s["n_samples"], n_plan - n_est), 2)
+        batches.append(draw_batch(ev, mix, m, stream, b, f"{tag}/batch{b}"))
         n_est += m
         b += 1
-        est = weighted_estimate(batches, z)
-        logging.getLogger("gearuq.failure").info(
-            "%s batch %d: pf %.4g, CoV %.3f, %d failing, ESS %.1f, %d runs", tag, b - 1, est["pf"],
-            est["cov"], est["n_fail"], est["ess"], ev.n_runs)
-        if est["cov"] <= s["target_cov"]:
-            break
+    est = weighted_estimate(batches, z)
+    logging.getLogger("gearuq.failure").info(
+        "%s: pilot %d draws, estimate on %d fresh draws: pf %.4g, CoV %.3f, %d failing, "
+        "ESS %.1f, %d runs", tag, pilot["w"].size, n_est, est["pf"], est["cov"],
+        est["n_fail"], est["ess"], ev.n_runs)
+    est.update(n_pilot=int(pilot["w"].size), capped=bool(capped),
+               failing_u=np.concatenate([bt["u"][bt["fail"]] for bt in batches]),
+               failing_g=np.concatenate([bt["g"][bt["fail"]] for bt in batches]))
     return est
 
 
@@ -282,9 +369,13 @@ def weight_status(est: Mapping[str, float], target_cov: float, missed: str
         return (3, f"heavy-tailed weights (generalised Pareto shape k = {est['pareto_k']:.2f} "
                 f"> {PARETO_LIMIT}): the sample variance, and so the interval, is not reliable",
                 False, pf, lower, upper)
-    if est["cov"] > target_cov:
+    if est["cov"] > target_cov and est.get("capped", True):
         return (1, f"max_samples reached with CoV {est['cov']:.3f} > target {target_cov}",
                 False, pf, lower, upper)
+    if est["cov"] > OPTIMISTIC_PILOT * target_cov:
+        return (1, f"the pilot sized the estimate for CoV {target_cov} but it reached "
+                f"{est['cov']:.3f}: the pilot's draws understated the variance", False, pf,
+                lower, upper)
     return 0, "", False, pf, lower, upper
 
 
@@ -302,6 +393,11 @@ def weight_diagnostics(est: Mapping[str, float], samples: str
         "pareto_k": ((), est["pareto_k"], {"units": "1", "long_name":
                      "generalised Pareto shape of the largest contributions (> 0.7: the "
                      "interval is not reliable)"}),
+        "n_pilot_samples": ((), np.int64(est.get("n_pilot", 0)), {"units": "1", "long_name":
+                            f"{samples} of the pilot that sized the estimation stage (in the "
+                            "run count, not in the estimate)"}),
+        "n_estimation_samples": ((), np.int64(est["n"]), {"units": "1", "long_name":
+                                 f"{samples} of the estimate"}),
     }
     reasons: list[Reason] = []
     if est["n_invalid"]:
