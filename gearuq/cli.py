@@ -10,6 +10,26 @@ from collections.abc import Sequence
 from gearuq._version import __version__
 
 
+def _positive_int(text: str) -> int:
+    """An argparse type: an integer >= 1 (the option's name is added by argparse)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer; valid: 1, 2, ...") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is outside its valid range: integers >= 1")
+    return value
+
+
+def _folder(text: str) -> str:
+    """An argparse type: a folder name that is not empty (``""`` would write into the current
+    folder without saying so)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty folder name; give a folder to write into, "
+                                         "e.g. --out results")
+    return text
+
+
 def _cmd_models(args: argparse.Namespace) -> int:
     from gearuq import registry
 
@@ -103,6 +123,24 @@ def _cmd_info(args: argparse.Namespace) -> int:
         if len(text) > 300 and not args.full:
             text = text[:297] + "..."
         print(f"    {key}: {text}")
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from gearuq import io
+
+    if not args.csv:
+        raise ValueError("export: choose a format: --csv (one file per group of variables "
+                         "sharing dims, units in the headers); --xlsx is not offered: no "
+                         "spreadsheet writer is among gearuq's dependencies")
+    ds = io.load(args.file)
+    out = args.out or str(Path(args.file).with_suffix("")) + "_csv"
+    written = io.export_csv(ds, out)
+    print(f"{args.file}: {len(written) - 1} CSV file(s) and the provenance into {out}/")
+    for path in written:
+        print(f"  {path.name}")
     return 0
 
 
@@ -210,13 +248,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--full", action="store_true", help="do not shorten long attributes")
     p.set_defaults(func=_cmd_info)
 
+    p = sub.add_parser("export", help="a result as CSV files with units in the headers",
+                       description="Write a gearuq netCDF result as CSV files: one per group "
+                                   "of variables sharing dims, 'name [units]' headers, the "
+                                   "provenance in provenance.json beside them.")
+    p.add_argument("file", help="a .nc file written by gearuq")
+    p.add_argument("--csv", action="store_true", help="write CSV files (the one format)")
+    p.add_argument("--out", default=None, type=_folder,
+                   help="folder for the files (default: FILE without .nc, plus _csv)")
+    p.set_defaults(func=_cmd_export)
+
     p = sub.add_parser("demo", help="run the built-in helical-pair reliability study",
                        description="10^4-sample Monte Carlo reliability of the helical "
                                    "gear pair of Li, Hu and Han (their Table 2 space): R(t), "
                                    "beta, fitted distributions; "
                                    "writes netCDF and PNG into --out.")
-    p.add_argument("--out", default="gearuq_demo", help="output folder (default: gearuq_demo)")
-    p.add_argument("--n-samples", type=int, default=10_000, help="Monte Carlo samples")
+    p.add_argument("--out", default="gearuq_demo", type=_folder,
+                   help="output folder (default: gearuq_demo)")
+    p.add_argument("--n-samples", type=_positive_int, default=10_000,
+                   help="Monte Carlo samples")
     p.add_argument("--seed", type=int, default=20240607, help="random seed")
     p.add_argument("--executor", default=None, help="serial | processes | dask scheduler address")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -235,7 +285,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("study", help="run a packaged study",
                        description="Run a study registered under 'gearuq.studies'.")
     p.add_argument("name", help="study name (see `gearuq studies`)")
-    p.add_argument("--out", default=None, help="output folder (default: gearuq_<name>)")
+    p.add_argument("--out", default=None, type=_folder,
+                   help="output folder (default: gearuq_<name>)")
     p.add_argument("--quick", action="store_true",
                    help="a quick version of the study (smaller questions, fewer runs)")
     p.set_defaults(func=_cmd_study)
@@ -257,17 +308,18 @@ def build_parser() -> argparse.ArgumentParser:
                         "reliability: every failure-probability method side by side (with "
                         "--coverage: interval coverage over many seeds); or a "
                         "benchmark a plugin registers (`gearuq bench list`)")
-    p.add_argument("--out", default="gearuq_bench", help="output folder")
+    p.add_argument("--out", default="gearuq_bench", type=_folder, help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer samples and tolerances")
     p.add_argument("--coverage", action="store_true",
                    help="reliability only: mean, bias, empirical against reported CoV and "
                         "interval coverage of every method over many seeds (20 by default), "
                         "the helical pair included")
-    p.add_argument("--seeds", type=int, default=None, help="seeds per row (--coverage)")
+    p.add_argument("--seeds", type=_positive_int, default=None,
+                   help="seeds per row (--coverage)")
     p.add_argument("--problems", default=None,
                    help="comma-separated problems (--coverage): run only their rows and "
                         "replace only those rows of the docs tables")
-    p.add_argument("--workers", type=int, default=1,
+    p.add_argument("--workers", type=_positive_int, default=1,
                    help="parallel processes over the seeds (--coverage)")
     p.set_defaults(func=_cmd_bench)
     return parser

@@ -118,6 +118,12 @@ def run(
     """
     import gearuq
 
+    # refused before anything is written: a rejected run leaves no folder behind
+    if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)) \
+            or n_samples < 1:
+        raise ValueError(f"n_samples: {n_samples!r} is outside its valid range: integers >= 1")
+    if not str(out).strip():
+        raise ValueError("out: an empty folder name; give a folder to write into")
     if quick:
         n_samples = min(n_samples, 1000)
     wall0 = time.perf_counter()
