@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Sequence
 
@@ -84,18 +85,117 @@ def _cmd_studies(args: argparse.Namespace) -> int:
     return 0
 
 
+def _numpydoc_parameters(doc: str | None) -> dict[str, str]:
+    """``name -> description`` from the Parameters section of a numpydoc docstring."""
+    import inspect
+
+    lines = inspect.cleandoc(doc or "").splitlines()
+    heads = [i for i, line in enumerate(lines[:-1]) if line.strip() == "Parameters"
+             and lines[i + 1].strip() and set(lines[i + 1].strip()) == {"-"}]
+    out: dict[str, str] = {}
+    current: list[str] = []
+    for line in lines[heads[0] + 2:] if heads else []:
+        if not line.strip():
+            continue
+        if not line.startswith(" "):  # "name : type", or the next section's heading
+            if ":" not in line:
+                break
+            current = [n.strip() for n in line.split(":")[0].split(",")]
+            out.update({n: "" for n in current})
+        else:
+            for n in current:
+                out[n] = f"{out[n]} {line.strip()}".strip()
+    return out
+
+
+def _option_type(annotation: object, default: object) -> type | None:
+    """The command-line type of a study setting: from its default, else its annotation."""
+    if isinstance(default, bool):
+        return bool
+    if isinstance(default, (int, float, str)):
+        return type(default)
+    import inspect
+
+    if annotation is inspect.Parameter.empty:
+        return str  # no annotation, no typed default: the text as given
+    text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", "")
+    for word, kind in (("bool", bool), ("int", int), ("float", float), ("str", str),
+                       ("Path", str), ("Any", str)):
+        if word in str(text).replace("None", "").split(" | ") or str(text).startswith(word):
+            return kind
+    return None
+
+
+def study_parser(name: str, study: object) -> argparse.ArgumentParser:
+    """The command line of one study, derived from its run function.
+
+    One option per keyword of ``study``'s signature (``--n-base`` for ``n_base``), typed by
+    its default value or its annotation, with the help text of its numpydoc Parameters
+    entry; ``--out`` and ``--quick`` come first. Settings left out take the study's defaults.
+
+    Parameters
+    ----------
+    name : str
+        The study's registered name (shown as the program name).
+    study : callable
+        Its run function ``run(out, quick=False, **settings)``.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Parses the arguments after ``gearuq study NAME``; only options given on the command
+        line appear in the namespace.
+    """
+    import inspect
+
+    doc = inspect.getdoc(study) or ""
+    helps = _numpydoc_parameters(doc)
+    parser = argparse.ArgumentParser(
+        prog=f"gearuq study {name}", argument_default=argparse.SUPPRESS,
+        description=doc.split("\n\n")[0] + "\n\nOptions not given take the study's defaults.")
+    parameters = inspect.signature(study).parameters
+    for pname, par in parameters.items():
+        if par.kind not in (par.POSITIONAL_OR_KEYWORD, par.KEYWORD_ONLY):
+            continue
+        flag = "--" + pname.replace("_", "-")
+        text = re.sub(r":\w+:`~?([^`]+)`", r"\1", helps.get(pname, ""))  # Sphinx roles
+        if pname == "out":
+            parser.add_argument(flag, type=_folder, metavar="DIR",
+                                help=f"output folder (default: gearuq_{name})")
+            continue
+        default = None if par.default is par.empty else par.default
+        kind = _option_type(par.annotation, default)
+        shown = f" (default: {default!r})" if default is not None else ""
+        if kind is bool:
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction,
+                                help=(text or pname) + shown)
+        elif kind is not None:
+            parser.add_argument(flag, type=kind, metavar=kind.__name__.upper(),
+                                help=(text or pname) + shown)
+    return parser
+
+
 def _cmd_study(args: argparse.Namespace) -> int:
     import inspect
 
     from gearuq import registry
 
+    if args.name is None:
+        args.study_parser.print_help()
+        return 0 if args.help else 2
     study = registry.get_study(args.name)
-    kwargs: dict[str, object] = {"out": args.out or f"gearuq_{args.name}"}
-    if args.quick:
-        if "quick" not in inspect.signature(study).parameters:
-            raise ValueError(f"study {args.name!r} has no quick mode; run it without --quick")
-        kwargs["quick"] = True
-    return int(study(**kwargs) or 0)
+    if (args.quick or "--quick" in args.rest) and "quick" not in inspect.signature(
+            study).parameters:
+        raise ValueError(f"study {args.name!r} has no quick mode; run it without --quick")
+    own = study_parser(args.name, study)
+    rest = list(args.rest) + (["--help"] if args.help else [])
+    settings = vars(own.parse_args(rest))
+    if args.out is not None:
+        settings.setdefault("out", args.out)
+    settings.setdefault("out", f"gearuq_{args.name}")
+    if settings.pop("quick", False) or args.quick:
+        settings["quick"] = True
+    return int(study(**settings) or 0)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
@@ -282,14 +382,20 @@ def build_parser() -> argparse.ArgumentParser:
                                    "group (run one with `gearuq study NAME`).")
     p.set_defaults(func=_cmd_studies)
 
-    p = sub.add_parser("study", help="run a packaged study",
-                       description="Run a study registered under 'gearuq.studies'.")
-    p.add_argument("name", help="study name (see `gearuq studies`)")
+    p = sub.add_parser("study", help="run a packaged study", add_help=False,
+                       description="Run a study registered under 'gearuq.studies'. "
+                                   "`gearuq study NAME --help` lists the study's own options "
+                                   "(seed, sample counts, executor...).")
+    p.add_argument("-h", "--help", action="store_true",
+                   help="show this help, or with NAME the study's own options")
     p.add_argument("--out", default=None, type=_folder,
                    help="output folder (default: gearuq_<name>)")
     p.add_argument("--quick", action="store_true",
                    help="a quick version of the study (smaller questions, fewer runs)")
-    p.set_defaults(func=_cmd_study)
+    p.add_argument("name", nargs="?", help="study name (see `gearuq studies`)")
+    p.add_argument("rest", nargs=argparse.REMAINDER, metavar="...",
+                   help="the study's own options (see `gearuq study NAME --help`)")
+    p.set_defaults(func=_cmd_study, study_parser=p)
 
     p = sub.add_parser("compile", help="compile the models' kernels once (numba cache)",
                        description="Compile, or load from the on-disk numba cache, what a "

@@ -244,3 +244,114 @@ def test_chaospy_imported_first_leaves_numba_quiet():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()
     assert out == [str(20), "1"]
+
+
+# =========================================================================== study options
+def test_every_study_help_lists_its_own_options(capsys):
+    import inspect
+
+    from gearuq import registry
+
+    for name in registry.list_studies():
+        study = registry.get_study(name)
+        with pytest.raises(SystemExit) as exc:
+            cli.main(["study", name, "--help"])
+        assert exc.value.code == 0
+        text = capsys.readouterr().out
+        for pname in inspect.signature(study).parameters:
+            assert "--" + pname.replace("_", "-") in text, (name, pname)
+
+
+def test_study_options_reach_the_run_function_typed(monkeypatch, tmp_path, capsys):
+    from gearuq import registry
+
+    seen = {}
+
+    def fake(out: str = "x", quick: bool = False, n: int | None = None, limit: float = 1.0,
+             executor=None, progress: bool = True) -> int:
+        """A study.
+
+        Parameters
+        ----------
+        out : path
+            Folder.
+        n : int, optional
+            Samples per grade
+            (a second line).
+        limit : float
+            The limit [um].
+        """
+        seen.update(out=out, quick=quick, n=n, limit=limit, executor=executor,
+                    progress=progress)
+        return 0
+
+    monkeypatch.setattr(registry, "get_study", lambda name: fake)
+    with pytest.raises(SystemExit):
+        cli.main(["study", "fake", "-h"])
+    text = capsys.readouterr().out
+    assert "Samples per grade (a second line)" in text and "The limit [um]" in text
+    assert cli.main(["study", "--quick", "fake", "--n", "7", "--limit", "2.5",
+                     "--executor", "serial", "--no-progress", "--out", str(tmp_path)]) == 0
+    assert seen == {"out": str(tmp_path), "quick": True, "n": 7, "limit": 2.5,
+                    "executor": "serial", "progress": False}
+    seen.clear()
+    assert cli.main(["study", "fake"]) == 0  # nothing given: the study's own defaults
+    assert seen == {"out": "gearuq_fake", "quick": False, "n": None, "limit": 1.0,
+                    "executor": None, "progress": True}
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["study", "fake", "--n", "seven"])
+    assert exc.value.code == 2 and "argument --n: invalid int value: 'seven'" in \
+        capsys.readouterr().err
+
+
+# =========================================================================== status, quick
+def test_describe_status_of_a_report_and_of_samples():
+    from gearuq.failure.report import REPORT_STATUS, STATUS_TEXT, describe_status
+    from gearuq.model import status_attrs
+
+    reasons = [{"status": 3, "meaning": "weights_degenerate", "message": "two draws carry 60 %"},
+               {"status": 6, "meaning": "invalid_samples", "message": "2 of 90 runs invalid"}]
+    rep = xr.Dataset({"status": ((), np.int8(3))},
+                     attrs={"status_reasons": json.dumps(reasons), "message": "x"})
+    assert describe_status(rep) == ("status 3 (weights_degenerate): two draws carry 60 %; "
+                                    "2 of 90 runs invalid [status 6]")
+    rep = xr.Dataset({"status": ((), np.int8(4))})  # no reasons recorded: the table's words
+    assert describe_status(rep) == f"status 4 ({REPORT_STATUS[4]}): {STATUS_TEXT[4]}"
+    assert describe_status(xr.Dataset({"status": ((), np.int8(0))})) == "status 0 (ok)"
+    codes = np.array([0, 1, 0, 3, 1, 0], np.int8)
+    ds = xr.Dataset({"status": ("sample", codes, status_attrs({16: "contact lost"}))})
+    assert describe_status(ds) == ("status: 3 of 6 samples failed: 2 x 1 (step limit "
+                                   "reached), 1 x 3 (non finite state)")
+    assert describe_status(ds["status"] * 0) == "status: all 6 samples ok"
+    with pytest.raises(ValueError, match="holds no 'status' variable"):
+        describe_status(xr.Dataset({"a": 1.0}))
+    with pytest.raises(TypeError, match="result: expected an xarray"):
+        describe_status({"status": 0})
+
+
+def test_quick_run_prints_and_stamps_every_figure_saved_inside(tmp_path, capsys):
+    from matplotlib.figure import Figure
+
+    from gearuq.plot import quick_run, save_figure
+
+    def text_of(fig):
+        return [t.get_text() for t in fig.texts]
+
+    with quick_run(True, 8, "the Sobol' indices") as mark:
+        fig = Figure()
+        fig.add_subplot().plot([0, 1])
+        save_figure(fig, tmp_path / "a.png")
+    assert mark == "quick: 8 runs, not a result"
+    assert capsys.readouterr().out == "quick: 8 runs, not a result; left out: the Sobol' indices\n"
+    assert text_of(fig) == [mark] and (tmp_path / "a.png").stat().st_size > 0
+    after = Figure()
+    save_figure(after, tmp_path / "b.png")  # outside the block: no mark
+    with quick_run(False, 8, "x") as mark:
+        save_figure(fig2 := Figure(), tmp_path / "c.png")
+    assert text_of(after) == [] and text_of(fig2) == [] and mark == ""
+    with pytest.raises(ValueError, match="runs: expected a positive number"):
+        with quick_run(True, 0, "x"):
+            pass
+    with pytest.raises(ValueError, match="left_out: say in words"):
+        with quick_run(True, "a few", " "):
+            pass

@@ -27,7 +27,7 @@ from scipy import linalg, stats
 from gearuq.engines.common import provenance
 from gearuq.failure.evaluator import LimitStateEvaluator
 
-__all__ = ["failure_report", "REPORT_STATUS", "STATUS_TEXT", "Reason"]
+__all__ = ["failure_report", "REPORT_STATUS", "STATUS_TEXT", "Reason", "describe_status"]
 
 #: Meaning of the report's ``status`` flag (short name).
 REPORT_STATUS = {
@@ -233,3 +233,71 @@ def _design_point_vars(ev: LimitStateEvaluator, design_points: Sequence[Mapping[
     }
 
 
+
+
+def _flag_meanings(status: xr.DataArray) -> dict[int, str]:
+    """``flag_values`` -> ``flag_meanings`` of a CF flag variable (words, not underscores)."""
+    codes = np.atleast_1d(status.attrs.get("flag_values", []))
+    words = str(status.attrs.get("flag_meanings", "")).split()
+    return {int(c): w.replace("_", " ") for c, w in zip(codes, words, strict=False)}
+
+
+def describe_status(result: xr.Dataset | xr.DataArray) -> str:
+    """The status of a result in words: the one line every study and command prints.
+
+    Parameters
+    ----------
+    result : xarray.Dataset or xarray.DataArray
+        A failure-probability report (scalar ``status``, reasons in ``attrs``), any result
+        with a per-sample ``status`` variable (a model's or an engine's, CF ``flag_values``
+        and ``flag_meanings``), or that ``status`` variable itself.
+
+    Returns
+    -------
+    str
+        For a report: ``"status 0 (ok)"``, or ``"status 3 (weights_degenerate): <what the
+        method could not vouch for>"`` with every reason the report lists. For per-sample
+        status: ``"status: all 400 samples ok"``, or ``"status: 3 of 400 samples failed:
+        2 x 1 (step limit reached), 1 x 3 (non finite state)"``.
+
+    Raises
+    ------
+    TypeError
+        If ``result`` is neither a Dataset nor a DataArray.
+    ValueError
+        If it holds no ``status`` variable.
+    """
+    if isinstance(result, xr.Dataset):
+        if "status" not in result:
+            raise ValueError("result: holds no 'status' variable to describe; variables: "
+                             + ", ".join(map(str, result.data_vars)))
+        status, attrs = result["status"], result.attrs
+    elif isinstance(result, xr.DataArray):
+        status, attrs = result, {}
+    else:
+        raise TypeError(f"result: expected an xarray Dataset or DataArray, got "
+                        f"{type(result).__name__}")
+    if status.ndim == 0:  # one outcome: a failure-probability report
+        code = int(status.values)
+        name = REPORT_STATUS.get(code, _flag_meanings(status).get(code, "unknown"))
+        if code == 0:
+            return f"status 0 ({name})"
+        try:
+            reasons = json.loads(attrs.get("status_reasons", "[]"))
+        except (TypeError, ValueError):
+            reasons = []
+        words = "; ".join(f"{r['message']}" + (f" [status {r['status']}]"
+                                                if int(r["status"]) != code else "")
+                          for r in reasons) or attrs.get("message") or STATUS_TEXT.get(
+                              code, "no meaning recorded")
+        return f"status {code} ({name}): {words}"
+    values = np.asarray(status.values).ravel()
+    bad = values[values != 0]
+    what = "samples" if "sample" in status.dims else "values"
+    if bad.size == 0:
+        return f"status: all {values.size} {what} ok"
+    meanings = _flag_meanings(status)
+    codes, counts = np.unique(bad, return_counts=True)
+    parts = ", ".join(f"{n} x {int(c)} ({meanings.get(int(c), 'no meaning recorded')})"
+                      for c, n in zip(codes, counts, strict=True))
+    return f"status: {bad.size} of {values.size} {what} failed: {parts}"
