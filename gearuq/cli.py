@@ -210,8 +210,9 @@ def _cmd_info(args: argparse.Namespace) -> int:
         role = var.attrs.get("role", "")
         print(f"    {name:<24} {'(' + ', '.join(var.dims) + ')':<24} [{units}] {role}")
     if "status" in ds:
-        n_bad = int((ds["status"] != 0).sum())
-        print(f"  failed samples (status != 0): {n_bad} of {ds.sizes.get('sample', 0)}")
+        from gearuq.failure.report import describe_status
+
+        print(f"  {describe_status(ds)}")
     print("  provenance:")
     for key, value in ds.attrs.items():
         text = str(value)

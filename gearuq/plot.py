@@ -10,8 +10,10 @@ where available.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import sys
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -31,6 +33,7 @@ __all__ = [
     "plot_reliability_curves",
     "plot_time_panels",
     "plot_work_precision",
+    "quick_mode",
     "quick_run",
     "save_figure",
 ]
@@ -726,3 +729,42 @@ def quick_run(quick: bool, runs: int | str, left_out: str) -> Iterator[str]:
         yield mark
     finally:
         _QUICK_MARK = previous
+
+
+def quick_mode(runs: int | str | Callable[[Mapping[str, Any]], int | str], left_out: str
+               ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Decorate a study's ``run(out, quick=False, ...)`` so a quick call runs in :func:`quick_run`.
+
+    Parameters
+    ----------
+    runs : int, str or callable
+        What the quick run computes (see :func:`quick_run`); a callable receives the call's
+        arguments (defaults applied) by name and returns it, so a setting that overrides the
+        quick size is reported as run.
+    left_out : str
+        What the quick run leaves out, in words.
+
+    Returns
+    -------
+    callable
+        The decorator; the decorated function keeps the signature and docstring of ``run``
+        (``gearuq study NAME --help`` reads them).
+    """
+    def decorate(run: Callable[..., Any]) -> Callable[..., Any]:
+        signature = inspect.signature(run)
+        if "quick" not in signature.parameters:
+            raise ValueError(f"quick_mode: {run.__qualname__} has no 'quick' parameter")
+
+        @functools.wraps(run)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            bound = signature.bind(*args, **kwargs)
+            bound.apply_defaults()
+            quick = bool(bound.arguments["quick"])
+            what = runs(bound.arguments) if callable(runs) and quick else runs
+            with quick_run(quick, what, left_out):
+                return run(*args, **kwargs)
+
+        wrapper.quick_left_out = left_out  # type: ignore[attr-defined]
+        return wrapper
+
+    return decorate

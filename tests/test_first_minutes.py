@@ -355,3 +355,15 @@ def test_quick_run_prints_and_stamps_every_figure_saved_inside(tmp_path, capsys)
     with pytest.raises(ValueError, match="left_out: say in words"):
         with quick_run(True, "a few", " "):
             pass
+
+
+def test_every_study_has_a_marked_quick_mode_that_keeps_its_signature():
+    import inspect
+
+    from gearuq import registry
+
+    for name in registry.list_studies():
+        study = registry.get_study(name)
+        assert "quick" in inspect.signature(study).parameters, name
+        assert study.quick_left_out.strip(), name  # what quick_mode records
+        assert inspect.signature(study) == inspect.signature(study.__wrapped__), name

@@ -30,6 +30,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 import gearuq
+from gearuq import plot
 from gearuq.plot import save_figure
 
 TORQUES = (200.0, 350.0, 600.0, 1000.0)
@@ -108,6 +109,11 @@ def figure_pair(ds: xr.Dataset, cases: list[str], var_t: str, var_s: str, scale:
     return fig
 
 
+@plot.quick_mode(
+    "3 rotor runs on a coarse LTCA",
+    left_out=(
+        "the fine LTCA (24 x 20 instead of 16 x 12 per mesh cycle) and 1201 instants per "
+        "revolution (601 here)"))
 def run(out: str | Path = "gearuq_geared_rotor_spectra", quick: bool = False,
         paper_rotor: bool = False) -> int:
     """DTE and bearing-acceleration spectra of Yuan, Liu and Liu's geared rotor, Figs. 11-12, 15-16.

@@ -38,6 +38,7 @@ import numpy as np
 import xarray as xr
 
 import gearuq
+from gearuq import plot
 from gearuq.gears.geometry import seed000_pair
 
 
@@ -125,6 +126,11 @@ def helical_curve(e_a: float, f_mesh: np.ndarray, z1: float, quick: bool):
     return amp, wall, ds["status"].values
 
 
+@plot.quick_mode(
+    "41 frequency points per model",
+    left_out=(
+        "81 frequency points, LTCA tables of 32 x 20 (16 x 10 here) and helical_pair "
+        "integrated over tau in [0, 800] ([0, 400] here)"))
 def run(out: str | Path = "gearuq_model_fidelity", quick: bool = False) -> int:
     """Resonant DTE of Li, Hu and Han's pair by the SDOF mesh oscillator and the 10-DOF model.
 
@@ -213,7 +219,7 @@ def run(out: str | Path = "gearuq_model_fidelity", quick: bool = False) -> int:
     fig.suptitle("Same question, three fidelities (dashed: downward sweep path of the "
                  "perturbation solution)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(out / "dte_vs_mesh_frequency.png", dpi=120)
+    plot.save_figure(fig, out / "dte_vs_mesh_frequency.png", dpi=120)
     plt.close(fig)
     gearuq.save(xr.Dataset({k.replace(" ", "_").replace(",", "").replace("(", "").replace(
         ")", "").replace("=", "_"): ("frequency", v, {"units": "um"}) for k, v in store.items()},

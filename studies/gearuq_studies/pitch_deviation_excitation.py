@@ -39,6 +39,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 import gearuq
+from gearuq import plot
 from gearuq.gears.compliance import ComplianceModel
 from gearuq.gears.deviations import (
     FlankDeviations,
@@ -296,6 +297,11 @@ def readings(pair, comp, seed: int, grid: dict | None = None) -> dict[str, list]
     return res
 
 
+@plot.quick_mode(
+    "LTCA at 12 positions x 10 points per mesh cycle",
+    left_out=(
+        "the 24 x 20 LTCA, the tip-relief map on 21 x 20 (8 x 8 here), the ISO chart at 12 "
+        "tooth numbers (5) and the coupling length at 8 values (4)"))
 def run(out: str | Path = "gearuq_pitch_deviation_excitation", quick: bool = False,
         seed: int = 2020) -> int:
     """LTCA of Yuan, Liu and Liu's helical pair with random pitch deviations (Figs. 8-10, 14).
