@@ -79,6 +79,7 @@ def _dies_on_marked_sample(x1, x2):
     return x1 + x2
 
 
+@pytest.mark.e2e
 def test_a_sample_that_kills_its_worker_is_isolated():
     model = gearuq.FunctionModel(_dies_on_marked_sample, ["x1", "x2"], ["y"], name="crashy")
     design = SPACE.sample(48, rng=11)
