@@ -63,8 +63,8 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 templates_path = ["_templates"]
-# gallery/ holds the sources sphinx-gallery turns into auto_examples/
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "gallery"]
+# gallery/ holds the sources sphinx-gallery turns into auto_examples/; _vendor/ the npm MathJax
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "gallery", "_vendor"]
 
 # MyST: $...$ / $$...$$ and amsmath environments render as MathJax; headings get anchors so
 # links like ``architecture.md#status-codes`` resolve.

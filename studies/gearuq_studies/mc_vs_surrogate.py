@@ -212,6 +212,8 @@ def run(out: str | Path = "gearuq_mc_vs_surrogate", quick: bool = False, full: b
         for method, marker in (("MC", "o-"), ("PCE LS", "s-"), ("PCE sparse", "^-"),
                                ("PCE sparse (other design)", "v")):
             sel = [r for r in rows if r["method"] == method]
+            if not sel:  # e.g. no extra designs in the quick run: no legend entry without a point
+                continue
             ax.plot([r[xkey] for r in sel], [max(r["err_sys"], 1e-5) for r in sel], marker,
                     label=method)
             for r in sel:

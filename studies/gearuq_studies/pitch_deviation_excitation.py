@@ -85,7 +85,8 @@ def fig09(runs: list[xr.Dataset], out: Path) -> None:
         axs[1].plot(r["tau"], r["lpms_tangent"], lw=0.8, color=c)
         axs[2].plot(r["tau"], r["ste"], lw=0.8, color=c)
         axs[3].plot(r["tau"], r["cms"], lw=0.8, color=c)
-    for ax, lab in zip(axs, ("LPMS secant (Yuan et al. Eq. 4) [N/um]", "LPMS tangent [N/um]",
+    # two lines: one line of the secant label is longer than its panel is tall (it was clipped)
+    for ax, lab in zip(axs, ("LPMS secant [N/um]\n(Yuan et al. Eq. 4)", "LPMS tangent [N/um]",
                              "STE (normal) [um]", "CMS [um]"), strict=True):
         ax.set_ylabel(lab)
     axs[3].set_xlabel("mesh position [mesh cycles]")
