@@ -367,3 +367,44 @@ def test_every_study_has_a_marked_quick_mode_that_keeps_its_signature():
         assert "quick" in inspect.signature(study).parameters, name
         assert study.quick_left_out.strip(), name  # what quick_mode records
         assert inspect.signature(study) == inspect.signature(study.__wrapped__), name
+
+
+# =========================================================================== compile notice
+def test_the_first_compile_of_a_gearuq_kernel_says_so_once_and_a_cache_load_does_not(tmp_path):
+    from importlib.metadata import entry_points
+
+    eps = [ep.value for ep in entry_points(group="numba_extensions", name="init")]
+    assert "gearuq._compile_notice:init" in eps
+    # a tiny kernel that numba takes for the linear oscillator's (its __module__ says so),
+    # compiled twice in one process (announced once) and then loaded from the disk cache by a
+    # second process (not announced)
+    code = ("import sys, types, numba\n"
+            "mod = types.ModuleType('gearuq_plugins.linear_oscillator.probe')\n"
+            "sys.modules[mod.__name__] = mod\n"
+            f"mod.__file__ = {str(tmp_path / 'probe.py')!r}\n"
+            "src = 'def f(x):\\n    return 2.0 * x\\ndef g(x):\\n    return x + 1\\n'\n"
+            "open(mod.__file__, 'w').write(src)\n"
+            "exec(compile(src, mod.__file__, 'exec'), mod.__dict__)\n"
+            "f = numba.njit(cache=True)(mod.f); g = numba.njit(cache=True)(mod.g)\n"
+            "print(f(1.5), g(2))\n")
+    env = {**__import__("os").environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("GEARUQ_QUIET_COMPILE", None)
+    first = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           env=env, check=True)
+    assert first.stdout.split() == ["3.0", "3"]
+    notes = [line for line in first.stderr.splitlines() if line.startswith("gearuq: compiling")]
+    assert notes == ["gearuq: compiling the linear oscillator's numba kernels (once per "
+                     "install: later runs load them from the cache; `gearuq compile` does it "
+                     "ahead) ..."]
+    again = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           env=env, check=True)
+    assert again.stdout.split() == ["3.0", "3"] and "gearuq: compiling" not in again.stderr
+
+
+def test_compile_notice_families():
+    from gearuq import _compile_notice as notice
+
+    assert notice.family_of("gearuq.ode.kernel") == "gearuq.ode"
+    assert notice.family_of("gearuq.odex") is None and notice.family_of("numpy.linalg") is None
+    assert notice.family_of("gearuq_plugins.helical_pair.kernel") == \
+        "gearuq_plugins.helical_pair"
