@@ -408,3 +408,20 @@ def test_compile_notice_families():
     assert notice.family_of("gearuq.odex") is None and notice.family_of("numpy.linalg") is None
     assert notice.family_of("gearuq_plugins.helical_pair.kernel") == \
         "gearuq_plugins.helical_pair"
+
+
+def test_per_model_first_call_table(monkeypatch):
+    from gearuq.bench import core
+
+    with pytest.raises(ValueError, match=r"models: \['nope'\] have no first-call probe"):
+        core.model_first_calls(["nope"])
+    res = core.model_first_calls(["linear_oscillator"])
+    (row,) = res["rows"]
+    assert row["model"] == "linear_oscillator" and row["status"] == 0
+    # imports are inside the timed first call: a fresh interpreter's first call costs more CPU
+    # than the same call again in the warm process
+    assert row["cold_cpu"] > row["again_cpu"] and row["warm_cpu"] > row["again_cpu"]
+    table = core.render_model_first_calls(res)
+    assert (f"| linear_oscillator | displacement, 101 instants | {row['cold_cpu']:.2f} "
+            f"({row['cold_wall']:.2f}) | {row['warm_cpu']:.2f}") in table
+    assert set(core.MODEL_FIRST_CALLS) == set(gearuq.list_models())
