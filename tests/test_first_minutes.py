@@ -425,3 +425,14 @@ def test_per_model_first_call_table(monkeypatch):
     assert (f"| linear_oscillator | displacement, 101 instants | {row['cold_cpu']:.2f} "
             f"({row['cold_wall']:.2f}) | {row['warm_cpu']:.2f}") in table
     assert set(core.MODEL_FIRST_CALLS) == set(gearuq.list_models())
+
+
+def test_info_prints_a_reports_status_in_words(tmp_path, capsys):
+    reasons = [{"status": 4, "meaning": "upper_bound_only",
+                "message": "no failure in 300 runs: pf is an upper bound"}]
+    rep = xr.Dataset({"pf": ((), 0.0, {"units": "1"}), "status": ((), np.int8(4))},
+                     attrs={"status_reasons": json.dumps(reasons), "method": "mc"})
+    gearuq.save(rep, tmp_path / "rep.nc")
+    assert cli.main(["info", str(tmp_path / "rep.nc")]) == 0
+    out = capsys.readouterr().out
+    assert "status 4 (upper_bound_only): no failure in 300 runs: pf is an upper bound" in out
