@@ -171,6 +171,7 @@ def test_quick_model_fidelity(tmp_path):
     assert np.nanmax(free) == pytest.approx(hp.max(), rel=0.15)
 
 
+@pytest.mark.e2e
 def test_quick_sensitivity_ranking(tmp_path):
     _run_quick("sensitivity_ranking", tmp_path)
     ds = gearuq.load(tmp_path / "indices_tau200.nc").isel(time=0)
@@ -182,6 +183,7 @@ def test_quick_sensitivity_ranking(tmp_path):
     assert (tmp_path / "ranking.md").exists()
 
 
+@pytest.mark.e2e
 def test_quick_helical_pair_dynamics(tmp_path):
     _run_quick("helical_pair_dynamics", tmp_path)
     ds = gearuq.load(tmp_path / "dynamics.nc")
@@ -196,6 +198,7 @@ def test_quick_helical_pair_dynamics(tmp_path):
     assert freq[np.argmax(spec)] == pytest.approx(1.0 / period, rel=0.02)
 
 
+@pytest.mark.e2e
 def test_quick_pitch_deviation_excitation(tmp_path):
     _run_quick("pitch_deviation_excitation", tmp_path)
     ds = gearuq.load(tmp_path / "ltca_long_period.nc")
