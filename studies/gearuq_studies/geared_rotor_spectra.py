@@ -31,6 +31,7 @@ from matplotlib.figure import Figure
 
 import gearuq
 from gearuq import plot
+from gearuq.failure.report import describe_status
 from gearuq.plot import save_figure
 
 TORQUES = (200.0, 350.0, 600.0, 1000.0)
@@ -190,7 +191,7 @@ def report(loads: xr.Dataset, relief: xr.Dataset, wall: float) -> None:
     """Print Yuan et al.'s claims beside what the model gives."""
     print(f"geared_rotor spectra: 6 steady states (LTCA + reduction + harmonic balance) in "
           f"{wall:.1f} s (shared machine; provisional)")
-    print("status:", loads["status"].values.tolist(), relief["status"].values.tolist())
+    print(f"torques: {describe_status(loads)}; reliefs: {describe_status(relief)}")
     print("\nFig. 11/12 (4000 rpm, unmodified, random pitch deviations 15 um / 3 um)")
     print(" torque | DTE rms  A(f_s)  A(f_m) max side (at)  A(2fm) side2 (at) | acc rms  "
           "A(f_m) max side (at) A(2fm) side2 (at) | contact loss")

@@ -43,6 +43,7 @@ from matplotlib.figure import Figure
 
 import gearuq
 from gearuq import plot
+from gearuq.failure.report import describe_status
 from gearuq.gears.deviations import iso1328_pitch_tolerances
 from gearuq.model import Output
 from gearuq.plot import save_figure
@@ -93,7 +94,8 @@ def run_cases(model, values: dict, opts: dict) -> xr.Dataset:
     ds = model.response(values, t, outputs=["ste", "ste_ptp", "ste_spectrum",
                                             "contact_loss_fraction"], **opts)
     if int((ds["status"] != 0).sum()):
-        raise RuntimeError(f"{int((ds['status'] != 0).sum())} samples failed: {ds.attrs}")
+        raise RuntimeError(f"the LTCA failed where the study needs every realisation: "
+                           f"{describe_status(ds)}")
     ds["mesh_band_rms"] = ("sample", mesh_band_rms(ds["ste"].values, ppc, n_cycles),
                            {"units": "um", "long_name": "STE RMS within +-0.5 mesh orders of "
                             "mesh orders 1-3"})
