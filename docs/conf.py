@@ -63,8 +63,8 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 templates_path = ["_templates"]
-# gallery/ holds the sources sphinx-gallery turns into auto_examples/
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "gallery"]
+# gallery/ holds the sources sphinx-gallery turns into auto_examples/; _vendor/ the npm MathJax
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "gallery", "_vendor"]
 
 # MyST: $...$ / $$...$$ and amsmath environments render as MathJax; headings get anchors so
 # links like ``architecture.md#status-codes`` resolve.
@@ -86,15 +86,33 @@ numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 
-# MathJax: the pages load it from Sphinx's default CDN URL (nothing is fetched at build time,
-# so the build itself works offline). GEARUQ_DOCS_MATHJAX points the pages at a local copy
-# instead, for viewing them without a network (e.g. a headless-browser check):
-#   GEARUQ_DOCS_MATHJAX=/usr/share/javascript/mathjax   (Debian's libjs-mathjax, MathJax 2)
-# A directory, a file (MathJax.js of MathJax 2, or a v3/v4 bundle such as tex-mml-chtml.js)
-# or a URL; a MathJax 2 entry point gets the TeX configuration MathJax 2 needs.
+# MathJax, offline: the site ships its own copy of MathJax 3 (the single-file bundle
+# tex-mml-svg.js: SVG output, fonts inside, nothing else fetched), taken from the npm package
+# `mathjax` that `npm install --prefix docs/_vendor mathjax@3.2.2` puts in docs/_vendor (.ci/run
+# does; docs/dependencies.md says why). Without it the pages fall back to Sphinx's CDN URL and
+# need a network to show equations; the build itself never fetches anything.
+# GEARUQ_DOCS_MATHJAX overrides both: a directory, a file (MathJax.js of MathJax 2, e.g.
+# Debian's libjs-mathjax in /usr/share/javascript/mathjax, or a v3/v4 bundle) or a URL; a
+# MathJax 2 entry point gets the TeX configuration MathJax 2 needs.
+VENDORED_MATHJAX = Path(__file__).parent / "_vendor/node_modules/mathjax/es5/tex-mml-svg.js"
+html_static_path: list[str] = []
 _mathjax_local, _mathjax2_local = _local_mathjax(os.environ.get("GEARUQ_DOCS_MATHJAX", ""))
 if _mathjax_local:
     mathjax_path = _mathjax_local
+elif VENDORED_MATHJAX.is_file():
+    # only the one file goes into _static (the npm package holds 24 MB of other components)
+    _staged = Path(__file__).parent / "_vendor/static/mathjax"
+    _staged.mkdir(parents=True, exist_ok=True)
+    if not (_staged / VENDORED_MATHJAX.name).is_file() or (
+            _staged / VENDORED_MATHJAX.name).stat().st_size != VENDORED_MATHJAX.stat().st_size:
+        import shutil
+
+        shutil.copy2(VENDORED_MATHJAX, _staged / VENDORED_MATHJAX.name)
+    html_static_path.append("_vendor/static")
+    mathjax_path = f"mathjax/{VENDORED_MATHJAX.name}"  # relative: served from _static
+else:
+    print("gearuq docs: no vendored MathJax (npm install --prefix docs/_vendor "
+          "mathjax@3.2.2): the pages load it from the CDN and need a network for equations")
 if _mathjax2_local:
     mathjax2_config = _mathjax2_local
 

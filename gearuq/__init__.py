@@ -7,9 +7,17 @@ stay cheap (no numba, chaospy or dask import until an engine is used).
 from __future__ import annotations
 
 import importlib
+import sys
 from typing import Any
 
 from gearuq._version import __version__
+
+if "chaospy" in sys.modules or "numpoly" in sys.modules:
+    # imported before gearuq, they set the root logger to DEBUG: numba then formats its
+    # compile log (a quarter of a cold compile); undo it now, before anything compiles
+    from gearuq._chaospy import undo_chaospy_logging
+
+    undo_chaospy_logging()
 
 _LAZY = {
     # models, studies, registry
@@ -56,6 +64,7 @@ _LAZY = {
     "load": "gearuq.io",
     # the gear stage
     "GearStage": "gearuq.gears.stage",
+    "export_csv": "gearuq.io",
 }
 
 _SUBMODULES = {

@@ -4,10 +4,31 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Sequence
 
 from gearuq._version import __version__
+
+
+def _positive_int(text: str) -> int:
+    """An argparse type: an integer >= 1 (the option's name is added by argparse)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer; valid: 1, 2, ...") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is outside its valid range: integers >= 1")
+    return value
+
+
+def _folder(text: str) -> str:
+    """An argparse type: a folder name that is not empty (``""`` would write into the current
+    folder without saying so)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty folder name; give a folder to write into, "
+                                         "e.g. --out results")
+    return text
 
 
 def _cmd_models(args: argparse.Namespace) -> int:
@@ -70,18 +91,117 @@ def _cmd_studies(args: argparse.Namespace) -> int:
     return 0
 
 
+def _numpydoc_parameters(doc: str | None) -> dict[str, str]:
+    """``name -> description`` from the Parameters section of a numpydoc docstring."""
+    import inspect
+
+    lines = inspect.cleandoc(doc or "").splitlines()
+    heads = [i for i, line in enumerate(lines[:-1]) if line.strip() == "Parameters"
+             and lines[i + 1].strip() and set(lines[i + 1].strip()) == {"-"}]
+    out: dict[str, str] = {}
+    current: list[str] = []
+    for line in lines[heads[0] + 2:] if heads else []:
+        if not line.strip():
+            continue
+        if not line.startswith(" "):  # "name : type", or the next section's heading
+            if ":" not in line:
+                break
+            current = [n.strip() for n in line.split(":")[0].split(",")]
+            out.update({n: "" for n in current})
+        else:
+            for n in current:
+                out[n] = f"{out[n]} {line.strip()}".strip()
+    return out
+
+
+def _option_type(annotation: object, default: object) -> type | None:
+    """The command-line type of a study setting: from its default, else its annotation."""
+    if isinstance(default, bool):
+        return bool
+    if isinstance(default, (int, float, str)):
+        return type(default)
+    import inspect
+
+    if annotation is inspect.Parameter.empty:
+        return str  # no annotation, no typed default: the text as given
+    text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", "")
+    for word, kind in (("bool", bool), ("int", int), ("float", float), ("str", str),
+                       ("Path", str), ("Any", str)):
+        if word in str(text).replace("None", "").split(" | ") or str(text).startswith(word):
+            return kind
+    return None
+
+
+def study_parser(name: str, study: object) -> argparse.ArgumentParser:
+    """The command line of one study, derived from its run function.
+
+    One option per keyword of ``study``'s signature (``--n-base`` for ``n_base``), typed by
+    its default value or its annotation, with the help text of its numpydoc Parameters
+    entry; ``--out`` and ``--quick`` come first. Settings left out take the study's defaults.
+
+    Parameters
+    ----------
+    name : str
+        The study's registered name (shown as the program name).
+    study : callable
+        Its run function ``run(out, quick=False, **settings)``.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Parses the arguments after ``gearuq study NAME``; only options given on the command
+        line appear in the namespace.
+    """
+    import inspect
+
+    doc = inspect.getdoc(study) or ""
+    helps = _numpydoc_parameters(doc)
+    parser = argparse.ArgumentParser(
+        prog=f"gearuq study {name}", argument_default=argparse.SUPPRESS,
+        description=doc.split("\n\n")[0] + "\n\nOptions not given take the study's defaults.")
+    parameters = inspect.signature(study).parameters
+    for pname, par in parameters.items():
+        if par.kind not in (par.POSITIONAL_OR_KEYWORD, par.KEYWORD_ONLY):
+            continue
+        flag = "--" + pname.replace("_", "-")
+        text = re.sub(r":\w+:`~?([^`]+)`", r"\1", helps.get(pname, ""))  # Sphinx roles
+        if pname == "out":
+            parser.add_argument(flag, type=_folder, metavar="DIR",
+                                help=f"output folder (default: gearuq_{name})")
+            continue
+        default = None if par.default is par.empty else par.default
+        kind = _option_type(par.annotation, default)
+        shown = f" (default: {default!r})" if default is not None else ""
+        if kind is bool:
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction,
+                                help=(text or pname) + shown)
+        elif kind is not None:
+            parser.add_argument(flag, type=kind, metavar=kind.__name__.upper(),
+                                help=(text or pname) + shown)
+    return parser
+
+
 def _cmd_study(args: argparse.Namespace) -> int:
     import inspect
 
     from gearuq import registry
 
+    if args.name is None:
+        args.study_parser.print_help()
+        return 0 if args.help else 2
     study = registry.get_study(args.name)
-    kwargs: dict[str, object] = {"out": args.out or f"gearuq_{args.name}"}
-    if args.quick:
-        if "quick" not in inspect.signature(study).parameters:
-            raise ValueError(f"study {args.name!r} has no quick mode; run it without --quick")
-        kwargs["quick"] = True
-    return int(study(**kwargs) or 0)
+    if (args.quick or "--quick" in args.rest) and "quick" not in inspect.signature(
+            study).parameters:
+        raise ValueError(f"study {args.name!r} has no quick mode; run it without --quick")
+    own = study_parser(args.name, study)
+    rest = list(args.rest) + (["--help"] if args.help else [])
+    settings = vars(own.parse_args(rest))
+    if args.out is not None:
+        settings.setdefault("out", args.out)
+    settings.setdefault("out", f"gearuq_{args.name}")
+    if settings.pop("quick", False) or args.quick:
+        settings["quick"] = True
+    return int(study(**settings) or 0)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
@@ -96,8 +216,9 @@ def _cmd_info(args: argparse.Namespace) -> int:
         role = var.attrs.get("role", "")
         print(f"    {name:<24} {'(' + ', '.join(var.dims) + ')':<24} [{units}] {role}")
     if "status" in ds:
-        n_bad = int((ds["status"] != 0).sum())
-        print(f"  failed samples (status != 0): {n_bad} of {ds.sizes.get('sample', 0)}")
+        from gearuq.failure.report import describe_status
+
+        print(f"  {describe_status(ds)}")
     print("  provenance:")
     for key, value in ds.attrs.items():
         text = str(value)
@@ -109,6 +230,24 @@ def _cmd_info(args: argparse.Namespace) -> int:
         if len(text) > 300 and not args.full:
             text = text[:297] + "..."
         print(f"    {key}: {text}")
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from gearuq import io
+
+    if not args.csv:
+        raise ValueError("export: choose a format: --csv (one file per group of variables "
+                         "sharing dims, units in the headers); --xlsx is not offered: no "
+                         "spreadsheet writer is among gearuq's dependencies")
+    ds = io.load(args.file)
+    out = args.out or str(Path(args.file).with_suffix("")) + "_csv"
+    written = io.export_csv(ds, out)
+    print(f"{args.file}: {len(written) - 1} CSV file(s) and the provenance into {out}/")
+    for path in written:
+        print(f"  {path.name}")
     return 0
 
 
@@ -247,13 +386,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--full", action="store_true", help="do not shorten long attributes")
     p.set_defaults(func=_cmd_info)
 
+    p = sub.add_parser("export", help="a result as CSV files with units in the headers",
+                       description="Write a gearuq netCDF result as CSV files: one per group "
+                                   "of variables sharing dims, 'name [units]' headers, the "
+                                   "provenance in provenance.json beside them.")
+    p.add_argument("file", help="a .nc file written by gearuq")
+    p.add_argument("--csv", action="store_true", help="write CSV files (the one format)")
+    p.add_argument("--out", default=None, type=_folder,
+                   help="folder for the files (default: FILE without .nc, plus _csv)")
+    p.set_defaults(func=_cmd_export)
+
     p = sub.add_parser("demo", help="run the built-in helical-pair reliability study",
                        description="10^4-sample Monte Carlo reliability of the helical "
                                    "gear pair of Li, Hu and Han (their Table 2 space): R(t), "
                                    "beta, fitted distributions; "
                                    "writes netCDF and PNG into --out.")
-    p.add_argument("--out", default="gearuq_demo", help="output folder (default: gearuq_demo)")
-    p.add_argument("--n-samples", type=int, default=10_000, help="Monte Carlo samples")
+    p.add_argument("--out", default="gearuq_demo", type=_folder,
+                   help="output folder (default: gearuq_demo)")
+    p.add_argument("--n-samples", type=_positive_int, default=10_000,
+                   help="Monte Carlo samples")
     p.add_argument("--seed", type=int, default=20240607, help="random seed")
     p.add_argument("--executor", default=None, help="serial | processes | dask scheduler address")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -269,13 +420,20 @@ def build_parser() -> argparse.ArgumentParser:
                                    "group (run one with `gearuq study NAME`).")
     p.set_defaults(func=_cmd_studies)
 
-    p = sub.add_parser("study", help="run a packaged study",
-                       description="Run a study registered under 'gearuq.studies'.")
-    p.add_argument("name", help="study name (see `gearuq studies`)")
-    p.add_argument("--out", default=None, help="output folder (default: gearuq_<name>)")
+    p = sub.add_parser("study", help="run a packaged study", add_help=False,
+                       description="Run a study registered under 'gearuq.studies'. "
+                                   "`gearuq study NAME --help` lists the study's own options "
+                                   "(seed, sample counts, executor...).")
+    p.add_argument("-h", "--help", action="store_true",
+                   help="show this help, or with NAME the study's own options")
+    p.add_argument("--out", default=None, type=_folder,
+                   help="output folder (default: gearuq_<name>)")
     p.add_argument("--quick", action="store_true",
                    help="a quick version of the study (smaller questions, fewer runs)")
-    p.set_defaults(func=_cmd_study)
+    p.add_argument("name", nargs="?", help="study name (see `gearuq studies`)")
+    p.add_argument("rest", nargs=argparse.REMAINDER, metavar="...",
+                   help="the study's own options (see `gearuq study NAME --help`)")
+    p.set_defaults(func=_cmd_study, study_parser=p)
 
     p = sub.add_parser("compile", help="compile the models' kernels once (numba cache)",
                        description="Compile, or load from the on-disk numba cache, what a "
@@ -294,17 +452,18 @@ def build_parser() -> argparse.ArgumentParser:
                         "reliability: every failure-probability method side by side (with "
                         "--coverage: interval coverage over many seeds); or a "
                         "benchmark a plugin registers (`gearuq bench list`)")
-    p.add_argument("--out", default="gearuq_bench", help="output folder")
+    p.add_argument("--out", default="gearuq_bench", type=_folder, help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer samples and tolerances")
     p.add_argument("--coverage", action="store_true",
                    help="reliability only: mean, bias, empirical against reported CoV and "
                         "interval coverage of every method over many seeds (20 by default), "
                         "the helical pair included")
-    p.add_argument("--seeds", type=int, default=None, help="seeds per row (--coverage)")
+    p.add_argument("--seeds", type=_positive_int, default=None,
+                   help="seeds per row (--coverage)")
     p.add_argument("--problems", default=None,
                    help="comma-separated problems (--coverage): run only their rows and "
                         "replace only those rows of the docs tables")
-    p.add_argument("--workers", type=int, default=1,
+    p.add_argument("--workers", type=_positive_int, default=1,
                    help="parallel processes over the seeds (--coverage)")
     p.set_defaults(func=_cmd_bench)
 

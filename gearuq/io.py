@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import xarray as xr
 
 from gearuq._version import __version__
@@ -442,11 +443,17 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
         If a variable or the global attributes do not match their checksums (the message names
         the file and the variable).
     ValueError
-        If the file is not netCDF or not a gearuq result (no ``gearuq_version`` attribute).
+        If ``path`` is a folder, not netCDF or not a gearuq result (no ``gearuq_version``
+        attribute).
     """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no such result file: {path}")
+    if path.is_dir():
+        found = sorted(p.name for p in path.glob("*.nc"))[:5]
+        raise ValueError(f"{path} is a folder, not a result file; give one .nc file"
+                         + (f" (it holds {', '.join(found)})" if found else
+                            " (it holds no .nc file)"))
     if lazy:
         limit_chunk_cache()
     try:
@@ -477,3 +484,99 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
     for var in ds.variables.values():
         var.attrs.pop(CHECKSUM, None)
     return ds
+
+
+def _csv_header(name: str, attrs: dict[str, Any]) -> str:
+    """``name [units]`` (``name`` alone when the variable declares no units)."""
+    units = str(attrs.get("units", "")).strip()
+    return f"{name} [{units}]" if units else str(name)
+
+
+def export_csv(dataset: xr.Dataset, path: str | os.PathLike) -> list[Path]:
+    """Write a result as CSV files a spreadsheet opens: one per group of variables sharing dims.
+
+    Each file has one column per dimension (its coordinate values, or 0, 1, ... where the
+    dimension has none) followed by one column per variable over exactly those dims, one row
+    per point of the grid (long form). Every header reads ``name [units]`` (``name`` alone
+    where the variable declares no units). Coordinates that are not dimensions (a mode's
+    output name, say) are exported as variables. The global attributes (provenance) and each
+    column's other attributes go to ``provenance.json`` beside the CSV files.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Any gearuq result (what a model, an engine or :func:`load` returns).
+    path : path-like
+        Folder to write into (created). Files: ``scalars.csv`` for 0-d variables,
+        ``<dim1>-<dim2>....csv`` for the others (``sample.csv``, ``sample-time.csv``...),
+        and ``provenance.json``.
+
+    Returns
+    -------
+    list of Path
+        The files written, CSV files first.
+
+    Raises
+    ------
+    TypeError
+        If ``dataset`` is not an xarray.Dataset.
+    ValueError
+        If ``path`` is empty or names an existing file, or the Dataset holds no variable.
+
+    Notes
+    -----
+    Floats are written with as many digits as round-trip exactly. Text (a mode's label) is
+    written as is; a cell never holds a list.
+    """
+    if not isinstance(dataset, xr.Dataset):
+        raise TypeError(f"dataset: expected an xarray.Dataset, got {type(dataset).__name__}")
+    if not str(path).strip():
+        raise ValueError("path: an empty folder name; give a folder to write the CSV files into")
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"path: {folder} is a file; give a folder to write the CSV files into")
+    flat = dataset.reset_coords()  # non-dimension coordinates become columns too
+    groups: dict[tuple[str, ...], list[str]] = {}
+    for name, var in flat.data_vars.items():
+        groups.setdefault(tuple(str(d) for d in var.dims), []).append(str(name))
+    if not groups:
+        raise ValueError("dataset: holds no variable to export")
+    folder.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for dims, names in groups.items():
+        file = folder / (("-".join(dims) or "scalars") + ".csv")
+        columns: dict[str, np.ndarray] = {}
+        if dims:
+            grids = np.meshgrid(*[
+                np.asarray(flat[d].values) if d in flat.coords else np.arange(flat.sizes[d])
+                for d in dims], indexing="ij")
+            for d, grid in zip(dims, grids, strict=True):
+                attrs = dict(flat[d].attrs) if d in flat.coords else {}
+                columns[_csv_header(d, attrs)] = grid.ravel()
+        for name in names:
+            var = flat[name]
+            columns[_csv_header(name, var.attrs)] = np.asarray(var.transpose(*dims).values
+                                                               ).ravel()
+        pd.DataFrame(columns).to_csv(file, index=False, float_format=None)
+        written.append(file)
+    meta = {
+        "attrs": {k: _json_safe(v) for k, v in dataset.attrs.items()},
+        "variables": {str(n): {k: _json_safe(v) for k, v in flat[n].attrs.items()}
+                      for n in list(flat.data_vars) + list(flat.coords)},
+        "files": {f.name: "-".join(d) or "scalars" for f, d in zip(written, groups,
+                                                                   strict=True)},
+    }
+    sidecar = folder / "provenance.json"
+    sidecar.write_text(json.dumps(meta, indent=1) + "\n")
+    return [*written, sidecar]
+
+
+def _json_safe(value: Any) -> Any:
+    """An attribute as JSON: arrays as lists, numpy scalars as Python numbers."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, bytes):
+        return value.decode(errors="replace")
+    return value

@@ -527,7 +527,14 @@ class Model:
             if any(o.time_dependent for o in self.outputs):
                 raise ValueError("t: this model has time-dependent outputs; give output instants")
             return np.zeros(0)
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if isinstance(t, (str, bytes)):
+            raise TypeError(f"t: expected an array of output instants (real numbers), got the "
+                            f"string {t!r}; e.g. numpy.linspace(0.0, 10.0, 101)")
+        try:
+            t = np.atleast_1d(np.asarray(t, dtype=float))
+        except (TypeError, ValueError):
+            raise TypeError(f"t: expected an array of output instants (real numbers), got "
+                            f"{_brief(t)} ({type(t).__name__})") from None
         if t.ndim != 1:
             raise ValueError(f"t: expected a 1-D array of instants, got shape {t.shape}")
         if t.size == 0:

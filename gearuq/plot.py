@@ -10,8 +10,11 @@ where available.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import sys
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -30,8 +33,13 @@ __all__ = [
     "plot_reliability_curves",
     "plot_time_panels",
     "plot_work_precision",
+    "quick_mode",
+    "quick_run",
     "save_figure",
 ]
+
+#: The mark of the quick run in progress (:func:`quick_run`), stamped by :func:`save_figure`.
+_QUICK_MARK: str | None = None
 
 
 # --------------------------------------------------------------------------------------------
@@ -649,6 +657,10 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
     -------
     Path
         The written file.
+
+    Notes
+    -----
+    Inside :func:`quick_run` every figure saved is stamped "quick: ..., not a result".
     """
     if isinstance(fig, tuple):
         fig = fig[0]
@@ -658,8 +670,101 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
     if not out.suffix:
         out = out.with_suffix(".png")
     out.parent.mkdir(parents=True, exist_ok=True)
+    if _QUICK_MARK and not getattr(fig, "_gearuq_quick_mark", False):
+        # across the middle, faint: it cannot be cropped away or hide under a legend
+        fig.text(0.5, 0.5, _QUICK_MARK, ha="center", va="center", rotation=20,
+                 fontsize=max(9.0, min(22.0, 2.2 * fig.get_figwidth())), color="crimson",
+                 alpha=0.35, zorder=1000, wrap=True)
+        fig._gearuq_quick_mark = True
     fig.savefig(out, dpi=dpi)
     plt = sys.modules.get("matplotlib.pyplot")
     if plt is not None:
         plt.close(fig)
     return out
+
+
+@contextmanager
+def quick_run(quick: bool, runs: int | str, left_out: str) -> Iterator[str]:
+    """Mark a quick run: on screen now, and on every figure :func:`save_figure` writes.
+
+    The one way every study says its quick mode is not a result: it prints ``quick: N runs,
+    not a result; left out: ...`` when the block starts and stamps the same mark across each
+    figure saved inside the block.
+
+    Parameters
+    ----------
+    quick : bool
+        Whether the run is quick; when False nothing is printed or stamped.
+    runs : int or str
+        What the quick run computed: a number of model runs, or words for it ("8 samples per
+        grade at 6 speeds").
+    left_out : str
+        What the quick run left out, compared with the full study, in words.
+
+    Yields
+    ------
+    str
+        The mark (``""`` when not quick), for the study's own text and markdown files.
+
+    Raises
+    ------
+    ValueError
+        If ``runs`` is not a positive count or a non-empty text, or ``left_out`` is empty.
+    """
+    global _QUICK_MARK
+    if not quick:
+        yield ""
+        return
+    if isinstance(runs, bool) or not (isinstance(runs, str) and runs.strip()
+                                      or isinstance(runs, (int, np.integer)) and runs > 0):
+        raise ValueError(f"runs: expected a positive number of runs or words for them, got "
+                         f"{runs!r}")
+    if not isinstance(left_out, str) or not left_out.strip():
+        raise ValueError("left_out: say in words what the quick run leaves out")
+    what = f"{runs} runs" if isinstance(runs, (int, np.integer)) else runs.strip()
+    mark = f"quick: {what}, not a result"
+    print(f"{mark}; left out: {left_out.strip()}", flush=True)
+    previous, _QUICK_MARK = _QUICK_MARK, mark
+    try:
+        yield mark
+    finally:
+        _QUICK_MARK = previous
+
+
+def quick_mode(runs: int | str | Callable[[Mapping[str, Any]], int | str], left_out: str
+               ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Decorate a study's ``run(out, quick=False, ...)`` so a quick call runs in :func:`quick_run`.
+
+    Parameters
+    ----------
+    runs : int, str or callable
+        What the quick run computes (see :func:`quick_run`); a callable receives the call's
+        arguments (defaults applied) by name and returns it, so a setting that overrides the
+        quick size is reported as run.
+    left_out : str
+        What the quick run leaves out, in words.
+
+    Returns
+    -------
+    callable
+        The decorator; the decorated function keeps the signature and docstring of ``run``
+        (``gearuq study NAME --help`` reads them).
+    """
+    def decorate(run: Callable[..., Any]) -> Callable[..., Any]:
+        signature = inspect.signature(run)
+        if "quick" not in signature.parameters:
+            raise ValueError(f"quick_mode: {run.__qualname__} has no 'quick' parameter")
+
+        @functools.wraps(run)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            bound = signature.bind(*args, **kwargs)
+            bound.apply_defaults()
+            quick = bool(bound.arguments["quick"])
+            what = runs(bound.arguments) if callable(runs) and quick else runs
+            with quick_run(quick, what, left_out):
+                return run(*args, **kwargs)
+
+        wrapper.quick_left_out = left_out  # type: ignore[attr-defined]
+        return wrapper
+
+    return decorate

@@ -51,6 +51,7 @@ def test_oscillator_within_3_percent():
     assert float(rep["pf"]) == pytest.approx(rp.OSCILLATOR_PF_MC, rel=0.03)
 
 
+@pytest.mark.e2e
 def test_discontinuous_response_stalls_the_learning():
     """g = 3.5 - x1 - 1.5 [x2 > 1]: the squared-exponential Kriging model cannot represent the
     jump, U stays far below 2 along it and the learning runs to max_runs. The report says it

@@ -21,6 +21,7 @@ def test_seed_table3_betas_do_not_follow_from_its_pf():
         assert abs(norm.isf(pf) - beta) > 0.5  # the printed beta is not Phi^-1(1 - P_f)
 
 
+@pytest.mark.e2e
 def test_demo_small_run_writes_consistent_results(tmp_path, capsys):
     assert run_demo(tmp_path, n_samples=300, seed=5, progress=False) == 0
     out = capsys.readouterr().out

@@ -270,7 +270,26 @@ def test_math_renders_offline_and_from_a_local_copy(tmp_path):
         conf = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(conf)
         assert {"dollarmath", "amsmath"} <= set(conf.myst_enable_extensions)
-        assert not hasattr(conf, "mathjax_path")  # Sphinx's default CDN URL
+        # the vendored copy (npm's mathjax in docs/_vendor) is served from _static; without
+        # it, Sphinx's default CDN URL: both on copies of conf.py, with and without the file
+        for vendored in (True, False):
+            docs = tmp_path / f"docs_{vendored}"
+            docs.mkdir()
+            (docs / "conf.py").write_text((DOCS / "conf.py").read_text())
+            if vendored:
+                bundle = docs / "_vendor/node_modules/mathjax/es5/tex-mml-svg.js"
+                bundle.parent.mkdir(parents=True)
+                bundle.write_text("/* MathJax */")
+            copy_spec = importlib.util.spec_from_file_location("docs_conf_copy", docs / "conf.py")
+            copy = importlib.util.module_from_spec(copy_spec)
+            copy_spec.loader.exec_module(copy)
+            if vendored:
+                assert copy.mathjax_path == "mathjax/tex-mml-svg.js"
+                assert copy.html_static_path == ["_vendor/static"]
+                staged = docs / "_vendor/static/mathjax/tex-mml-svg.js"
+                assert staged.read_text() == "/* MathJax */"
+            else:
+                assert not hasattr(copy, "mathjax_path") and copy.html_static_path == []
         assert conf._local_mathjax("") == (None, None)
         path, config = conf._local_mathjax("https://example.org/mathjax/tex-mml-chtml.js")
         assert path.endswith("tex-mml-chtml.js") and config is None

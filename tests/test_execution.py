@@ -79,6 +79,7 @@ def _dies_on_marked_sample(x1, x2):
     return x1 + x2
 
 
+@pytest.mark.e2e
 def test_a_sample_that_kills_its_worker_is_isolated():
     model = gearuq.FunctionModel(_dies_on_marked_sample, ["x1", "x2"], ["y"], name="crashy")
     design = SPACE.sample(48, rng=11)
@@ -197,6 +198,7 @@ print("OK")
 """
 
 
+@pytest.mark.e2e
 def test_saves_and_loads_from_threads_of_one_process(tmp_path):
     # dask workers with processes=False write chunks in threads while the driver loads others;
     # HDF5 is not thread-safe and without gearuq's lock this script crashes (segmentation
@@ -231,6 +233,7 @@ if __name__ == "__main__":
 """
 
 
+@pytest.mark.e2e
 def test_two_different_runs_on_one_new_store_exactly_one_runs(tmp_path):
     store = str(tmp_path / "s")
     a = _run_script(tmp_path, "a.py", SLOW_RUN, store, "1", "0.15", wait=False)
@@ -242,6 +245,7 @@ def test_two_different_runs_on_one_new_store_exactly_one_runs(tmp_path):
     assert "different run" in loser and "seed" in loser
 
 
+@pytest.mark.e2e
 def test_kill_releases_the_lock_and_identical_rerun_resumes(tmp_path):
     store = tmp_path / "s"
     proc = _run_script(tmp_path, "a.py", SLOW_RUN, str(store), "5", "0.3", wait=False)
@@ -308,6 +312,7 @@ if __name__ == "__main__":
 """
 
 
+@pytest.mark.e2e
 def test_streaming_keeps_memory_bounded(tmp_path):
     """A 320 MB result: with a store neither the run nor its reliability analysis ever holds
     it (peak memory far below the result size); in memory it is held once; same answer."""

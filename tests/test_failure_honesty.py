@@ -343,6 +343,7 @@ def _four_branch_runs(seeds, **settings) -> list[tuple[bool, str]]:
     return out
 
 
+@pytest.mark.e2e
 def test_importance_four_design_points_holds_or_flags_20_seeds():
     runs = _four_branch_runs(range(20))
     assert sum(ok for ok, _ in runs) >= 19, "\n".join(m for ok, m in runs if not ok)

@@ -67,6 +67,7 @@ def _chunks(store: Path) -> set[str]:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc (Linux)")
+@pytest.mark.e2e
 def test_sigkill_of_a_run_stops_its_workers_and_their_writes(tmp_path):
     store = tmp_path / "store"
     script = tmp_path / "run.py"

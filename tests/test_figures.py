@@ -175,6 +175,7 @@ def demo(tmp_path_factory):
     return out
 
 
+@pytest.mark.e2e
 def test_demo_summary_says_which_rows_are_identical_and_why(demo):
     import gearuq
 

@@ -22,6 +22,7 @@ def test_space_is_the_germ_of_both_gears_relief_tolerance_and_torque_spread():
     assert study.study_model().nominal()["iso_grade"] == 6
 
 
+@pytest.mark.e2e
 def test_cheap_model_is_within_a_fraction_of_a_micrometre_of_the_rotor():
     """The documented claim behind the cheap model (40 speeds, 2 harmonics): on random
     samples of the study's space its dte_rms_max is within 0.5 um of the rotor's (measured:

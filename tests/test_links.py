@@ -242,6 +242,7 @@ def test_rotor_link_equivalent_mass_from_the_gear_bodies_by_hand():
     assert equivalent_mass() == pytest.approx(m, rel=1e-3)
 
 
+@pytest.mark.e2e
 def test_rotor_link_is_the_sdof_receptance_on_the_ltca_harmonics(rotor_link):
     """Error-free flanks: the STE repeats every mesh cycle, so only the mesh harmonics
     j = 30 r load the oscillator; the link's dte_rms over speed is, independently,

@@ -105,7 +105,29 @@ def test_bad_setting_names_the_parameter(tmp_path):
 
 # =========================================================================== quick runs
 def _run_quick(name: str, out: Path) -> None:
-    assert registry.get_study(name)(out=out, quick=True) == 0
+    """Run a study's quick mode; it must say so on screen and stamp every figure it saves."""
+    import contextlib
+    import io
+
+    from matplotlib.figure import Figure
+
+    saved, unmarked = [], []
+    savefig = Figure.savefig
+
+    def recording_savefig(fig, path, *args, **kwargs):
+        saved.append(Path(path).name)
+        if not getattr(fig, "_gearuq_quick_mark", False):
+            unmarked.append(Path(path).name)
+        return savefig(fig, path, *args, **kwargs)
+
+    screen = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(screen):
+        mp.setattr(Figure, "savefig", recording_savefig)
+        assert registry.get_study(name)(out=out, quick=True) == 0
+    text = screen.getvalue()
+    first = next(line for line in text.splitlines() if line.startswith("quick: "))
+    assert ", not a result; left out: " in first, first
+    assert saved and not unmarked, f"{name}: figures without the quick mark: {unmarked}"
     pngs = sorted(out.glob("*.png"))
     assert pngs, f"{name} wrote no PNG"
     for path in pngs:
@@ -149,6 +171,7 @@ def test_quick_model_fidelity(tmp_path):
     assert np.nanmax(free) == pytest.approx(hp.max(), rel=0.15)
 
 
+@pytest.mark.e2e
 def test_quick_sensitivity_ranking(tmp_path):
     _run_quick("sensitivity_ranking", tmp_path)
     ds = gearuq.load(tmp_path / "indices_tau200.nc").isel(time=0)
@@ -160,6 +183,7 @@ def test_quick_sensitivity_ranking(tmp_path):
     assert (tmp_path / "ranking.md").exists()
 
 
+@pytest.mark.e2e
 def test_quick_helical_pair_dynamics(tmp_path):
     _run_quick("helical_pair_dynamics", tmp_path)
     ds = gearuq.load(tmp_path / "dynamics.nc")
@@ -174,6 +198,7 @@ def test_quick_helical_pair_dynamics(tmp_path):
     assert freq[np.argmax(spec)] == pytest.approx(1.0 / period, rel=0.02)
 
 
+@pytest.mark.e2e
 def test_quick_pitch_deviation_excitation(tmp_path):
     _run_quick("pitch_deviation_excitation", tmp_path)
     ds = gearuq.load(tmp_path / "ltca_long_period.nc")

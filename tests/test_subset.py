@@ -61,6 +61,7 @@ def _offset_estimates(mcmc: str, seeds: range) -> tuple[np.ndarray, float]:
     return np.array(pf), float(np.mean(runs))
 
 
+@pytest.mark.e2e
 def test_both_samplers_unbiased_and_acs_more_efficient():
     """Over 30 seeds both chain samplers are unbiased on Pf = 3.4e-6 (mean within 3 standard
     errors), and adaptive conditional sampling needs fewer model runs for a given CoV

@@ -339,6 +339,100 @@ def render_startup(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+#: The first call of each model the per-model table times: outputs and instants of a small
+#: but real call (one nominal sample, default options), what a new user's first call needs.
+MODEL_FIRST_CALLS: dict[str, dict[str, Any]] = {
+    "linear_oscillator": {"outputs": ["displacement"], "t": [0.0, 10.0, 101]},
+    "helical_pair": {"outputs": [f"p{i}" for i in range(1, 11)], "t": [0.0, 200.0, 101]},
+    "mesh_excitation": {"outputs": ["ste_ptp"], "t": None},
+    "geared_rotor": {"outputs": ["dte_rms"], "t": None},
+    "mesh_oscillator": {"outputs": ["amplitude_up"], "t": None},
+}
+
+_MODEL_CALL_SCRIPT = """
+import json, sys, time
+cpu0, wall0 = time.process_time(), time.perf_counter()
+import numpy as np
+import gearuq
+name, spec = sys.argv[1], json.loads(sys.argv[2])
+t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
+model = gearuq.get_model(name)
+ds = model.response({}, t, outputs=spec["outputs"])
+first = (time.process_time() - cpu0, time.perf_counter() - wall0)
+c, w = time.process_time(), time.perf_counter()
+model.response({}, t, outputs=spec["outputs"])
+print(json.dumps({"first_cpu": first[0], "first_wall": first[1],
+                  "again_cpu": time.process_time() - c, "again_wall": time.perf_counter() - w,
+                  "status": int(np.max(ds["status"].values))}))
+"""
+
+
+def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
+    """First call of each model in a fresh interpreter, imports included: from an empty numba
+    cache (a fresh install: everything compiles) and from the cache that run filled (every
+    later process), side by side; plus the same call again in the warm process.
+
+    Parameters
+    ----------
+    models : list of str, optional
+        Names from :data:`MODEL_FIRST_CALLS` (default: all of them).
+
+    Returns
+    -------
+    dict
+        ``rows`` (one per model: ``cold_cpu``, ``cold_wall``, ``warm_cpu``, ``warm_wall``,
+        ``again_cpu``, the call's outputs and instants) and ``machine``.
+    """
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    names = list(MODEL_FIRST_CALLS) if models is None else list(models)
+    unknown = [n for n in names if n not in MODEL_FIRST_CALLS]
+    if unknown:
+        raise ValueError(f"models: {unknown} have no first-call probe; valid: "
+                         f"{', '.join(MODEL_FIRST_CALLS)}")
+    rows = []
+    for name in names:
+        spec = MODEL_FIRST_CALLS[name]
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache, GEARUQ_QUIET_COMPILE="1")
+            runs = [json.loads(subprocess.run(
+                [sys.executable, "-c", _MODEL_CALL_SCRIPT, name, json.dumps(spec)],
+                capture_output=True, text=True, env=env, check=True).stdout.splitlines()[-1])
+                for _ in ("cold", "warm")]
+        cold, warm = runs
+        rows.append({"model": name, "outputs": spec["outputs"], "t": spec["t"],
+                     "cold_cpu": cold["first_cpu"], "cold_wall": cold["first_wall"],
+                     "warm_cpu": warm["first_cpu"], "warm_wall": warm["first_wall"],
+                     "again_cpu": warm["again_cpu"], "status": max(cold["status"],
+                                                                  warm["status"])})
+    return {"rows": rows, "machine": machine_description()}
+
+
+def render_model_first_calls(result: dict[str, Any]) -> str:
+    """Markdown table of a :func:`model_first_calls` result."""
+    lines = [
+        f"Machine: {result['machine']}. One nominal sample per model, default options; each "
+        "cell a fresh interpreter, imports included; CPU (wall) seconds. Cold: an empty numba "
+        "cache (a fresh install); warm: the cache the cold run filled.",
+        "",
+        "| model | call | cold first call | warm first call | cold / warm CPU | "
+        "same call again |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in result["rows"]:
+        t = "no instants" if r["t"] is None else f"{r['t'][2]} instants"
+        outs = ", ".join(r["outputs"]) if len(r["outputs"]) < 4 else \
+            f"{r['outputs'][0]}..{r['outputs'][-1]}"
+        lines.append(
+            f"| {r['model']} | {outs}, {t} | {r['cold_cpu']:.2f} ({r['cold_wall']:.2f}) | "
+            f"{r['warm_cpu']:.2f} ({r['warm_wall']:.2f}) | "
+            f"{r['cold_cpu'] / r['warm_cpu']:.1f} | {r['again_cpu']:.3f} |")
+    return "\n".join(lines)
+
+
 def run_bench(what: str, out: str | Path = "gearuq_bench", quick: bool = False) -> int:
     """Run a benchmark and write its tables (markdown, JSON) and figure into ``out``.
 
@@ -352,10 +446,12 @@ def run_bench(what: str, out: str | Path = "gearuq_bench", quick: bool = False) 
     out = Path(out)
     if what == "startup":
         out.mkdir(parents=True, exist_ok=True)
+        per_model = model_first_calls()
         result = startup_table(n_samples=1000 if quick else 10_000)
-        text = render_startup(result)
+        text = render_model_first_calls(per_model) + "\n\n" + render_startup(result)
         (out / "startup.md").write_text(text + "\n")
-        (out / "startup.json").write_text(json.dumps(result, indent=1, default=float))
+        (out / "startup.json").write_text(json.dumps({**result, "per_model": per_model},
+                                                     indent=1, default=float))
         print(text)
         return 0
     out.mkdir(parents=True, exist_ok=True)

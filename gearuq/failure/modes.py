@@ -114,6 +114,47 @@ def first_passage_min(g: Any, t: Any, how: str = "grid") -> np.ndarray:
 
 
 # =========================================================================== Band
+
+def time_window(value: Any, name: str) -> tuple[float, float]:
+    """``value`` as a closed time window ``(t0, t1)`` of finite numbers with ``t0 <= t1``.
+
+    Parameters
+    ----------
+    value : pair of real numbers
+        The window's first and last instant.
+    name : str
+        What the caller calls it, for the error message (``"time"``, ``"window"``...).
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not a pair (a single number, a string, a mapping...).
+    ValueError
+        If an end is not a finite real number, or the window is reversed.
+    """
+    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise TypeError(f"{name}: expected a pair (t0, t1) of instants, got {value!r} "
+                        f"({type(value).__name__})")
+    if len(value) != 2:
+        raise TypeError(f"{name}: expected a pair (t0, t1) of instants, got {len(value)} "
+                        f"values {value!r}")
+    ends = []
+    for which, end in zip(("t0", "t1"), value, strict=True):
+        try:
+            number = float(end)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: {which} = {end!r} is not a real number; valid: a pair "
+                             "(t0, t1) of finite instants with t0 <= t1") from None
+        if not math.isfinite(number):
+            raise ValueError(f"{name}: {which} = {end!r} is not finite; valid: a pair (t0, t1) "
+                             "of finite instants with t0 <= t1")
+        ends.append(number)
+    if ends[0] > ends[1]:
+        raise ValueError(f"{name}: ({ends[0]:g}, {ends[1]:g}) is reversed; valid: a pair "
+                         "(t0, t1) with t0 <= t1")
+    return ends[0], ends[1]
+
+
 class Band:
     """Allowed interval on one model output: the limit state of a failure mode.
 
@@ -353,10 +394,7 @@ class LimitState(_GFunction):
         if len(set(names)) != len(names):
             raise ValueError(f"LimitState: duplicate variable names in {names}")
         if window is not None:
-            if len(window) != 2 or not float(window[0]) <= float(window[1]):
-                raise ValueError(f"LimitState: window must be (t0, t1) with t0 <= t1, got "
-                                 f"{window!r}")
-            window = (float(window[0]), float(window[1]))
+            window = time_window(window, "LimitState: window")
         if name is not None and (not isinstance(name, str) or not name):
             raise ValueError(f"LimitState: name must be a non-empty string, got {name!r}")
         if first_passage not in FIRST_PASSAGE:

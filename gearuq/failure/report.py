@@ -84,42 +84,6 @@ STATUS_TEXT = {
        "leave-one-out error is near 1): the result is not usable",
 }
 
-def describe_status(report_or_code: xr.Dataset | int, *, details: bool = True) -> str:
-    """``"status N: meaning"``: a report's status (or a code) in words.
-
-    Parameters
-    ----------
-    report_or_code : xarray.Dataset or int
-        A report of :func:`failure_probability` (or any Dataset with a scalar ``status``) or
-        a status code.
-    details : bool
-        For a report with a nonzero status, append the method's own reasons
-        (``attrs["message"]``) after the meaning.
-
-    Returns
-    -------
-    str
-        For example ``"status 3: the importance weights are degenerate (...)"``.
-
-    Raises
-    ------
-    ValueError
-        If the code is not one of :class:`ReportStatus`.
-    """
-    message = ""
-    if isinstance(report_or_code, xr.Dataset):
-        code = int(report_or_code["status"].values)
-        message = str(report_or_code.attrs.get("message", ""))
-    else:
-        code = int(report_or_code)
-    if code not in STATUS_TEXT:
-        raise ValueError(f"status: {report_or_code!r} is not a report status; valid codes: "
-                         f"{sorted(STATUS_TEXT)}")
-    text = f"status {code}: {STATUS_TEXT[code]}"
-    if details and code and message and message not in (REPORT_STATUS[code], STATUS_TEXT[code]):
-        text += f" ({message})"
-    return text
-
 #: A reason the method could not vouch for its answer: (status code, message in words).
 Reason = tuple[int, str]
 
@@ -306,3 +270,85 @@ def _design_point_vars(ev: LimitStateEvaluator, design_points: Sequence[Mapping[
     }
 
 
+
+
+def _flag_meanings(status: xr.DataArray) -> dict[int, str]:
+    """``flag_values`` -> ``flag_meanings`` of a CF flag variable (words, not underscores)."""
+    codes = np.atleast_1d(status.attrs.get("flag_values", []))
+    words = str(status.attrs.get("flag_meanings", "")).split()
+    return {int(c): w.replace("_", " ") for c, w in zip(codes, words, strict=False)}
+
+
+def describe_status(result: xr.Dataset | xr.DataArray | int, *, details: bool = True) -> str:
+    """The status of a result in words: the one line every study and command prints.
+
+    Parameters
+    ----------
+    result : xarray.Dataset, xarray.DataArray or int
+        A failure-probability report (scalar ``status``, reasons in ``attrs``), a report
+        status code (:class:`ReportStatus`), any result with a per-sample ``status`` variable
+        (a model's or an engine's, CF ``flag_values`` and ``flag_meanings``), or that
+        ``status`` variable itself.
+    details : bool
+        For a report with a nonzero status, append what the method itself said (its
+        ``status_reasons``, else ``attrs["message"]``) after the meaning.
+
+    Returns
+    -------
+    str
+        For a report or a code: ``"status 0: the interval holds ..."`` or ``"status 3: the
+        importance weights are degenerate ... (two draws carry 60 %)"``. For per-sample
+        status: ``"status: all 400 samples ok"``, or ``"status: 3 of 400 samples failed:
+        2 x 1 (step limit reached), 1 x 3 (non finite state)"``.
+
+    Raises
+    ------
+    TypeError
+        If ``result`` is neither a Dataset, a DataArray nor an integer code.
+    ValueError
+        If it holds no ``status`` variable, or a code is not a report status.
+    """
+    if isinstance(result, (int, np.integer)) and not isinstance(result, bool):
+        return _report_status_line(int(result), {}, details=False)
+    if isinstance(result, xr.Dataset):
+        if "status" not in result:
+            raise ValueError("result: holds no 'status' variable to describe; variables: "
+                             + ", ".join(map(str, result.data_vars)))
+        status, attrs = result["status"], result.attrs
+    elif isinstance(result, xr.DataArray):
+        status, attrs = result, {}
+    else:
+        raise TypeError(f"result: expected an xarray Dataset or DataArray or a status code, "
+                        f"got {type(result).__name__}")
+    if status.ndim == 0:  # one outcome: a failure-probability report
+        return _report_status_line(int(status.values), attrs, details=details)
+    values = np.asarray(status.values).ravel()
+    bad = values[values != 0]
+    what = "samples" if "sample" in status.dims else "values"
+    if bad.size == 0:
+        return f"status: all {values.size} {what} ok"
+    meanings = _flag_meanings(status)
+    codes, counts = np.unique(bad, return_counts=True)
+    parts = ", ".join(f"{n} x {int(c)} ({meanings.get(int(c), 'no meaning recorded')})"
+                      for c, n in zip(codes, counts, strict=True))
+    return f"status: {bad.size} of {values.size} {what} failed: {parts}"
+
+
+def _report_status_line(code: int, attrs: Mapping[str, Any], *, details: bool) -> str:
+    """``"status N: meaning (what the method said)"`` for one report status."""
+    if code not in STATUS_TEXT:
+        raise ValueError(f"status: {code!r} is not a report status; valid codes: "
+                         f"{sorted(STATUS_TEXT)}")
+    text = f"status {code}: {STATUS_TEXT[code]}"
+    if not (details and code):
+        return text
+    try:
+        reasons = json.loads(attrs.get("status_reasons", "[]"))
+    except (TypeError, ValueError):
+        reasons = []
+    words = "; ".join(str(r["message"]) + (f" [status {r['status']}]"
+                                           if int(r["status"]) != code else "")
+                      for r in reasons) or str(attrs.get("message", ""))
+    if words and words not in (REPORT_STATUS[code], STATUS_TEXT[code]):
+        text += f" ({words})"
+    return text

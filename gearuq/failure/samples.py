@@ -49,7 +49,7 @@ from gearuq.failure.intervals import (
     binomial_interval,
     interval_method,
 )
-from gearuq.failure.modes import Band, LimitState, System, as_bands
+from gearuq.failure.modes import Band, LimitState, System, as_bands, time_window
 
 __all__ = ["reliability", "SYSTEM_MODE", "sample_blocks", "valid_samples", "as_modes"]
 
@@ -143,19 +143,49 @@ def _estimates(
 
 
 def _select_time(ds: xr.Dataset, time: Any) -> xr.Dataset:
+    """The instants of ``ds`` that ``time`` selects, refusing a selection that reaches outside
+    them (a first passage there would be missed without a word, as
+    :meth:`LimitState.check_window` refuses for a limit state's window)."""
     if time is None:
         return ds
     if "time" not in ds.dims:
         raise ValueError("time: the Dataset has no 'time' dimension to select from")
+    instants = np.asarray(ds["time"].values, dtype=float)
+    t_first, t_last = float(instants.min()), float(instants.max())
+    tol = 1e-9 * max(1.0, abs(t_first), abs(t_last))
     if isinstance(time, slice):
-        out = ds.sel(time=time)
-    elif isinstance(time, tuple) and len(time) == 2:
-        out = ds.sel(time=slice(time[0], time[1]))
+        if time.step is not None:
+            raise ValueError(f"time: slice step {time.step!r} is not supported; give "
+                             "slice(t0, t1) or a pair (t0, t1)")
+        t0 = t_first if time.start is None else time.start
+        t1 = t_last if time.stop is None else time.stop
+        time = (t0, t1)
+    if isinstance(time, tuple):
+        t0, t1 = time_window(time, "time")
+        if t0 < t_first - tol or t1 > t_last + tol:
+            raise ValueError(
+                f"time: window [{t0:g}, {t1:g}] reaches outside the Dataset's instants "
+                f"[{t_first:g}, {t_last:g}]; a first passage in the part without instants "
+                "would be missed. Narrow the window or compute more instants")
+        out = ds.sel(time=slice(t0, t1))
     else:
-        t = np.atleast_1d(np.asarray(time, dtype=float))
+        try:
+            t = np.atleast_1d(np.asarray(time, dtype=float))
+        except (TypeError, ValueError):
+            raise ValueError(f"time: {time!r} is not an instant, a list of instants, a pair "
+                             "(t0, t1) or a slice") from None
+        if t.ndim != 1 or not np.all(np.isfinite(t)):
+            raise ValueError(f"time: instants must be finite numbers in a 1-D list, got "
+                             f"{time!r}")
+        outside = t[(t < t_first - tol) | (t > t_last + tol)]
+        if outside.size:
+            raise ValueError(f"time: instant(s) {outside.tolist()} outside the Dataset's "
+                             f"instants [{t_first:g}, {t_last:g}]; the nearest instant would "
+                             "stand for them without a word")
         out = ds.sel(time=t, method="nearest")
     if out.sizes.get("time", 0) == 0:
-        raise ValueError(f"time: selection {time!r} contains no output instant")
+        raise ValueError(f"time: selection {time!r} contains no output instant (the Dataset's "
+                         f"instants span [{t_first:g}, {t_last:g}], {instants.size} of them)")
     return out
 
 
@@ -369,7 +399,9 @@ def reliability(
         much the estimate moves when every other instant is dropped.
     time : slice, (t0, t1), array_like or scalar, optional
         Restrict the window: a slice / pair selects by label, values select the nearest
-        instants. The first-passage window starts at the first selected instant.
+        instants. The first-passage window starts at the first selected instant. A window or
+        an instant outside the Dataset's instants is refused (ValueError), as
+        ``LimitState(window=...)`` refuses it: the first passage there is unknown.
 
     Returns
     -------

@@ -36,6 +36,7 @@ import xarray as xr
 from scipy import stats
 
 import gearuq
+from gearuq import plot
 from gearuq.failure.modes import LimitState
 from gearuq.registry import get_link
 from gearuq.space import ParameterSpace
@@ -167,6 +168,10 @@ def scatter_figure(ds: xr.Dataset, title: str):
     return fig
 
 
+@plot.quick_mode(
+    lambda a: f"{a['n'] or (60 if a['link'] == 'pair' else 6)} samples",
+    left_out=(
+        "400 pair samples (80 for the rotor's link): the correlations' intervals are wide"))
 def run(out: str | Path = "gearuq_fidelity_link_correlation", quick: bool = False,
         link: str = "pair", n: int | None = None, space: str = "default",
         seed: int = 2024) -> int:

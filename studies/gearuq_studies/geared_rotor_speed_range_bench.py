@@ -40,7 +40,9 @@ import numpy as np
 import xarray as xr
 
 import gearuq
+from gearuq import plot
 from gearuq.bench import machine_description
+from gearuq.failure.report import describe_status
 
 PATHS = ("today", "1 one limit, 2 channels", "2 + real form", "3 + range settings",
          "plugin dte_rms_max")
@@ -217,10 +219,10 @@ def form_check(model: Any, limit: float) -> None:
     res = gearuq.failure_probability(model, space, gearuq.LimitState.upper("dte_rms_max", limit),
                                      None, method="form", rng=1, n_starts=1)
     cpu, wall = _since(start)
-    print(f"\nFORM, dte_rms_max > {limit * 1e6:g} um, {space.dim} inputs: status "
-          f"{int(res['status'])}, beta {float(res['beta']):.4f}, pf {float(res['pf']):.3e}, "
+    print(f"\nFORM, dte_rms_max > {limit * 1e6:g} um, {space.dim} inputs: "
+          f"beta {float(res['beta']):.4f}, pf {float(res['pf']):.3e}, "
           f"{int(res['n_model_runs'])} model runs, CPU {cpu:.0f} s, wall {wall:.0f} s\n"
-          f"  {res.attrs['message']}")
+          f"  {describe_status(res)}")
     for name in ("design_point_u", "iterations"):
         if name in res:
             print(f"  {name}: {res[name].values}")
@@ -243,10 +245,14 @@ def sampling_check(model: Any, method: str, limit: float, rng: int, label: str,
     cpu, wall = _since(start)
     print(f"\n{label}, dte_rms_max > {limit * 1e6:g} um: pf "
           f"{float(res['pf']):.3e} [{float(res['pf_lower']):.3e}, {float(res['pf_upper']):.3e}]"
-          f", status {int(res['status'])}, {int(res['n_model_runs'])} model runs, CPU {cpu:.0f}"
-          f" s, wall {wall:.0f} s")
+          f", {int(res['n_model_runs'])} model runs, CPU {cpu:.0f} s, wall {wall:.0f} s\n"
+          f"  {describe_status(res)}")
 
 
+@plot.quick_mode(
+    lambda a: f"{a['samples'] or 1} sample(s) over 160 speeds",
+    left_out=(
+        "3 samples, and the grid error against 1281 speeds (321 here)"))
 def run(out: str | Path = "gearuq_geared_rotor_speed_range_bench", quick: bool = False,
         samples: int | None = None, form: bool = False, limit: float = 14e-6, mc: int = 0,
         subset: int = 0) -> int:

@@ -28,6 +28,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 import gearuq
+from gearuq import plot
 from gearuq.plot import save_figure
 
 AMPLITUDES = (0.0, 5.0, 10.0, 15.0)
@@ -152,6 +153,11 @@ def report(res: xr.Dataset, wall: float, n_states: int) -> None:
           "speeds.")
 
 
+@plot.quick_mode(
+    lambda a: f"{int(8000 // (a['step'] or 400.0)) * 8} steady states",
+    left_out=(
+        "the 25 rpm speed step (400 rpm here: resonance peaks sampled coarsely) and the "
+        "Campbell diagram at 41 speeds (9 here)"))
 def run(out: str | Path = "gearuq_geared_rotor_speed_sweep", quick: bool = False,
         step: float | None = None) -> int:
     """RMS DTE of Yuan, Liu and Liu's geared rotor over 25-8000 rpm, with and without tip relief.

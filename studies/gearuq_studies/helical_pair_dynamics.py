@@ -22,6 +22,7 @@ import xarray as xr
 
 import gearuq
 from gearuq import plot, signal
+from gearuq.failure.report import describe_status
 
 DOFS = [("x_p", "x_g"), ("y_p", "y_g"), ("z_p", "z_g"), ("theta_py", "theta_gy"),
         ("theta_pz", "theta_gz")]
@@ -29,6 +30,11 @@ STATE = {name: i + 1 for i, name in enumerate(
     ["x_p", "y_p", "z_p", "theta_py", "theta_pz", "x_g", "y_g", "z_g", "theta_gy", "theta_gz"])}
 
 
+@plot.quick_mode(
+    "1 run of 400 mesh periods",
+    left_out=(
+        "3300 mesh periods (steady state from 3000): the support modes have not decayed, so "
+        "the response classes are a preview"))
 def run(out: str | Path = "gearuq_helical_pair_dynamics", quick: bool = False,
         n_rpm: float = 3600.0, torque: float = 2600.0, periods: int | None = None,
         transient_periods: int | None = None, points_per_period: int | None = None) -> int:
@@ -60,10 +66,6 @@ def run(out: str | Path = "gearuq_helical_pair_dynamics", quick: bool = False,
         raise ValueError(f"transient_periods={transient_periods}: must lie in (0, periods="
                          f"{periods})")
     out.mkdir(parents=True, exist_ok=True)
-    if quick:
-        print(f"quick run: {periods} mesh periods, steady state from period "
-              f"{transient_periods}; the support modes need ~3000 periods to decay, so the "
-              "response classes below are a preview (the full study integrates 3300)")
     model = gearuq.get_model("helical_pair")
     params = {"n": [n_rpm], "T": [torque]}
     omega = float(model.response(params, outputs=["omega_n", "mesh_frequency"])
@@ -79,7 +81,7 @@ def run(out: str | Path = "gearuq_helical_pair_dynamics", quick: bool = False,
     t_start = transient_periods * period
     print(f"helical_pair at n = {n_rpm:g} rpm, T = {torque:g} N m: Omega = {omega:.4f}, "
           f"mesh period = {period:.4f} tau, window tau in [0, {tau[-1]:.0f}], "
-          f"steady state from tau = {t_start:.0f}; status {int(ds['status'][0])}, "
+          f"steady state from tau = {t_start:.0f}; {describe_status(ds)}, "
           f"{int(ds['n_steps'][0])} steps, {int(ds['n_events'][0])} dead-zone switchings")
     b5 = 2e-5
     d = ds["mesh_deflection"].values[0][tau >= t_start]

@@ -47,9 +47,11 @@ from typing import Any
 import numpy as np
 
 import gearuq
+from gearuq import plot
 from gearuq.failure.api import failure_probability
 from gearuq.failure.intervals import wilson_interval
 from gearuq.failure.modes import LimitState
+from gearuq.failure.report import describe_status
 
 #: Limits on the peak mesh force [N]: a Monte Carlo check, ~1e-4 and ~1e-6.
 MARGINS = {"check": 200e3, "1e-4": 300e3, "1e-6": 390e3}
@@ -116,7 +118,7 @@ def subset_runs(model: Any, space: Any, seeds: list[int], n_level: int) -> dict[
             print(f"  subset {key:>5} (F = {limit / 1e3:.0f} kN, seed {seed}): pf = "
                   f"{float(rep['pf']):.3g} [{float(rep['pf_lower']):.3g}, "
                   f"{float(rep['pf_upper']):.3g}], {int(rep['n_model_runs'])} runs, "
-                  f"{float(rep['wall_time']):.0f} s", flush=True)
+                  f"{float(rep['wall_time']):.0f} s; {describe_status(rep)}", flush=True)
     return out
 
 
@@ -129,7 +131,7 @@ def akmcs_run(model: Any, space: Any, seed: int, max_runs: int, n_mc: int) -> An
                               n_mc=n_mc, max_mc=n_mc, model_options=OPTIONS)
     print(f"  AK-MCS check: pf = {float(rep['pf']):.3g} [{float(rep['pf_lower']):.3g}, "
           f"{float(rep['pf_upper']):.3g}], {int(rep['n_model_runs'])} runs, "
-          f"{float(rep['wall_time']):.0f} s; {rep.attrs['message']}", flush=True)
+          f"{float(rep['wall_time']):.0f} s; {describe_status(rep)}", flush=True)
     return rep
 
 
@@ -198,7 +200,7 @@ def figure(mc: dict[str, Any], subset: dict[str, list], ak: Any, path: Path) -> 
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    plot.save_figure(fig, path, dpi=130)
     plt.close(fig)
 
 
@@ -225,6 +227,11 @@ def summary(mc: dict[str, Any], subset: dict[str, list], ak: Any, n_mc: int) -> 
     return out
 
 
+@plot.quick_mode(
+    "2000 Monte Carlo runs, 200 per subset level, AK-MCS up to 80 runs",
+    left_out=(
+        "10^4 Monte Carlo runs, 500 per subset level and AK-MCS up to 150 runs on 5 x 10^4 "
+        "candidates: the rare levels are not checked by Monte Carlo"))
 def run(out: str | Path = "gearuq_helical_pair_rare_events", quick: bool = False,
         full: bool = False, seed: int = 2024, replot: bool = False) -> int:
     """Rare peak mesh forces of Li, Hu and Han's helical pair: subset simulation, AK-MCS, MC.
@@ -260,9 +267,6 @@ def run(out: str | Path = "gearuq_helical_pair_rare_events", quick: bool = False
     seeds = [seed + i for i in range(3 if full else 1)]
     n_level = 1000 if full else 200 if quick else 500
     ak_runs, ak_mc = (400, 100_000) if full else (80, 10_000) if quick else (150, 50_000)
-    if quick:
-        print(f"quick run: {n_mc} Monte Carlo runs, {n_level} per subset level, AK-MCS up to "
-              f"{ak_runs} runs; a check of the machinery, not the answer", flush=True)
     model = gearuq.get_model("helical_pair")
     space = engineering_space()
     t0 = time.perf_counter()

@@ -39,6 +39,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 import gearuq
+from gearuq import plot
 from gearuq.gears.compliance import ComplianceModel
 from gearuq.gears.deviations import (
     FlankDeviations,
@@ -84,7 +85,8 @@ def fig09(runs: list[xr.Dataset], out: Path) -> None:
         axs[1].plot(r["tau"], r["lpms_tangent"], lw=0.8, color=c)
         axs[2].plot(r["tau"], r["ste"], lw=0.8, color=c)
         axs[3].plot(r["tau"], r["cms"], lw=0.8, color=c)
-    for ax, lab in zip(axs, ("LPMS secant (Yuan et al. Eq. 4) [N/um]", "LPMS tangent [N/um]",
+    # two lines: one line of the secant label is longer than its panel is tall (it was clipped)
+    for ax, lab in zip(axs, ("LPMS secant [N/um]\n(Yuan et al. Eq. 4)", "LPMS tangent [N/um]",
                              "STE (normal) [um]", "CMS [um]"), strict=True):
         ax.set_ylabel(lab)
     axs[3].set_xlabel("mesh position [mesh cycles]")
@@ -296,6 +298,11 @@ def readings(pair, comp, seed: int, grid: dict | None = None) -> dict[str, list]
     return res
 
 
+@plot.quick_mode(
+    "LTCA at 12 positions x 10 points per mesh cycle",
+    left_out=(
+        "the 24 x 20 LTCA, the tip-relief map on 21 x 20 (8 x 8 here), the ISO chart at 12 "
+        "tooth numbers (5) and the coupling length at 8 values (4)"))
 def run(out: str | Path = "gearuq_pitch_deviation_excitation", quick: bool = False,
         seed: int = 2020) -> int:
     """LTCA of Yuan, Liu and Liu's helical pair with random pitch deviations (Figs. 8-10, 14).

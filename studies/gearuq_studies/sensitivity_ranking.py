@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 import gearuq
+from gearuq import plot
 from gearuq.engines.pce import polynomial_chaos
 from gearuq.engines.sensitivity import morris_screening, sobol_indices
 
@@ -44,6 +45,12 @@ def _rank(v: np.ndarray) -> np.ndarray:
     return np.argsort(np.argsort(-np.nan_to_num(v, nan=-np.inf))) + 1
 
 
+@plot.quick_mode(
+    lambda a: f"Sobol' base {a['n_base'] or 64}",
+    left_out=(
+        "Sobol' base 1024, the full PCE degree and design, the full Morris trajectories and "
+        "instants (11 here): small indices cannot be told from zero, total indices may "
+        "exceed 1"))
 def run(out: str | Path = "gearuq_sensitivity_ranking", quick: bool = False,
         n_base: int | None = None, seed: int = 2024) -> int:
     """Which of Li, Hu and Han's Table 2 parameters drives the vibration: Sobol', PCE, Morris.
@@ -220,7 +227,7 @@ def run(out: str | Path = "gearuq_sensitivity_ranking", quick: bool = False,
         ax.set_ylabel("Sobol index (1)")
     axes[0, 0].legend(fontsize=7, ncol=2)
     fig.suptitle("ST(tau): PCE (line), Sobol' MC Jansen (dots); S1(tau) PCE dotted")
-    fig.savefig(out / "sobol_over_time.png", dpi=110)
+    plot.save_figure(fig, out / "sobol_over_time.png", dpi=110)
     plt.close(fig)
 
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.6), layout="constrained")
@@ -244,7 +251,7 @@ def run(out: str | Path = "gearuq_sensitivity_ranking", quick: bool = False,
         ax.grid(alpha=0.3, axis="y")
     axes[0].legend(fontsize=7)
     fig.suptitle("Total-effect ranking at tau = 200 of v_i = p_i - static p_i")
-    fig.savefig(out / "ranking_tau200.png", dpi=110)
+    plot.save_figure(fig, out / "ranking_tau200.png", dpi=110)
     plt.close(fig)
 
     print(text)

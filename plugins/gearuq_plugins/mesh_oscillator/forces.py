@@ -644,22 +644,31 @@ def _check_table_shapes(loads, phase, defl, g) -> None:
     if defl.shape != (loads.size, n) or g.shape != (n,):
         raise ValueError(f"deflection {defl.shape} / unloaded_deflection {g.shape}: valid "
                          f"shapes ({loads.size}, {n}) and ({n},)")
-    if not (np.all(np.isfinite(defl)) and np.all(np.isfinite(g))):
-        raise ValueError("deflection: non-finite values")
+    for name, values in (("deflection", defl), ("unloaded_deflection", g)):
+        if not np.all(np.isfinite(values)):
+            where = tuple(int(k) for k in np.argwhere(~np.isfinite(values))[0])
+            raise ValueError(f"{name}: non-finite value {float(values[where])!r} at index {where}; "
+                             "valid: finite deflections [m]")
 
 
 def _check_force_table(x, ph, f) -> None:
-    if x.ndim != 1 or x.size < 3 or np.any(np.diff(x) <= 0):
-        raise ValueError(f"deflection: valid: strictly increasing, at least 3 values, got {x}")
-    if ph.ndim != 1 or ph.size < 5:
-        raise ValueError(f"phase: valid: at least 5 values from 0 to 1, got shape {ph.shape}")
+    if x.ndim != 1 or x.size < 3 or not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
+        raise ValueError(f"deflection: valid: finite, strictly increasing, at least 3 values, "
+                         f"got {x}")
+    if ph.ndim != 1 or ph.size < 5 or not np.all(np.isfinite(ph)):
+        raise ValueError(f"phase: valid: at least 5 finite values from 0 to 1, got {ph}")
     if abs(ph[0]) > 1e-12 or abs(ph[-1] - 1.0) > 1e-12 or not np.allclose(
             np.diff(ph), 1.0 / (ph.size - 1), atol=1e-9):
         raise ValueError("phase: valid: a uniform grid from 0 to 1 inclusive (one mesh cycle, "
                          f"last column = first), got {ph[0]:g} ... {ph[-1]:g}")
-    if f.shape != (x.size, ph.size) or not np.all(np.isfinite(f)):
-        raise ValueError(f"force: valid: finite values of shape {(x.size, ph.size)}, "
+    if f.shape != (x.size, ph.size):
+        raise ValueError(f"force: valid: shape {(x.size, ph.size)} (deflections, phases), "
                          f"got {f.shape}")
+    if not np.all(np.isfinite(f)):
+        i, j = np.argwhere(~np.isfinite(f))[0]
+        n_bad = int(np.count_nonzero(~np.isfinite(f)))
+        raise ValueError(f"force: {n_bad} non-finite value(s), the first {float(f[i, j])!r} at "
+                         f"deflection {x[i]:.6g} m, phase {ph[j]:g}; valid: finite forces >= 0 N")
     scale = float(np.abs(f).max()) or 1.0
     gap = np.abs(f[:, 0] - f[:, -1]).max()
     if gap > 1e-6 * scale:
