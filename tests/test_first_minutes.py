@@ -16,6 +16,7 @@ import xarray as xr
 import gearuq
 from gearuq import cli
 from gearuq.failure.modes import Band, LimitState
+from gearuq.failure.report import STATUS_TEXT
 from gearuq.failure.samples import reliability
 
 
@@ -436,4 +437,5 @@ def test_info_prints_a_reports_status_in_words(tmp_path, capsys):
     gearuq.save(rep, tmp_path / "rep.nc")
     assert cli.main(["info", str(tmp_path / "rep.nc")]) == 0
     out = capsys.readouterr().out
-    assert "status 4 (upper_bound_only): no failure in 300 runs: pf is an upper bound" in out
+    assert (f"status 4: {STATUS_TEXT[4]} (no failure in 300 runs: pf is an upper bound)"
+            in out)

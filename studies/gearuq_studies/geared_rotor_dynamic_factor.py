@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 
 import gearuq
+from gearuq import plot
 from gearuq.execution import evaluate_chunks
 from gearuq.failure import LimitState, failure_probability
 from gearuq.failure.intervals import clopper_pearson_interval
@@ -252,6 +253,10 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
     return paths
 
 
+@plot.quick_mode(
+    "12 rotor runs and subset simulation with 16 per level",
+    left_out=("the 400-run population, subset simulation at 200 per level and the grouped "
+              "Sobol' indices: no probability or ranking here is resolved"))
 def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = False,
         seed: int = 2028, grade: int = 6, executor: Any = DEFAULT_EXECUTION["executor"],
         chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,

@@ -61,6 +61,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 import gearuq
+from gearuq import plot
 from gearuq.design import (
     DesignProblem,
     DesignVariable,
@@ -255,6 +256,10 @@ def band_figure(res: xr.Dataset, det_conf: xr.Dataset, tag: str) -> Figure:
     return fig
 
 
+@plot.quick_mode(
+    "a few dozen cheap-rotor runs per design step",
+    left_out=("the full search sizes, the 3 x 3 brute-force grid at full size and the "
+              "expensive-fidelity confirmation at full size: the chosen design is not resolved"))
 def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int = 29) -> int:
     """Tip relief (amount, length) of the geared rotor that minimises Pf(mesh-order DTE > X).
 
