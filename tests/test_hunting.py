@@ -1,0 +1,158 @@
+"""Hunting-tooth stages through the models (issue 27, follow-up): the line-load table route of
+``mesh_excitation`` against the full LTCA of the same samples."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gearuq.bench.long_period import hunting_13_17_pair
+from gearuq.gears.stage import GearStage
+from gearuq_plugins.mesh_excitation import MeshExcitation
+from gearuq_plugins.mesh_excitation.physics import (
+    TABLE_TORQUE_STEPS_PER_OCTAVE,
+    table_torque,
+)
+
+LONG_PERIOD = 13 * 17  # mesh cycles of the coprime pair
+SCALARS = ("ste_mean", "ste_ptp", "lpms_mean", "lpms_ptp", "lpms_tangent_mean",
+           "lpms_tangent_ptp", "cms_mean", "cms_ptp", "contact_loss_fraction",
+           "unloaded_share_max")
+# documented tolerances of the table route on the plugin's outputs
+# (docs/theory/mesh_excitation.md, "The line-load table route")
+RTOL = {"ste_mean": 2e-5, "ste_ptp": 2e-5, "lpms_mean": 5e-4, "lpms_tangent_mean": 5e-4,
+        "lpms_ptp": 5e-3, "lpms_tangent_ptp": 5e-3, "cms_ptp": 1e-3}
+ATOL = {"cms_mean": 5e-3, "contact_loss_fraction": 0.03, "unloaded_share_max": 0.05}
+
+
+def _germ_params(model: MeshExcitation, torque: np.ndarray, seed: int) -> dict:
+    """Grade-6 samples with a parabolic tip relief and crowning, germ drawn from ``seed``."""
+    rng = np.random.default_rng(seed)
+    n = torque.size
+    params = {"torque": torque, "tip_relief_amount": np.full(n, 8.0),
+              "tip_relief_length": np.full(n, 3.0), "crowning": np.full(n, 4.0),
+              "iso_grade": np.full(n, 6.0)}
+    return params | {p.name: rng.standard_normal(n) for p in model.parameters
+                     if p.name.startswith("pitch_xi_")}
+
+
+@pytest.fixture(scope="module")
+def routes_13_17():
+    """Both routes on the same three 13/17 samples over the whole long period."""
+    model = MeshExcitation(hunting_13_17_pair())
+    # 90 N m: 41 % of the positions in partial contact loss; 230 N m: none
+    params = _germ_params(model, np.array([90.0, 150.0, 230.0]), seed=3)
+    t = np.arange(LONG_PERIOD * 24) / 24.0
+    full = model.response(params, t, ltca_route="full", threads=1)
+    table = model.response(params, t, ltca_route="table", threads=1)
+    return model, params, full, table
+
+
+def test_table_route_equals_full_route_on_13_17(routes_13_17):
+    _, _, full, table = routes_13_17
+    assert np.all(full["status"].values == 0) and np.all(table["status"].values == 0)
+    assert table.attrs["ltca_route"] == "table" and full.attrs["ltca_route"] == "full"
+    assert float(full["contact_loss_fraction"][0]) > 0.3  # the hard case is in the set
+    for name in SCALARS:
+        a, b = full[name].values, table[name].values
+        if name in RTOL:
+            np.testing.assert_allclose(b, a, rtol=RTOL[name], err_msg=name)
+        else:
+            np.testing.assert_allclose(b, a, rtol=0.0, atol=ATOL[name], err_msg=name)
+    # the long-period series position by position: STE to 5 nm, stiffnesses to 3 % of their
+    # largest value at the worst position (a point entering contact between load nodes)
+    np.testing.assert_allclose(table["ste"].values, full["ste"].values, atol=5e-3)
+    for name in ("lpms", "lpms_tangent"):
+        err = np.abs(table[name].values - full[name].values)
+        assert err.max() < 0.03 * np.abs(full[name].values).max(), name
+        assert np.median(err) < 1e-3 * np.abs(full[name].values).max(), name
+    # the shaft-order sidebands come from the pitch deviations alone: the table keeps them
+    np.testing.assert_allclose(table["ste_spectrum"].values, full["ste_spectrum"].values,
+                               atol=1e-4)
+    np.testing.assert_allclose(table["lpms_tangent_spectrum"].values,
+                               full["lpms_tangent_spectrum"].values, atol=0.1)
+
+
+def test_table_route_reuses_one_table_per_torque_level(routes_13_17):
+    model, params, _, table = routes_13_17
+    tables = [k for k in model._cache if k[0] == "table"]
+    levels = {table_torque(float(v)) for v in params["torque"]}
+    assert len(tables) == len(levels) == 3
+    again = model.response(params, np.arange(5) / 24.0, ltca_route="table", threads=1,
+                           outputs=SCALARS)
+    assert len([k for k in model._cache if k[0] == "table"]) == 3
+    for name in SCALARS:  # the same samples give the same numbers from the cached tables
+        np.testing.assert_array_equal(again[name].values, table[name].values)
+
+
+def test_table_route_off_grid_instants_match_the_full_route(routes_13_17):
+    model, params, _, _ = routes_13_17
+    tau = np.array([0.013, 100.37, 220.99, 221.5])  # 221.5 wraps to 0.5
+    sub = {k: v[:1] for k, v in params.items()}
+    a = model.response(sub, tau, ltca_route="full", threads=1, outputs=["ste", "lpms"])
+    b = model.response(sub, tau, ltca_route="table", threads=1, outputs=["ste", "lpms"])
+    # off the grid both routes solve the full LTCA at those instants: identical
+    np.testing.assert_allclose(b["ste"].values, a["ste"].values, rtol=1e-12)
+    np.testing.assert_allclose(b["lpms"].values, a["lpms"].values, rtol=1e-12)
+
+
+@pytest.mark.parametrize("torque", [1.0, 50.0, 149.99, 150.0, 250.0, 4999.0])
+def test_table_torque_is_the_next_level_up(torque):
+    level = table_torque(torque)
+    k = math.log2(level) * TABLE_TORQUE_STEPS_PER_OCTAVE
+    assert abs(k - round(k)) < 1e-9  # on the ladder
+    assert torque <= level < torque * 2.0 ** (1.0 / TABLE_TORQUE_STEPS_PER_OCTAVE) * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("bad", [0.0, -3.0, math.inf, math.nan])
+def test_table_torque_refuses_a_bad_torque(bad):
+    with pytest.raises(ValueError, match="torque"):
+        table_torque(bad)
+
+
+def test_bad_route_is_refused_naming_the_choices():
+    model = MeshExcitation(hunting_13_17_pair())
+    with pytest.raises(ValueError, match="ltca_route"):
+        model.response({"torque": [100.0]}, np.zeros(1), ltca_route="fast")
+
+
+def _stage_13_17() -> GearStage:
+    """The e-axle stage's flanks (linear tip reliefs, grades 6/7) on a 13/17 pair."""
+    data = GearStage.example("e_axle_27_79").to_dict()
+    data["name"] = "hunting_13_17"
+    data["pair"]["teeth"] = [13, 17]
+    data["pair"]["normal_module"] = 3.0
+    for shaft in ("pinion_shaft", "wheel_shaft"):  # sized for the 2 mm gears; unused here
+        data.pop(shaft)
+    stage = GearStage.from_dict(data | {"pinion": {**data["pinion"], "tip_relief": {
+        "shape": "linear", "amount": 8.0, "start_roll_length": 13.0, "amount_tolerance": 3.0}},
+        "wheel": {**data["wheel"], "tip_relief": {
+            "shape": "linear", "amount": 6.0, "start_roll_length": 13.5,
+            "amount_tolerance": 3.0}}})
+    return stage
+
+
+def test_table_route_takes_a_stage_with_linear_reliefs():
+    """Linear per-gear reliefs travel as the stage's clearance map, the same on every tooth."""
+    model = MeshExcitation(stage=_stage_13_17())
+    assert model.stage_relief is not None
+    rng = np.random.default_rng(11)
+    params = {"torque": np.array([120.0])} | {
+        p.name: rng.standard_normal(1) for p in model.parameters
+        if p.name.startswith("pitch_xi_")}
+    t = np.arange(LONG_PERIOD * 12) / 12.0
+    opts = {"positions_per_cycle": 12, "n_pts": 12, "threads": 1}
+    full = model.response(params, t, ltca_route="full", **opts)
+    table = model.response(params, t, ltca_route="table", **opts)
+    assert int(full["status"][0]) == 0 and int(table["status"][0]) == 0
+    np.testing.assert_allclose(table["ste"].values, full["ste"].values, atol=5e-3)
+    for name in ("ste_mean", "ste_ptp", "lpms_mean", "lpms_tangent_mean"):
+        np.testing.assert_allclose(table[name].values, full[name].values,
+                                   rtol=RTOL[name], err_msg=name)
+    # the relief amount is a parameter: a different amount builds its own table
+    more = model.response(params | {"pinion_tip_relief_amount": np.array([14.0])},
+                          np.zeros(1), ltca_route="table", outputs=["ste_mean"], **opts)
+    assert len([k for k in model._cache if k[0] == "table"]) == 2
+    assert float(more["ste_mean"][0]) > float(table["ste_mean"][0])
