@@ -204,7 +204,9 @@ def _one_sample(prep: dict[str, Any], pair: Any, values: dict[str, float],
         dev = replace(dev, user=prep["stage_relief"](values))
     P = normal_force_from_torque(pair, values["torque"])
     sol = ltca_solve(main, P, main.clearance(dev))
-    ref = ltca_solve(reference, P, reference.clearance(dev.design_only()))
+    # the design pattern keeps the designed modifications, a stage's relief map included
+    # (design_only() alone drops the map and would count its relief as contact loss)
+    ref = ltca_solve(reference, P, reference.clearance(replace(dev.design_only(), user=dev.user)))
     ppc = prep["ppc"]
     pattern = (ref.force > 0.0)[np.arange(sol.force.shape[0]) % ppc]
     summ = mesh_summaries(main, sol, pattern)
