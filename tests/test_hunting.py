@@ -177,3 +177,111 @@ def test_stage_relief_alone_is_not_contact_loss():
         r = model.response(params, np.zeros(1), ltca_route=route, **opts)
         assert float(r["unloaded_share_max"][0]) < 1e-9, route
         assert float(r["contact_loss_fraction"][0]) == 0.0, route
+
+
+# ------------------------------------------------------------------ geared rotor
+def _uniform_stage(teeth: tuple[int, int], thin_seats: bool) -> GearStage:
+    """The e-axle stage with what ``geared_rotor`` takes: four equal bearings, one ISO class,
+    no relief; ``thin_seats``: 20 mm gear seats, so that small gears fit them."""
+    from dataclasses import replace
+
+    from gearuq.gears.stage import Bearing
+
+    e = GearStage.example("e_axle_27_79")
+    bearing = Bearing(0.0, 400.0, 150.0, damping=200.0)
+    shafts = {}
+    for name in ("pinion_shaft", "wheel_shaft"):
+        shaft = getattr(e, name)
+        sections = tuple((length, 20.0 if thin_seats and i == 2 else outer, inner)
+                         for i, (length, outer, inner) in enumerate(shaft.sections))
+        shafts[name] = replace(shaft, sections=sections, bearings=tuple(
+            replace(bearing, position=b.position) for b in shaft.bearings))
+    return replace(e, teeth=teeth, pinion=replace(e.pinion, tip_relief=None),
+                   wheel=replace(e.wheel, iso_grade=6, tip_relief=None),
+                   name=f"uniform_{teeth[0]}_{teeth[1]}", **shafts)
+
+
+@pytest.fixture(scope="module")
+def rotor_13_17():
+    import gearuq
+
+    model = gearuq.get_model("geared_rotor", stage=_uniform_stage((13, 17), True))
+    rng = np.random.default_rng(7)
+    params = {"torque": 150.0, "damping_ratio": 0.03} | {
+        p.name: float(rng.standard_normal()) for p in model.parameters
+        if p.name.startswith("pitch_xi_")}
+    return model, params
+
+
+def _dense_twin(problem):
+    """The dense balance on every harmonic 0..H of the same rotor and excitation."""
+    from gearuq.rotor.geared import GearedRotorProblem
+
+    return GearedRotorProblem(lambda k: problem.rotor, problem.excitation,
+                              problem.pinion_teeth, damping_ratio=problem.damping_ratio,
+                              n_harmonics=problem.n_harmonics,
+                              cutoff_factor=problem.cutoff_factor, backlash=problem.backlash)
+
+
+@pytest.mark.parametrize("solver, energy, tol", [("gmres", 0.99, 1e-9),
+                                                  ("spectral_orders", 1.0, 1e-9),
+                                                  ("spectral_orders", 0.99, None)])
+def test_long_period_solvers_against_the_dense_balance_on_13_17(rotor_13_17, solver, energy,
+                                                                 tol):
+    """GMRES and all orders: the dense balance itself; 99 % of the energy: the documented
+    truncation (docs/theory/geared_rotor.md, "Hunting-tooth stages in the plugin")."""
+    model, params = rotor_13_17
+    opts = {"range_mesh_harmonics": 3, "long_period_solver": solver, "spectral_energy": energy}
+    problem = model.rotor_problem(params, speed_range=True, **opts)
+    assert problem.n_harmonics == 3 * 221
+    dense = _dense_twin(problem)
+    worst = dict.fromkeys(("kv", "dte_rms", "dte_mesh_band_rms", "dte_mesh_orders"), 0.0)
+    for rpm in (2000.0, 7000.0, 12000.0):
+        got, sol = problem.dynamics_at(rpm)
+        ref, ref_sol = dense.dynamics_at(rpm)
+        assert sol.status == 0 and ref_sol.status == 0
+        worst["kv"] = max(worst["kv"], abs(got["kv"] - ref["kv"]))
+        if tol is not None:  # every order: the same mesh force, harmonic by harmonic
+            np.testing.assert_allclose(sol.force, ref_sol.force[problem.kept], rtol=0.0,
+                                       atol=tol * np.abs(ref_sol.force[0]))
+        for name in ("dte_rms", "dte_mesh_band_rms"):
+            worst[name] = max(worst[name], abs(got[name] / ref[name] - 1.0))
+        worst["dte_mesh_orders"] = max(worst["dte_mesh_orders"], float(np.max(
+            np.abs(got["dte_mesh_orders"] - ref["dte_mesh_orders"])
+            / ref["dte_mesh_orders"].max())))
+    if tol is not None:
+        assert problem.kept.size > 0.9 * (problem.n_harmonics + 1)
+        # K_v is the maximum sampled on a different grid: within the sampling bound
+        assert worst["kv"] < 1e-4, worst
+        assert max(worst["dte_rms"], worst["dte_mesh_band_rms"], worst["dte_mesh_orders"]) \
+            < tol, worst
+    else:
+        assert problem.kept.size < 0.5 * (problem.n_harmonics + 1)
+        # the mesh orders hold, the RMS loses the shaft orders left out (3 % measured)
+        assert worst["dte_mesh_orders"] < 1e-4 and worst["kv"] < 5e-3, worst
+        assert worst["dte_rms"] < 0.05 and worst["dte_mesh_band_rms"] < 0.01, worst
+
+
+def test_geared_rotor_gives_the_speed_range_of_a_hunting_tooth_stage(rotor_13_17):
+    model, params = rotor_13_17
+    opts = {"speed_min": 2000.0, "speed_max": 14000.0, "n_speeds": 7, "peaks_refined": 1}
+    ds = model.response({k: np.array([v]) for k, v in params.items()}, None,
+                        outputs=["kv_max", "speed_at_kv_max", "kv_over_speed", "dte_rms_max",
+                                 "dte_mesh_order_max"], **opts)
+    assert int(ds["status"][0]) == 0 and ds.attrs["long_period_mesh_cycles"] == 221
+    kv = ds["kv_over_speed"].values[0]
+    # the located peak is never below the grid's largest value, and K_v > 1 (dynamic)
+    assert float(ds["kv_max"][0]) >= kv.max() > 1.0
+    assert 2000.0 <= float(ds["speed_at_kv_max"][0]) <= 14000.0
+    # the grid values are the problem's own steady states
+    problem = model.rotor_problem(params, speed_range=True)
+    for j, rpm in enumerate(ds["range_speed"].values[::3]):
+        assert problem.dynamics_at(float(rpm))[0]["kv"] == pytest.approx(kv[3 * j], rel=1e-12)
+
+
+def test_geared_rotor_hunting_tooth_stage_refuses_single_speed_outputs(rotor_13_17):
+    model, params = rotor_13_17
+    with pytest.raises(ValueError, match="dte_rms"):
+        model.response({"speed": np.array([3000.0])}, None, outputs=["dte_rms"])
+    with pytest.raises(NotImplementedError, match="dynamics_over_speeds"):
+        model.rotor_problem(params, speed_range=True).steady_state(3000.0)
