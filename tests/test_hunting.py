@@ -285,3 +285,33 @@ def test_geared_rotor_hunting_tooth_stage_refuses_single_speed_outputs(rotor_13_
         model.response({"speed": np.array([3000.0])}, None, outputs=["dte_rms"])
     with pytest.raises(NotImplementedError, match="dynamics_over_speeds"):
         model.rotor_problem(params, speed_range=True).steady_state(3000.0)
+
+
+def test_geared_rotor_pitch_outputs_read_the_stage_pair(rotor_13_17):
+    """The drawing's numbers of a stage: its own tooth numbers and ISO tolerances."""
+    from gearuq.gears.deviations import (
+        cumulative_pitch_from_normals,
+        iso1328_pitch_tolerances,
+        pitch_germ_names,
+    )
+
+    model, params = rotor_13_17
+    ds = model.response({k: np.array([v]) for k, v in params.items()}, None,
+                        outputs=["pitch_total_deviation_pinion", "pitch_acceptance_margin"])
+    pair = model.stage.pair
+    f_pt, big_f_pt = iso1328_pitch_tolerances(pair.d1, pair.mn, 6)
+    xi = np.array([params[n] for n in pitch_germ_names(13, 1)])
+    fp = cumulative_pitch_from_normals(xi, 13, amplitude=0.5 * big_f_pt,
+                                       sigma=f_pt / (3.0 * math.sqrt(2.0)))
+    assert float(ds["pitch_total_deviation_pinion"][0]) == pytest.approx(np.ptp(fp), rel=1e-12)
+    assert float(ds["pitch_acceptance_margin"][0]) <= 1.0 - np.ptp(fp) / big_f_pt + 1e-12
+
+
+def test_table_route_honours_the_contract():
+    """Pickling (the tables are rebuilt in each worker), netCDF round trip, statuses."""
+    from gearuq.testing import check_model
+
+    check_model(MeshExcitation(stage=_stage_13_17()), np.array([0.0, 0.5, 7.25]),
+                options={"positions_per_cycle": 8, "n_pts": 6, "n_mesh_orders": 1,
+                         "n_sidebands": 1, "threads": 1, "ltca_route": "table"},
+                n_samples=2)

@@ -370,12 +370,12 @@ def iso_class(values: dict[str, float], options: dict[str, Any]) -> int:
 
 
 def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str, Any],
-                speeds: np.ndarray, names: list[str]) -> None:
-    """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations."""
+                speeds: np.ndarray, names: list[str], pair: Any) -> None:
+    """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations of
+    ``pair`` (Yuan, Liu and Liu's, or the stage's)."""
     from gearuq.gears.deviations import iso1328_pitch_tolerances
     from gearuq.gears.iso6336 import pair_dynamic_factor_method_b
 
-    pair = seed_pair()
     if any(n.startswith(("kv_iso", "speed_at_kv_iso")) for n in names):
         iso = pair_dynamic_factor_method_b(
             pair, values["torque"], speeds, accuracy_grade=iso_class(values, options),
@@ -472,7 +472,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
         for i in range(n):
             values = {k: float(v[i]) for k, v in params.items()}
             if cheap:
-                _fill_cheap(data, i, values, options, speeds, cheap)
+                _fill_cheap(data, i, values, options, speeds, cheap, pair)
             if not (single or ranged):
                 continue
             try:
