@@ -315,3 +315,20 @@ def test_table_route_honours_the_contract():
                 options={"positions_per_cycle": 8, "n_pts": 6, "n_mesh_orders": 1,
                          "n_sidebands": 1, "threads": 1, "ltca_route": "table"},
                 n_samples=2)
+
+
+def test_gmres_falls_back_to_back_flank_contact(rotor_13_17):
+    """Grade 11 gears at 10 N m with 0.5 um of backlash rattle onto the back flank: GMRES has
+    no back flank, the fallback (order balance on every harmonic) equals the dense balance."""
+    model, params = rotor_13_17
+    rattle = params | {"torque": 10.0, "damping_ratio": 0.01, "backlash": 0.5,
+                       "iso_grade": 11}
+    problem = model.rotor_problem(rattle, speed_range=True)
+    assert problem.solver == "gmres"
+    got, sol = problem.dynamics_at(8000.0)
+    ref, ref_sol = _dense_twin(problem).dynamics_at(8000.0)
+    assert sol.branch == ref_sol.branch == "back_flank_contact"
+    assert sol.status == 0 and ref_sol.status == 0 and sol.back_contact_fraction > 0.1
+    np.testing.assert_allclose(sol.force, ref_sol.force, rtol=0.0,
+                               atol=1e-8 * abs(ref_sol.force[0]))
+    assert got["kv"] == pytest.approx(ref["kv"], rel=1e-9) and got["kv"] > 3.0
