@@ -332,3 +332,25 @@ def test_gmres_falls_back_to_back_flank_contact(rotor_13_17):
     np.testing.assert_allclose(sol.force, ref_sol.force, rtol=0.0,
                                atol=1e-8 * abs(ref_sol.force[0]))
     assert got["kv"] == pytest.approx(ref["kv"], rel=1e-9) and got["kv"] > 3.0
+
+
+def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatch):
+    """Too many harmonics for a dense fallback: spectral orders, and a status that says so."""
+    from gearuq_plugins.geared_rotor import long_period
+
+    monkeypatch.setattr(long_period, "MAX_DENSE_FALLBACK_ORDERS", 100)
+    model, params = rotor_13_17
+    rattle = params | {"torque": 10.0, "damping_ratio": 0.01, "backlash": 0.5,
+                       "iso_grade": 11}
+    problem = model.rotor_problem(rattle, speed_range=True, spectral_energy=0.995)
+    got, sol = problem.dynamics_at(8000.0)
+    assert sol.status == long_period.STATUS_BACK_FLANK_TRUNCATED
+    assert sol.branch == "back_flank_contact" and sol.delta.size == problem.n_harmonics + 1
+    ref, _ = _dense_twin(problem).dynamics_at(8000.0)
+    assert got["kv"] == pytest.approx(ref["kv"], rel=0.1)
+    opts = {"speed_min": 7000.0, "speed_max": 9000.0, "n_speeds": 2, "peaks_refined": 0,
+            "spectral_energy": 0.995}
+    ds = model.response({k: np.array([v]) for k, v in rattle.items()}, None,
+                        outputs=["kv_max"], **opts)
+    assert int(ds["status"][0]) == 20
+    assert "spectral_orders_only" in ds["status"].attrs["flag_meanings"]

@@ -28,6 +28,14 @@ from gearuq.rotor.harmonic_balance import PeriodicSolution
 MAX_DENSE_LONG_PERIOD = 120
 
 
+#: Most harmonics the back-flank fallback solves densely (a real system of 2 x this size);
+#: beyond, it keeps the spectral orders and flags the speed with STATUS_BACK_FLANK_TRUNCATED.
+MAX_DENSE_FALLBACK_ORDERS = 2048
+
+#: Status of a steady state (beyond the balance's 0-3): back-flank contact solved on the
+#: spectral orders only, with their truncation error (docs/theory/geared_rotor.md).
+STATUS_BACK_FLANK_TRUNCATED = 4
+
 #: Steady-state solvers of the long-period route.
 LONG_PERIOD_SOLVERS = ("gmres", "spectral_orders")
 
@@ -47,8 +55,9 @@ class LongPeriodProblem(GearedRotorProblem):
         Mesh orders ``M`` of the steady state: harmonics up to ``H = M lcm(z1, z2)``.
     solver : {"gmres", "spectral_orders"}
         Every harmonic ``0..H`` by GMRES, or the spectral orders. GMRES has no back-flank
-        contact: a steady state that would reach it is solved again on every harmonic by
-        the spectral-orders solver, which has (its orders then are ``0..H``).
+        contact: a steady state that would reach it is solved again by the order balance,
+        which has: on every harmonic up to ``MAX_DENSE_FALLBACK_ORDERS`` of them, beyond on
+        the spectral orders with status ``STATUS_BACK_FLANK_TRUNCATED``.
     spectral_energy : float
         With ``solver="spectral_orders"``: share of the excitation's energy the kept orders
         hold, in (0, 1].
@@ -144,7 +153,6 @@ class LongPeriodProblem(GearedRotorProblem):
                tol: float, initial: np.ndarray | None) -> PeriodicSolution:
         """One steady state on the kept orders by the chosen solver."""
         from gearuq.rotor.sideband_balance import (
-            prepare_orders,
             solve_periodic_krylov,
             solve_periodic_orders,
         )
@@ -156,14 +164,46 @@ class LongPeriodProblem(GearedRotorProblem):
             if math.isinf(self.backlash) or np.min(np.fft.irfft(
                     sol.delta * N, n=N)) > -self.backlash:
                 return sol
-            # the flanks would meet on the back: the balance with back-flank contact
-            if self.orders is None:
-                self.orders = prepare_orders(self.excitation, self.kept)
-            return solve_periodic_orders(model, self.orders, T, omega, backlash=self.backlash,
-                                         tol=tol, receptance=rec, channels=names)
-        start = None if initial is None else np.asarray(initial)[self.kept.size - 1:]
+            # the flanks would meet on the back: the order balance, which has the back flank
+            return self._back_flank(model, T, omega, rec, names, tol)
+        start = None if initial is None or np.asarray(initial).size != 2 * self.kept.size - 1 \
+            else np.asarray(initial)[self.kept.size - 1:]
         kw = {"backlash": self.backlash, "tol": tol, "receptance": rec, "channels": names}
         sol = solve_periodic_orders(model, self.orders, T, omega, initial=start, **kw)
         if start is not None and sol.status != 0:  # fall back to the linear start
             sol = solve_periodic_orders(model, self.orders, T, omega, **kw)
         return sol
+
+    def _back_flank(self, model: Any, T: float, omega: float, rec: dict, names: list[str],
+                    tol: float) -> PeriodicSolution:
+        """Back-flank contact after GMRES: every harmonic, or the spectral orders, flagged."""
+        from gearuq.rotor.sideband_balance import (
+            prepare_orders,
+            solve_periodic_orders,
+            spectral_orders,
+        )
+
+        truncated = self.kept.size > MAX_DENSE_FALLBACK_ORDERS
+        if self.orders is None:
+            J = (spectral_orders(self.excitation, self._H, self.spectral_energy,
+                                 always=self.mesh_order_index) if truncated else self.kept)
+            self.orders = prepare_orders(self.excitation, J)
+        J = self.orders.orders
+        sol = solve_periodic_orders(model, self.orders, T, omega, backlash=self.backlash,
+                                    tol=tol, channels=names,
+                                    receptance={k: v[J] for k, v in rec.items()})
+        if not truncated:
+            return sol
+        # back onto 0..H, the orders left out zero, so the caller reads one layout
+        for name in ("delta", "force", "remainder"):
+            full = np.zeros(self.kept.size, dtype=complex)
+            full[J] = getattr(sol, name)
+            setattr(sol, name, full)
+        for name in list(sol.channels):
+            full = np.zeros(self.kept.size, dtype=complex)
+            full[J] = sol.channels[name]
+            sol.channels[name] = full
+        if sol.status == 0:
+            sol.status = STATUS_BACK_FLANK_TRUNCATED
+        return sol
+

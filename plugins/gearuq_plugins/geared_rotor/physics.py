@@ -23,13 +23,16 @@ STATUS_HB_NOT_CONVERGED = 16
 STATUS_SINGULAR = 17
 STATUS_NO_PERIODIC = 18
 STATUS_LTCA_FAILED = 19
+STATUS_BACK_FLANK_TRUNCATED = 20
 STATUS_MEANINGS = {
+    STATUS_BACK_FLANK_TRUNCATED: "back_flank_contact_solved_on_spectral_orders_only",
     STATUS_HB_NOT_CONVERGED: "harmonic_balance_not_converged",
     STATUS_SINGULAR: "singular_harmonic_balance_system",
     STATUS_NO_PERIODIC: "no_stable_periodic_response",
     STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
 }
-_FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
+_FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC,
+                4: STATUS_BACK_FLANK_TRUNCATED}
 #: Outputs over the speed range -> (quantity of DynamicRange, kind).
 _DYNAMIC_OUTPUTS = {
     "kv_max": ("kv", "max"), "speed_at_kv_max": ("kv", "speed"),
