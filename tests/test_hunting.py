@@ -262,7 +262,9 @@ def test_long_period_solvers_against_the_dense_balance_on_13_17(rotor_13_17, sol
         assert worst["dte_rms"] < 0.05 and worst["dte_mesh_band_rms"] < 0.01, worst
 
 
-def test_geared_rotor_gives_the_speed_range_of_a_hunting_tooth_stage(rotor_13_17):
+def test_geared_rotor_gives_the_speed_range_of_a_hunting_tooth_stage(rotor_13_17, tmp_path):
+    import gearuq
+
     model, params = rotor_13_17
     opts = {"speed_min": 2000.0, "speed_max": 14000.0, "n_speeds": 7, "peaks_refined": 1}
     ds = model.response({k: np.array([v]) for k, v in params.items()}, None,
@@ -277,6 +279,10 @@ def test_geared_rotor_gives_the_speed_range_of_a_hunting_tooth_stage(rotor_13_17
     problem = model.rotor_problem(params, speed_range=True)
     for j, rpm in enumerate(ds["range_speed"].values[::3]):
         assert problem.dynamics_at(float(rpm))[0]["kv"] == pytest.approx(kv[3 * j], rel=1e-12)
+    gearuq.save(ds, tmp_path / "hunting.nc")  # units, provenance and statuses round-trip
+    back = gearuq.load(tmp_path / "hunting.nc")
+    np.testing.assert_array_equal(back["kv_over_speed"].values[0], kv)
+    assert back["kv_max"].attrs["units"] == ds["kv_max"].attrs["units"]
 
 
 def test_geared_rotor_hunting_tooth_stage_refuses_single_speed_outputs(rotor_13_17):
