@@ -360,3 +360,15 @@ def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatc
                         outputs=["kv_max"], **opts)
     assert int(ds["status"][0]) == 20
     assert "spectral_orders_only" in ds["status"].attrs["flag_meanings"]
+
+
+def test_table_route_in_threads_gives_the_serial_numbers(routes_13_17):
+    """A fresh model built in threads: one table per level, the serial run's numbers."""
+    _, params, _, table = routes_13_17
+    model = MeshExcitation(hunting_13_17_pair())
+    many = {k: np.concatenate([v, v]) for k, v in params.items()}  # two samples per level
+    threaded = model.response(many, np.zeros(1), ltca_route="table", threads=2,
+                              outputs=list(SCALARS))
+    assert len([k for k in model._cache if k[0] == "table"]) == 3
+    for name in SCALARS:
+        np.testing.assert_array_equal(threaded[name].values, np.tile(table[name].values, 2))
