@@ -33,7 +33,7 @@ Main entry points: :func:`line_load_table`, :func:`long_period_ltca`, :class:`Lo
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numba as nb
 import numpy as np
@@ -195,11 +195,14 @@ class LineLoadTable:
 
 def _design_modifications(deviations: FlankDeviations | None) -> FlankDeviations:
     dev = deviations or FlankDeviations()
-    if dev.user is not None:
+    # a clearance map that declares itself the same on every tooth (a stage's reliefs of any
+    # shape) is a designed modification: it depends on the line geometry alone
+    if dev.user is not None and not getattr(dev.user, "same_on_every_tooth", False):
         raise ValueError("deviations.user (a per-tooth clearance map) is outside what the "
                          "line-load table represents (designed modifications, the same on every "
                          "tooth, plus pitch deviations); use gearuq.gears.ltca.ltca")
-    return dev.design_only()
+    design = dev.design_only()
+    return design if dev.user is None else replace(design, user=dev.user)
 
 
 def line_load_table(

@@ -935,6 +935,10 @@ class _ProfileClearance:
     deviations as normal clearance [m] (transverse values times ``cos(beta_b)``, as the
     LTCA's own reliefs and crowning)."""
 
+    #: the map ignores the tooth indices, so the line-load table may hold it
+    #: (:mod:`gearuq.gears.long_period`)
+    same_on_every_tooth = True
+
     def __init__(self, stage: GearStage, cos_bb: float,
                  amounts: Mapping[str, float] | None = None) -> None:
         self.stage, self.cos_bb, self.amounts = stage, cos_bb, amounts

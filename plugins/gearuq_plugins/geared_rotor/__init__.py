@@ -216,6 +216,11 @@ _OPTIONS = (
     _O("end_inertias", "parameters", "drive and load inertias on the shaft ends: the "
        "parameters drive_inertia / load_inertia, or 'none' (Yuan, Liu and Liu's rotor as printed, "
        "whose 448 Hz mode has no inertia at the shaft ends)", choices=("parameters", "none")),
+    _O("long_period_solver", "gmres", "a stage whose long period exceeds 120 mesh cycles "
+       "(a hunting-tooth pair): steady states on every harmonic by GMRES, or on the "
+       "spectral orders (docs/theory/geared_rotor.md)", choices=("gmres", "spectral_orders")),
+    _O("spectral_energy", 0.99, "with long_period_solver='spectral_orders': share of the "
+       "excitation's energy held by the long-period harmonics kept", lower=1e-3, upper=1.0),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),
@@ -237,8 +242,9 @@ class GearedRotor(Model):
     stage : GearStage or None
         Build the rotor of a stage (docs/stage.md): its pair, shafts, bearings, end inertias,
         material and operating point, its pitch-deviation germ (``pitch_xi_*`` for its tooth
-        numbers). Refused with the reason for a long period beyond 120 mesh cycles (a
-        hunting-tooth pair), other than two bearings per shaft, bearings that differ, per-gear
+        numbers). A long period beyond 120 mesh cycles (a hunting-tooth pair) gives the
+        speed-range outputs, from a line-load table excitation on spectral orders. Refused
+        with the reason: other than two bearings per shaft, bearings that differ, per-gear
         classes or reliefs other than one shared parabolic tip relief.
     """
 

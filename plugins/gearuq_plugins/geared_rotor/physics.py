@@ -16,19 +16,23 @@ from typing import Any
 import numpy as np
 
 from gearuq.model import Evaluation
+from gearuq_plugins.geared_rotor.long_period import MAX_DENSE_LONG_PERIOD
 
 #: Status codes of this plugin (beyond the shared 0-4).
 STATUS_HB_NOT_CONVERGED = 16
 STATUS_SINGULAR = 17
 STATUS_NO_PERIODIC = 18
 STATUS_LTCA_FAILED = 19
+STATUS_BACK_FLANK_TRUNCATED = 20
 STATUS_MEANINGS = {
+    STATUS_BACK_FLANK_TRUNCATED: "back_flank_contact_solved_on_spectral_orders_only",
     STATUS_HB_NOT_CONVERGED: "harmonic_balance_not_converged",
     STATUS_SINGULAR: "singular_harmonic_balance_system",
     STATUS_NO_PERIODIC: "no_stable_periodic_response",
     STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
 }
-_FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC}
+_FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC,
+                4: STATUS_BACK_FLANK_TRUNCATED}
 #: Outputs over the speed range -> (quantity of DynamicRange, kind).
 _DYNAMIC_OUTPUTS = {
     "kv_max": ("kv", "max"), "speed_at_kv_max": ("kv", "speed"),
@@ -44,6 +48,8 @@ _DYNAMIC_OUTPUTS = {
     "bearing1_acceleration_y_mesh_order_over_speed": ("acceleration_mesh_orders", "curve"),
 }
 _RANGE_OUTPUTS = ("dte_rms_max", "speed_at_dte_rms_max", *_DYNAMIC_OUTPUTS)
+#: Outputs of a stage whose long period is beyond the dense balance (the speed range).
+LONG_PERIOD_OUTPUTS = _RANGE_OUTPUTS
 #: Outputs that need neither the LTCA nor the rotor (the drawing's numbers).
 _CHEAP_OUTPUTS = ("kv_iso_max", "speed_at_kv_iso_max", "kv_iso_over_speed",
                   "pitch_total_deviation_pinion", "pitch_total_deviation_wheel",
@@ -170,37 +176,53 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
     from gearuq.rotor.examples import seed002_rotor
     from gearuq.rotor.excitation import MeshExcitation
     from gearuq.rotor.geared import GearedRotorProblem
-
     stage = getattr(model, "stage", None)
     pair = seed_pair() if stage is None else stage.pair
     ppc, n_pts = options["positions_per_cycle"], options["n_pts"]
-    setup = _cached(model, ("setup", ppc, n_pts),
-                    lambda: ltca_setup(pair, compliance=compliance_model(pair) if stage is None
-                                       else model.compliance,
-                                       positions_per_cycle=ppc, n_pts=n_pts))
+    long_period = math.lcm(pair.z1, pair.z2) > MAX_DENSE_LONG_PERIOD
+    if long_period and not speed_range:
+        raise ValueError(f"a long period of {math.lcm(pair.z1, pair.z2)} mesh cycles is "
+                         "solved over the speed range only (outputs "
+                         f"{', '.join(LONG_PERIOD_OUTPUTS)})")
+    setup = None if long_period else _cached(
+        model, ("setup", ppc, n_pts),
+        lambda: ltca_setup(pair, compliance=compliance_model(pair) if stage is None
+                           else model.compliance, positions_per_cycle=ppc, n_pts=n_pts))
     germ_keys = _GERM_KEYS if stage is None else tuple(
         k for k in values if k.startswith(("pitch_xi_p_", "pitch_xi_g_")))
     law = (options["pitch_tolerance_law"], options["process_share_beyond"])
     lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
             options["pitch_harmonics"]) + law + tuple(values[k] for k in _LTCA_KEYS) + tuple(
         values.get(k, 0.0) for k in germ_keys)
-    excitation = _cached(model, lkey, lambda: MeshExcitation.from_setup(
-        setup, values["torque"],
-        deviations=sample_deviations(pair, values, options["pitch_phases"],
-                                     options["pitch_model"], options["pitch_harmonics"],
-                                     law)))
+    deviations = sample_deviations(pair, values, options["pitch_phases"],
+                                   options["pitch_model"], options["pitch_harmonics"], law)
+    excitation = _cached(model, lkey, (lambda: _table_excitation(model, pair, values["torque"],
+                                                                 deviations, ppc, n_pts))
+                         if long_period else (lambda: MeshExcitation.from_setup(
+                             setup, values["torque"], deviations=deviations)))
     harmonics, cutoff_factor = ((options["range_mesh_harmonics"], options["range_cutoff_factor"])
                                 if speed_range else (mesh_harmonics(options, values["speed"],
                                                                     pair.z1),
                                                      options["cutoff_factor"]))
     H = harmonics * excitation.n_cycles
-    rkey = ("rotor", H, cutoff_factor, options["moment_arm"],
-            options["end_inertias"]) + lkey + tuple(
+    rkey = ("rotor", H, cutoff_factor, options["moment_arm"], options["end_inertias"],
+            (options["long_period_solver"], options["spectral_energy"]) if long_period
+            else None) + lkey + tuple(
         values[k] for k in _ROTOR_KEYS)
 
     ends = options["end_inertias"] == "parameters"
 
     def build() -> Any:
+        if long_period:  # a hunting-tooth stage: spectral orders of the long period
+            from gearuq_plugins.geared_rotor.long_period import LongPeriodProblem
+            from gearuq_plugins.geared_rotor.stage import StageRotorFactory
+
+            return LongPeriodProblem(
+                StageRotorFactory(stage, values, options["moment_arm"], ends), excitation,
+                pair.z1, mesh_harmonics=harmonics, solver=options["long_period_solver"],
+                spectral_energy=options["spectral_energy"],
+                damping_ratio=values["damping_ratio"], cutoff_factor=cutoff_factor,
+                backlash=values["backlash"] * 1e-6)
         if stage is not None:  # the stage's FE rotor (gearuq.rotor.stage)
             from gearuq_plugins.geared_rotor.stage import StageRotorFactory
 
@@ -224,6 +246,18 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
                                   backlash=values["backlash"] * 1e-6)
 
     return _cached(model, rkey, build)
+
+
+def _table_excitation(model: Any, pair: Any, torque: float, deviations: Any, ppc: int,
+                      n_pts: int) -> Any:
+    """Excitation over a long period from a line-load table built for this torque."""
+    from gearuq.gears.long_period import LongPeriodSettings, long_period_ltca
+    from gearuq.rotor.sideband_balance import excitation_from_long_period
+
+    ds = long_period_ltca(pair, deviations, torque=torque, compliance=model.compliance,
+                          settings=LongPeriodSettings(positions_per_cycle=ppc, n_pts=n_pts),
+                          keep_lines=False)
+    return excitation_from_long_period(ds)
 
 
 def mesh_harmonics(options: dict[str, Any], speed: float, z1: int = 30) -> int:
@@ -339,12 +373,12 @@ def iso_class(values: dict[str, float], options: dict[str, Any]) -> int:
 
 
 def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str, Any],
-                speeds: np.ndarray, names: list[str]) -> None:
-    """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations."""
+                speeds: np.ndarray, names: list[str], pair: Any) -> None:
+    """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations of
+    ``pair`` (Yuan, Liu and Liu's, or the stage's)."""
     from gearuq.gears.deviations import iso1328_pitch_tolerances
     from gearuq.gears.iso6336 import pair_dynamic_factor_method_b
 
-    pair = seed_pair()
     if any(n.startswith(("kv_iso", "speed_at_kv_iso")) for n in names):
         iso = pair_dynamic_factor_method_b(
             pair, values["torque"], speeds, accuracy_grade=iso_class(values, options),
@@ -418,6 +452,12 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     ranged = [o for o in outputs if o in _RANGE_OUTPUTS]
     cheap = [o for o in outputs if o in _CHEAP_OUTPUTS]
     single = [o for o in outputs if o not in _RANGE_OUTPUTS and o not in _CHEAP_OUTPUTS]
+    long_period = n_cycles > MAX_DENSE_LONG_PERIOD
+    if long_period and single:
+        raise ValueError(
+            f"outputs={single!r} are outside what a long period of {n_cycles} mesh cycles "
+            "gives (beyond the dense balance's "
+            f"{MAX_DENSE_LONG_PERIOD}): valid outputs {LONG_PERIOD_OUTPUTS + _CHEAP_OUTPUTS}")
     n = next(iter(params.values())).shape[0]
     speed_values = params.get("speed", np.full(n, model.parameter("speed").nominal))
     per_sample = [mesh_harmonics(options, float(v), pair.z1) for v in speed_values]
@@ -435,7 +475,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
         for i in range(n):
             values = {k: float(v[i]) for k, v in params.items()}
             if cheap:
-                _fill_cheap(data, i, values, options, speeds, cheap)
+                _fill_cheap(data, i, values, options, speeds, cheap, pair)
             if not (single or ranged):
                 continue
             try:
@@ -446,7 +486,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                 status[i] = STATUS_LTCA_FAILED
                 continue
             dynamic = [o for o in ranged if o in _DYNAMIC_OUTPUTS]
-            if dynamic:
+            if dynamic or (long_period and ranged):  # spectral orders: the dynamic sweep
                 dyn = rng_prob.dynamics_over_speeds(
                     speeds, mesh_orders=options["range_mesh_harmonics"], tol=options["tol"],
                     refine=sorted({_DYNAMIC_OUTPUTS[o][0] for o in dynamic}),

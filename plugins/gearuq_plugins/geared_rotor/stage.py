@@ -4,9 +4,8 @@ What the stage feeds: the pair, the tooth compliance (its material, the bore of 
 the nominal values (design torque and speed, ISO class, a shared parabolic tip relief, the
 bearings' stiffness and damping, the end inertias, the backlash), the pitch-deviation germ of
 its tooth numbers, and the FE rotor itself (:func:`gearuq.rotor.stage.stage_rotor`). What the
-model cannot take is refused with the reason: a long period of more than
-``MAX_LONG_PERIOD`` mesh cycles (a hunting-tooth pair: the harmonic balance over it is the
-subject of its own issue), other than two bearings per shaft, bearings that differ (the
+model cannot take is refused with the reason: other than two bearings per shaft, bearings
+that differ (the
 model has one radial, one axial stiffness and one damping for all four), per-gear ISO classes
 or reliefs other than one shared parabolic tip relief.
 """
@@ -18,10 +17,6 @@ from dataclasses import replace
 from typing import Any
 
 from gearuq.model import Parameter
-
-#: longest period (mesh cycles) the harmonic balance is run over from a stage (the 30/30
-#: pair of Yuan, Liu and Liu: 30); 27/79 would need 2133
-MAX_LONG_PERIOD = 120
 
 
 def _refuse(stage: Any, text: str) -> None:
@@ -35,11 +30,6 @@ def check_stage(stage: Any) -> None:
 
     if not isinstance(stage, GearStage):
         raise TypeError(f"stage={stage!r} must be a gearuq.GearStage")
-    if stage.long_period_mesh_cycles > MAX_LONG_PERIOD:
-        _refuse(stage, f"[pair] teeth={list(stage.teeth)} repeat after "
-                f"{stage.long_period_mesh_cycles} mesh cycles, beyond the {MAX_LONG_PERIOD} the "
-                "harmonic balance over the long period is run for; `gearuq run` gives the "
-                "stage's mesh-order run-up from one mesh cycle")
     for name in ("pinion_shaft", "wheel_shaft"):
         shaft = getattr(stage, name)
         if shaft is None or len(shaft.bearings) != 2:

@@ -71,6 +71,12 @@ _OPTIONS = (
     Option("pitch_harmonics", None, "tooth-index harmonics kept in each gear's germ "
            "(1..z//2; None: all, the exact germ of z-1 normals per gear)", kind=int,
            lower=1, upper=500, allow_none=True),
+    Option("ltca_route", "full",
+           "how the long period is solved: 'full' (the LTCA at every position, cost in "
+           "proportion to lcm(z1, z2)) or 'table' (one line-load table per designed "
+           "modification and torque level, then one scalar equation per position; "
+           "docs/theory/mesh_excitation.md)",
+           choices=("full", "table")),
     Option("threads", None, "threads over samples (None: all cores of this process)",
            kind=int, lower=1, upper=1024, allow_none=True),
 )

@@ -5,11 +5,19 @@ discretisation, so they are prepared once per model instance and option set
 (:func:`gearuq.gears.ltca.ltca_setup`) and shared by every sample; a sample only builds its
 clearances (pitch deviations, reliefs, crowning) and runs the compiled solver, which releases
 the GIL, so samples run in threads.
+
+With ``ltca_route="table"`` a sample's long period comes instead from a line-load table
+(:func:`gearuq.gears.long_period.long_period_ltca`): one table per (positions per cycle,
+points per line, designed modifications, torque level), cached on the model, so a sample
+costs one scalar equation per position whatever ``lcm(z1, z2)``. The torque levels form a
+ladder of ratio ``2**(1/4)``; a sample uses the table of the lowest level at or above its
+torque, so its result does not depend on which other samples share its chunk.
 """
 
 from __future__ import annotations
 
 import math
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from typing import Any
@@ -20,6 +28,14 @@ from gearuq.model import STATUS_MODEL_ERROR, STATUS_NONFINITE, Evaluation
 
 #: Plugin status code: the LTCA solver did not converge at some mesh position.
 STATUS_LTCA_NOT_CONVERGED = 16
+#: Plugin status code (table route): a line's load left its tabulated valid range at some
+#: mesh position (a short line loaded beyond the range of Weber's formula).
+STATUS_TABLE_OUT_OF_RANGE = 17
+
+#: Torque levels of the line-load tables: 2**(k / 4) N m (each level 19 % above the last).
+TABLE_TORQUE_STEPS_PER_OCTAVE = 4
+
+_TABLE_LOCK = threading.Lock()  # one table per key even when samples run in threads
 
 _SCALARS = {
     "ste": ("ste_mean", "ste_ptp", 1e6),
@@ -90,14 +106,14 @@ def _prepared(model: Any, options: dict[str, Any], t: np.ndarray) -> dict[str, A
     orders, labels, bins = order_table(n_cycles, z_shaft, options["n_mesh_orders"],
                                        options["n_sidebands"], ppc)
     key = ("grid", ppc, n_pts)
-    if key not in model._cache:
+    if options["ltca_route"] == "full" and key not in model._cache:
         model._cache[key] = (
             ltca_setup(pair, compliance=model.compliance, positions_per_cycle=ppc,
                        n_pts=n_pts),
             ltca_setup(pair, compliance=model.compliance, positions_per_cycle=ppc, n_cycles=1,
                        n_pts=n_pts),
         )
-    main, reference = model._cache[key]
+    main, reference = model._cache.get(key, (None, None))
     # output instants: wrap into the long period; on the grid they are read off, otherwise
     # the LTCA is solved there too (exact, no interpolation)
     tau = np.mod(t, n_cycles)
@@ -110,7 +126,10 @@ def _prepared(model: Any, options: dict[str, Any], t: np.ndarray) -> dict[str, A
             model._cache[tkey] = ltca_setup(pair, compliance=model.compliance, tau=tau,
                                             n_pts=n_pts)
         extra = model._cache[tkey]
+    if options["ltca_route"] == "table":
+        main = reference = None  # the long period comes from line-load tables
     return {"main": main, "reference": reference, "extra": extra, "n_cycles": n_cycles,
+            "route": options["ltca_route"], "n_pts": n_pts,
             "stage_relief": getattr(model, "stage_relief", None),
             "ppc": ppc, "grid_index": np.mod(np.round(index).astype(np.int64),
                                               n_cycles * ppc) if on_grid else None,
@@ -185,7 +204,9 @@ def _one_sample(prep: dict[str, Any], pair: Any, values: dict[str, float],
         dev = replace(dev, user=prep["stage_relief"](values))
     P = normal_force_from_torque(pair, values["torque"])
     sol = ltca_solve(main, P, main.clearance(dev))
-    ref = ltca_solve(reference, P, reference.clearance(dev.design_only()))
+    # the design pattern keeps the designed modifications, a stage's relief map included
+    # (design_only() alone drops the map and would count its relief as contact loss)
+    ref = ltca_solve(reference, P, reference.clearance(replace(dev.design_only(), user=dev.user)))
     ppc = prep["ppc"]
     pattern = (ref.force > 0.0)[np.arange(sol.force.shape[0]) % ppc]
     summ = mesh_summaries(main, sol, pattern)
@@ -215,6 +236,82 @@ def _one_sample(prep: dict[str, Any], pair: Any, values: dict[str, float],
     return out, status
 
 
+def table_torque(torque: float) -> float:
+    """Torque level [N m] of the line-load table serving ``torque``: the lowest
+    ``2**(k / TABLE_TORQUE_STEPS_PER_OCTAVE)`` at or above it."""
+    if not (math.isfinite(torque) and torque > 0.0):
+        raise ValueError(f"torque={torque!r} is outside its valid range (0, inf) N m")
+    steps = TABLE_TORQUE_STEPS_PER_OCTAVE
+    level = 2.0 ** (math.ceil(math.log2(torque) * steps - 1e-12) / steps)
+    return level if level >= torque else level * 2.0 ** (1.0 / steps)
+
+
+def _table(model: Any, prep: dict[str, Any], design: Any, values: dict[str, float]) -> Any:
+    """The cached line-load table of this sample's designed modifications and torque level."""
+    from gearuq.gears.long_period import LongPeriodSettings, line_load_table
+
+    stage_keys = () if prep["stage_relief"] is None else tuple(
+        values[f"{k}_relief_amount"] for k in prep["stage_relief"].keys)
+    level = table_torque(values["torque"])
+    key = ("table", prep["ppc"], prep["n_pts"], level, design.tip_relief1, design.root_relief1,
+           design.crowning, stage_keys)
+    with _TABLE_LOCK:
+        if key not in model._cache:
+            model._cache[key] = line_load_table(
+                model.pair, max_torque=level, modifications=design,
+                compliance=model.compliance,
+                settings=LongPeriodSettings(positions_per_cycle=prep["ppc"],
+                                            n_pts=prep["n_pts"]))
+        return model._cache[key]
+
+
+def _one_sample_table(model: Any, prep: dict[str, Any], values: dict[str, float],
+                      reading: str, pitch_model: str = "germ",
+                      pitch_harmonics: int | None = None) -> tuple[dict[str, np.ndarray], int]:
+    """Long period of one sample from a line-load table: the outputs of :func:`_one_sample`."""
+    from gearuq.gears.long_period import long_period_ltca
+
+    pair = model.pair
+    dev = sample_deviations(pair, values, reading, pitch_model, pitch_harmonics)
+    design = dev.design_only()
+    if prep["stage_relief"] is not None:  # a stage's reliefs: the same map on every tooth
+        design = replace(design, user=prep["stage_relief"](values))
+    table = _table(model, prep, design, values)
+    # the table's own map object, so the route sees the modifications it was built for
+    dev = replace(dev, user=table.modifications.user)
+    ds = long_period_ltca(pair, dev, torque=values["torque"], table=table, keep_lines=False)
+    series = {name: ds[name].values for name in _TIME_UNITS}  # um and N/um already
+    out: dict[str, np.ndarray] = {}
+    for name, (mean, ptp, _) in _SCALARS.items():
+        out[mean] = np.float64(series[name].mean())
+        out[ptp] = np.float64(np.ptp(series[name]))
+    loss = ds["contact_loss_fraction"].values
+    out["contact_loss_fraction"] = np.float64(ds["partial_contact_loss"].values.mean())
+    out["unloaded_share_max"] = np.float64(loss.max())
+    for name, (source, _) in _SPECTRA.items():
+        out[name] = order_amplitudes(series[source], prep["bins"])
+    worst = int(ds["status"].values.max())
+    status = 0 if worst == 0 else (STATUS_TABLE_OUT_OF_RANGE if worst == 2
+                                   else STATUS_LTCA_NOT_CONVERGED)
+    if prep["extra"] is not None:  # instants off the grid: the full LTCA at those alone
+        from gearuq.gears.ltca import ltca_solve, mesh_summaries, normal_force_from_torque
+
+        extra = prep["extra"]
+        full_dev = replace(dev, user=prep["stage_relief"](values)) \
+            if prep["stage_relief"] is not None else dev
+        sol_t = ltca_solve(extra, normal_force_from_torque(pair, values["torque"]),
+                           extra.clearance(full_dev))
+        summ_t = mesh_summaries(extra, sol_t)
+        if sol_t.status.max() != 0:
+            status = STATUS_LTCA_NOT_CONVERGED
+        for name, unit in _TIME_UNITS.items():
+            out[name] = summ_t[name] * unit
+    else:
+        for name in _TIME_UNITS:
+            out[name] = series[name][prep["grid_index"]]
+    return out, status
+
+
 def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: list[str],
              **options: Any) -> Evaluation:
     """Evaluate ``outputs`` for every sample (threads over samples)."""
@@ -230,8 +327,13 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     def run(i: int) -> None:
         values = {k: float(v[i]) for k, v in params.items()}
         try:
-            res, code = _one_sample(prep, model.pair, values, options["amplitude_reading"],
-                                    options["pitch_model"], options["pitch_harmonics"])
+            if prep["route"] == "table":
+                res, code = _one_sample_table(model, prep, values,
+                                              options["amplitude_reading"],
+                                              options["pitch_model"], options["pitch_harmonics"])
+            else:
+                res, code = _one_sample(prep, model.pair, values, options["amplitude_reading"],
+                                        options["pitch_model"], options["pitch_harmonics"])
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             status[i] = STATUS_MODEL_ERROR  # flagged, outputs stay NaN
             errors[i] = f"{type(exc).__name__}: {exc}"
@@ -259,9 +361,11 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
              "n_pts": options["n_pts"], "long_period_mesh_cycles": prep["n_cycles"],
              "coupling_length_m": float(model.compliance.coupling_length),
              "sideband_shaft": options["sideband_shaft"],
-             "amplitude_reading": options["amplitude_reading"]}
+             "amplitude_reading": options["amplitude_reading"],
+             "ltca_route": options["ltca_route"]}
     if errors:
         attrs["sample_errors"] = "; ".join(f"sample {i}: {m}" for i, m in sorted(errors.items()))
     return Evaluation(data=data, status=status,
-                      status_meanings={STATUS_LTCA_NOT_CONVERGED: "ltca_not_converged"},
+                      status_meanings={STATUS_LTCA_NOT_CONVERGED: "ltca_not_converged",
+                                       STATUS_TABLE_OUT_OF_RANGE: "line_load_beyond_table"},
                       coords=coords if needs_order else {}, attrs=attrs)
