@@ -100,17 +100,10 @@ def iso6336_table(stage: Any) -> xr.Dataset:
 
 def mesh_cycle(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20) -> xr.Dataset:
     """LTCA over one mesh cycle at the design torque (designed modifications, no errors)."""
-    from gearuq.gears.compliance import ComplianceModel
-    from gearuq.gears.ltca import ltca
-    from gearuq.gears.stage import to_si
+    from gearuq.gears.stage import design_mesh_cycle
 
-    pair = stage.pair
-    compliance = ComplianceModel(pair, E=to_si(stage.material.young_modulus, "1e6"),
-                                 nu=stage.material.poisson_ratio)
     torque = stage.operation.torque_design
-    ds = ltca(pair, torque=torque, deviations=stage.flank_deviations(), compliance=compliance,
-              positions_per_cycle=positions_per_cycle, n_cycles=1, n_pts=n_pts,
-              keep_points=False)
+    ds = design_mesh_cycle(stage, positions_per_cycle=positions_per_cycle, n_pts=n_pts)
     src = (f"gearuq.gears.ltca.ltca at {torque:g} N m, {positions_per_cycle} positions x "
            f"{n_pts} points, the stage's reliefs and crowning, no pitch deviations")
     tau = ds["tau"].values

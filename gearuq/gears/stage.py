@@ -1164,22 +1164,39 @@ def stage_mesh_stiffness(stage: GearStage, *, positions_per_cycle: int = 24,
     return result
 
 
+def design_mesh_cycle(stage: GearStage, *, positions_per_cycle: int = 24,
+                      n_pts: int = 20) -> Any:
+    """LTCA of the stage over one mesh cycle at its design torque (no pitch deviations).
+
+    The one computation behind the stage's mesh stiffness and ``gearuq run``'s mesh-cycle
+    table: the stage's material, reliefs and crowning, ``keep_points=False``.
+
+    Returns
+    -------
+    xarray.Dataset
+        :func:`gearuq.gears.ltca.ltca`'s result.
+    """
+    from gearuq.gears.compliance import ComplianceModel
+    from gearuq.gears.ltca import ltca
+
+    compliance = ComplianceModel(stage.pair, E=to_si(stage.material.young_modulus, "1e6"),
+                                 nu=stage.material.poisson_ratio)
+    return ltca(stage.pair, torque=stage.operation.torque_design,
+                deviations=stage.flank_deviations(), compliance=compliance,
+                positions_per_cycle=positions_per_cycle, n_cycles=1, n_pts=n_pts,
+                keep_points=False)
+
+
 @functools.lru_cache(maxsize=32)
 def _stage_mesh_stiffness(stage: GearStage, positions_per_cycle: int,
                           n_pts: int) -> StageMeshStiffness:
     import numpy as np
 
-    from gearuq.gears.compliance import ComplianceModel
     from gearuq.gears.iso6336 import mesh_stiffness
-    from gearuq.gears.ltca import ltca
 
     pair = stage.pair
-    compliance = ComplianceModel(pair, E=to_si(stage.material.young_modulus, "1e6"),
-                                 nu=stage.material.poisson_ratio)
     torque = stage.operation.torque_design
-    ds = ltca(pair, torque=torque, deviations=stage.flank_deviations(), compliance=compliance,
-              positions_per_cycle=positions_per_cycle, n_cycles=1, n_pts=n_pts,
-              keep_points=False)
+    ds = design_mesh_cycle(stage, positions_per_cycle=positions_per_cycle, n_pts=n_pts)
     if int(ds["status"].max()) != 0:
         raise ValueError(f"stage {stage.name!r}: the LTCA did not converge at the design torque "
                          f"{torque:g} N m")
