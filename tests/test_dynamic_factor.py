@@ -346,3 +346,30 @@ def test_quick_dynamic_factor_study(tmp_path):
     assert min(info["kv_max_quantiles"]) >= 1.0 and min(info["kv_iso_max_quantiles"]) >= 1.0
     assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
                                                        "campbell_map.png"}
+
+
+def test_a_failed_steady_state_while_locating_a_peak_is_flagged(problem, monkeypatch):
+    """Golden-section search that meets a failed steady state stops with the largest value
+    found so far; the range says so (refinement_status) instead of reporting a resolved
+    peak, and the grid's maximum stays a lower bound of what is reported."""
+    f, share = _mesh_modes(problem)
+    r = int(np.argmax(np.where(f * 60.0 / problem.pinion_teeth < 8000.0, share, 0.0)))
+    predicted = f[r] * 60.0 / problem.pinion_teeth
+    speeds = np.linspace(0.85 * predicted, 1.15 * predicted, 13)
+    clean = problem.dynamics_over_speeds(speeds, refine=("kv",))
+    assert clean.refinement_status == 0 and clean.peaks["kv"][2] <= 1.0
+    real = type(problem).dynamics_at
+    grid = set(speeds.tolist())
+
+    def failing_off_grid(self, speed, **kw):
+        values, sol = real(self, speed, **kw)
+        if speed not in grid:  # every refinement point fails, as a diverged solve would
+            values = dict(values, status=1)
+        return values, sol
+
+    monkeypatch.setattr(type(problem), "dynamics_at", failing_off_grid)
+    dyn = problem.dynamics_over_speeds(speeds, refine=("kv",))
+    assert dyn.worst_status() == 0 and dyn.refinement_status == 1
+    kv, at, bracket = dyn.peaks["kv"]
+    assert kv == pytest.approx(dyn.kv.max()) and bracket > 1.0  # the grid's, unresolved
+    assert kv < clean.peaks["kv"][0]

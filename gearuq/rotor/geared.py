@@ -143,6 +143,10 @@ class DynamicRange:
         ``error_bound`` [rpm] is the width of the final bracket of the speed.
     refinement_runs : int
         Steady states solved by the peak refinement (beyond the grid).
+    refinement_status : int
+        First non-zero status among the refinement's steady states (0: none failed). A failed
+        one ends its peak's search early: that peak is then the largest value found before
+        it (never below the grid's), with a bracket wider than asked.
     """
 
     speeds: np.ndarray
@@ -156,6 +160,7 @@ class DynamicRange:
     contact_loss_fraction: np.ndarray
     peaks: dict = field(default_factory=dict)
     refinement_runs: int = 0
+    refinement_status: int = 0
 
     def worst_status(self) -> int:
         """First non-zero harmonic-balance status of the grid (0: every speed converged)."""
@@ -520,6 +525,8 @@ class GearedRotorProblem:
                         speeds, curve, (lambda s, n=name, c=c: _pick(evaluate(s), n, c)),
                         peaks_refined if name in refine else 0, speed_tol)
             out.refinement_runs = len(cache)
+            failed = [int(v["status"]) for v in cache.values() if int(v["status"]) != 0]
+            out.refinement_status = failed[0] if failed else 0
         return out
 
     def sweep(self, speeds_rpm: Sequence[float], *, continuation: bool = True,

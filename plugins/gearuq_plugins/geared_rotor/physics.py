@@ -24,12 +24,16 @@ STATUS_SINGULAR = 17
 STATUS_NO_PERIODIC = 18
 STATUS_LTCA_FAILED = 19
 STATUS_BACK_FLANK_TRUNCATED = 20
+#: every grid speed converged, but a steady state failed while a resonance peak was being
+#: located: that maximum is the largest value found before it (a lower bound of the peak)
+STATUS_PEAK_NOT_LOCATED = 21
 STATUS_MEANINGS = {
     STATUS_BACK_FLANK_TRUNCATED: "back_flank_contact_solved_on_spectral_orders_only",
     STATUS_HB_NOT_CONVERGED: "harmonic_balance_not_converged",
     STATUS_SINGULAR: "singular_harmonic_balance_system",
     STATUS_NO_PERIODIC: "no_stable_periodic_response",
     STATUS_LTCA_FAILED: "ltca_cannot_carry_the_load",
+    STATUS_PEAK_NOT_LOCATED: "steady_state_failed_while_locating_a_peak",
 }
 _FROM_SOLVER = {0: 0, 1: STATUS_HB_NOT_CONVERGED, 2: STATUS_SINGULAR, 3: STATUS_NO_PERIODIC,
                 4: STATUS_BACK_FLANK_TRUNCATED}
@@ -493,6 +497,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                     peaks_refined=options["peaks_refined"],
                     speed_tol=options["peak_speed_tol"])
                 status[i] = _FROM_SOLVER[dyn.worst_status()]
+                if status[i] == 0 and dyn.refinement_status != 0:
+                    status[i] = STATUS_PEAK_NOT_LOCATED
                 _fill_dynamic(data, i, dyn, dynamic)
                 extra["range_newton_iterations"][i] = float(dyn.iterations.sum())
                 extra["peak_refinement_runs"][i] = float(dyn.refinement_runs)
