@@ -6,6 +6,7 @@ so one broken plugin never breaks the others.
 
 from __future__ import annotations
 
+import importlib
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -251,3 +252,52 @@ def get_link(high: str, low: str, **options: Any) -> Any:
         raise ValueError(f"no fidelity link from {high!r} to {low!r}; registered links: "
                          f"{known}")
     return _load_named(LINK_GROUP, name, "link")(**options)
+
+
+# =========================================================================== reliability cases
+RELIABILITY_CASE_GROUP = "gearuq.reliability_cases"
+
+
+def list_reliability_cases() -> list[str]:
+    """Reliability benchmark cases that plugins register under ``gearuq.reliability_cases``.
+
+    Each entry point is a function ``case() -> dict`` that builds a case on its plugin's
+    model: ``model``, ``space``, ``limit_state``, ``t`` (where the model has time), ``pf``
+    (the reference), ``pf_interval``, ``source`` (how the reference was made), optionally
+    ``model_options``, and ``coverage``: the ``(method, settings)`` rows ``gearuq bench
+    reliability`` runs on it at full size. Reads metadata only: no plugin is imported.
+    """
+    return sorted(ep.name for ep in entry_points(group=RELIABILITY_CASE_GROUP))
+
+
+def get_reliability_case(name: str) -> dict[str, Any]:
+    """The reliability benchmark case ``name``, built (see :func:`list_reliability_cases`).
+
+    Raises
+    ------
+    ValueError
+        Unknown name (the message lists the registered cases).
+    ModelLoadError
+        The case's module failed to import.
+    """
+    return _load_named(RELIABILITY_CASE_GROUP, name, "reliability case")()
+
+
+def reliability_case_attribute(name: str, where: str) -> Any:
+    """A public name (in ``__all__``) of a module that registers reliability cases.
+
+    The benchmark cases of the gear models, their references and settings once lived in
+    ``where`` (generic code); they now live in their plugins, and ``where``'s module
+    ``__getattr__`` finds the old names here, through the entry points, without importing a
+    plugin by name.
+
+    Raises
+    ------
+    AttributeError
+        No registered case module exports ``name``.
+    """
+    for ep in entry_points(group=RELIABILITY_CASE_GROUP):
+        module = importlib.import_module(ep.module)
+        if name in getattr(module, "__all__", ()):
+            return getattr(module, name)
+    raise AttributeError(f"module {where!r} has no attribute {name!r}")

@@ -106,8 +106,8 @@ def test_same_realisation_on_any_executor(model):
         "torque": {"dist": "uniform", "lower": 200.0, "upper": 1000.0},
         "pitch_seed": {"dist": "uniform", "lower": 0.0, "upper": 1e6},
     })
-    kw = dict(n_samples=4, rng=11, outputs=["ste_ptp", "cms_ptp"], chunk_size=2, **COARSE,
-              pitch_model="seeded")
+    kw = dict(n_samples=4, rng=11, outputs=["ste_ptp", "cms_ptp"], chunk_size=2,
+              model_options={**COARSE, "pitch_model": "seeded"})
     serial = gearuq.monte_carlo(model, space, executor="serial", **kw)
     spawned = gearuq.monte_carlo(model, space, executor="processes", **kw)
     np.testing.assert_array_equal(serial["ste_ptp"].values, spawned["ste_ptp"].values)

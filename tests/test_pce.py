@@ -356,7 +356,8 @@ def test_compare_mc_surrogate_uses_the_model_options_on_both_sides():
                                  options=[Option("shift", 0.0, "offset of the limit state")])
     space = standard_normal_space(2)
     cmp = compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=20_000, order=1,
-                               n_samples=8, n_surrogate=20_000, rng=3, shift=5.0)
+                               n_samples=8, n_surrogate=20_000, rng=3,
+                               model_options={"shift": 5.0})
     exact = stats.norm.cdf(2.0)
     for approach in ("monte_carlo", "pce"):
         row = cmp.sel(approach=approach, mode="g")
@@ -366,7 +367,8 @@ def test_compare_mc_surrogate_uses_the_model_options_on_both_sides():
     mc = gearuq.monte_carlo(model, space, n_samples=100, rng=1, executor="serial",
                             progress=False)
     with pytest.raises(ValueError, match="computed with model options"):
-        compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=100, mc=mc, shift=5.0)
+        compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=100, mc=mc,
+                             model_options={"shift": 5.0})
     with pytest.raises(ValueError, match="unknown option"):
         compare_mc_surrogate(model, space, Band("g", lower=0.0), n_mc=100, shfit=5.0)
 
@@ -440,7 +442,7 @@ def test_bad_input_messages():
     with pytest.raises(ValueError, match="truncation"):
         polynomial_chaos(model, space, order=2, truncation=0.0)
     with pytest.raises(ValueError, match="unknown option"):
-        polynomial_chaos(model, space, order=2, rtol=1e-3)
+        polynomial_chaos(model, space, order=2, model_options={"rtol": 1e-3})
     pce = polynomial_chaos(model, space, order=2, n_samples=40, rule="lhs", rng=0)
     with pytest.raises(ValueError, match="unknown parameter"):
         pce.response({"nope": [1.0]})

@@ -205,7 +205,7 @@ def test_errors():
     with pytest.raises(ValueError, match="n_base"):
         sobol_indices(model, space, n_base=1)
     with pytest.raises(ValueError, match="unknown option"):
-        sobol_indices(model, space, n_base=64, rtol=1e-3)
+        sobol_indices(model, space, n_base=64, model_options={"rtol": 1e-3})
     bad = gearuq.ParameterSpace.normal(q=(0.0, 1.0))
     with pytest.raises(ValueError, match="'q' not in model"):
         sobol_indices(model, bad, n_base=64)

@@ -24,8 +24,9 @@ nominal = model.response({}, None, outputs=["amplitude_up", "amplitude_down",
 space = model.default_space()
 print(space)
 ds = gearuq.monte_carlo(model, space, None, n_samples=5, rng=3, progress=False,
-                        outputs=["amplitude_up"], frequency_min=0.8, frequency_max=1.2,
-                        n_frequencies=161)
+                        outputs=["amplitude_up"],
+                        model_options={"frequency_min": 0.8, "frequency_max": 1.2,
+                                       "n_frequencies": 161})
 
 # %%
 # Nominal response (thick) and the upward sweeps of five random samples (thin).

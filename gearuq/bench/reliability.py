@@ -31,6 +31,12 @@ from typing import Any
 
 import numpy as np
 
+from gearuq.registry import (
+    get_reliability_case,
+    list_reliability_cases,
+    reliability_case_attribute,
+)
+
 __all__ = ["run", "cases", "main", "coverage", "coverage_cases", "rejudge"]
 
 _START = "<!-- reliability-bench:start -->"
@@ -289,22 +295,10 @@ def case_label(method: str, settings: dict[str, Any]) -> str:
     return method
 
 
-#: The helical pair's cheap model for MFIS: the same model at a looser step tolerance
-#: (rtol 1e-4 instead of 1e-6): half the cost, peaks within 1 N of the default's on 2000
-#: draws about the failure domain (docs/reliability.md).
-HELICAL_PAIR_LOW_FIDELITY = {"low_fidelity": "helical_pair",
-                             "low_fidelity_options": {"rtol": 1e-4}}
-
-
-#: Output instants of that cheap model in the second MFIS row: every fourth instant of the
-#: case's ``linspace(100, 200, 2001)``.
-HELICAL_PAIR_LOW_FIDELITY_T = np.linspace(100.0, 200.0, 501)
-
-
 def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]:
-    """``(problem, method, settings)`` of the coverage benchmark."""
-    from gearuq.testing.reliability_problems import geared_rotor_mfis_settings
-
+    """``(problem, method, settings)`` of the coverage benchmark: the generic problems' rows
+    here, the gear models' rows from their cases (``gearuq.reliability_cases``, full size
+    only)."""
     rows: list[tuple[str, str, dict[str, Any]]] = []
     for problem in ("offset", "resistance_load", "oscillator", "four_branch", "parabola",
                     "jump", "linear_100d", "exponential_sum", "nan_tail"):
@@ -318,33 +312,23 @@ def coverage_cases(quick: bool = False) -> list[tuple[str, str, dict[str, Any]]]
     # Pf); MFIS must hold or say so, whatever its defensive draws happen to hit
     rows.append(("two_mechanisms", "mfis", {"low_fidelity": _problems()["two_mechanisms"][
         "low_fidelity"], "max_samples": 5000 if quick else 10_000}))
-    if not quick:  # the gear model at Pf ~ 1e-4 against 2 x 10^6 crude MC runs
-        rows.append(("helical_pair", "subset", {}))
-        rows.append(("helical_pair", "subset", {"replicates": 5}))
-        rows.append(("helical_pair", "mfis", {**HELICAL_PAIR_LOW_FIDELITY, "n_per_level": 1000,
-                                              "max_samples": 20_000}))
-        # the cheap model on a quarter of the instants as well: 0.42 of an expensive run
-        # instead of 0.67, peaks within 7 N (docs/reliability.md)
-        rows.append(("helical_pair", "mfis", {**HELICAL_PAIR_LOW_FIDELITY, "n_per_level": 1000,
-                                              "max_samples": 20_000,
-                                              "low_fidelity_t": HELICAL_PAIR_LOW_FIDELITY_T}))
-        rows.append(("helical_pair", "akmcs", {"max_runs": 150, "n_mc": 50_000,
-                                               "max_mc": 400_000}))
-        # the earlier, aliased case (the peak on one instant per time unit): what MFIS does
-        # there, against its corrected reference
-        rows.append(("helical_pair_grid", "mfis", {**HELICAL_PAIR_LOW_FIDELITY,
-                                                   "n_per_level": 1000, "max_samples": 20_000}))
-        # the geared rotor at Pf ~ 1e-6 in 60 inputs, as the headline study runs it
-        rows.append(("geared_rotor", "mfis", geared_rotor_mfis_settings()))
+    if not quick:  # the gear models' cases, each with the rows its plugin declares
+        for name in sorted(list_reliability_cases(), key=_gear_first):
+            rows.extend((name, method, settings)
+                        for method, settings in _problems()[name].get("coverage", ()))
     # issue 30: modes in different units (as a series system and as one limit state), a
     # ridge whose chains do not mix, and the helical pair's deep level
     for problem in ("unit_modes_system", "unit_modes_single", "ridge"):
         if problem != "ridge":
             rows.append((problem, "importance", {}))
         rows.append((problem, "subset", {}))
-    if not quick:
-        rows.append(("helical_pair_deep", "subset", {}))
     return rows
+
+
+def _gear_first(name: str) -> tuple[int, str]:
+    """Table order: the gear cases of :data:`GEAR_PROBLEMS` in their order, then the others."""
+    return (GEAR_PROBLEMS.index(name), "") if name in GEAR_PROBLEMS else (len(GEAR_PROBLEMS),
+                                                                           name)
 
 
 @functools.lru_cache(maxsize=1)
@@ -352,8 +336,6 @@ def _problems() -> dict[str, dict[str, Any]]:
     """The problems, built once per process (every seed of every row reads them)."""
     from gearuq.space import ParameterSpace
     from gearuq.testing.reliability_problems import (
-        geared_rotor_problem,
-        helical_pair_problem,
         reliability_problems,
         ridge_model,
         ridge_pf,
@@ -370,10 +352,8 @@ def _problems() -> dict[str, dict[str, Any]]:
     ridge = {"model": ridge_model(), "space": ParameterSpace.normal(
         **{f"x{i}": (0.0, 1.0) for i in range(1, 7)}), "limit_state": "g", "pf": ridge_pf(),
         "source": "1-D quadrature"}
-    return {**reliability_problems(), "helical_pair": helical_pair_problem("peak"),
-            "helical_pair_grid": helical_pair_problem("grid"),
-            "geared_rotor": geared_rotor_problem(), **units, "ridge": ridge,
-            "helical_pair_deep": helical_pair_problem("deep")}
+    gear = {name: get_reliability_case(name) for name in list_reliability_cases()}
+    return {**reliability_problems(), **gear, **units, "ridge": ridge}
 
 
 def _coverage_task(args: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
@@ -592,3 +572,9 @@ def coverage_markdown(rows: list[dict[str, Any]], quick: bool, n_seeds: int) -> 
         f"{_fmt(r['coverage_status0'], '.0%')} | {r['held_or_flagged']:.0%} | "
         f"{','.join(map(str, r['statuses']))} | {r['runs']:.0f} |" for r in rows]
     return "\n".join(head + body) + "\n"
+
+
+def __getattr__(name: str) -> Any:
+    """``HELICAL_PAIR_LOW_FIDELITY`` and ``HELICAL_PAIR_LOW_FIDELITY_T``, the helical pair's
+    MFIS settings, live in its plugin now; found through ``gearuq.reliability_cases``."""
+    return reliability_case_attribute(name, __name__)

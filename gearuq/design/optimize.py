@@ -39,7 +39,7 @@ from scipy.stats import qmc
 from gearuq.design.measures import Estimate, Probability
 from gearuq.design.pool import RunPool
 from gearuq.design.problem import DesignProblem, evaluate_design
-from gearuq.engines.common import provenance, resolve_seed
+from gearuq.runs import provenance, resolve_seed
 
 __all__ = ["optimize_design", "STRATEGIES", "DESIGN_STATUS"]
 

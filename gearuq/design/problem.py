@@ -17,11 +17,11 @@ import xarray as xr
 
 from gearuq.design.measures import Constraint, Estimate, Moment, Probability, Quantile
 from gearuq.design.variables import DesignVariable, check_variables, model_at, space_at
-from gearuq.engines.common import provenance, resolve_seed
 from gearuq.engines.montecarlo import monte_carlo
 from gearuq.execution import evaluate_chunks
 from gearuq.model import Model
 from gearuq.registry import get_model
+from gearuq.runs import provenance, resolve_seed
 from gearuq.space import ParameterSpace
 
 __all__ = ["DesignProblem", "evaluate_design"]

@@ -16,7 +16,9 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from gearuq.engines.common import (
+from gearuq.execution import evaluate_chunks
+from gearuq.model import Model
+from gearuq.runs import (
     check_positive_int,
     merge_model_options,
     provenance,
@@ -24,8 +26,6 @@ from gearuq.engines.common import (
     resolve_seed,
     space_json,
 )
-from gearuq.execution import evaluate_chunks
-from gearuq.model import Model
 from gearuq.space import RULES, ParameterSpace
 
 __all__ = ["monte_carlo", "estimate_mean", "resolve_seed", "resolve_model_and_space",
@@ -117,9 +117,10 @@ def monte_carlo(
         run without ``store`` is refused before it starts.
     model_options : mapping, optional
         Declared model options (solver/fidelity settings, see ``gearuq models NAME``); every
-        engine accepts this spelling. Here they may also be given as keywords.
+        engine accepts this spelling, validated before the design is drawn.
     **options
-        Model options as keywords, validated before the design is drawn.
+        Deprecated: model options as keywords (still accepted for one release, with a
+        DeprecationWarning naming the ``model_options={...}`` spelling to use).
 
     Returns
     -------

@@ -52,10 +52,10 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from gearuq.engines.common import provenance, resolve_model, resolve_seed
 from gearuq.execution import evaluate_chunks
 from gearuq.failure.modes import as_limit_state
 from gearuq.model import Model
+from gearuq.runs import provenance, resolve_model, resolve_seed
 from gearuq.space import ParameterSpace
 
 __all__ = ["multifidelity_estimate", "mfmc_allocation", "acvmf_allocation", "STATISTICS",

@@ -44,7 +44,8 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from gearuq.engines.common import (
+from gearuq.model import Model, Request
+from gearuq.runs import (
     check_positive_int,
     merge_model_options,
     provenance,
@@ -52,7 +53,6 @@ from gearuq.engines.common import (
     resolve_seed,
     space_json,
 )
-from gearuq.model import Model, Request
 from gearuq.space import ParameterSpace
 
 __all__ = ["sobol_indices", "morris_screening", "saltelli_design", "sobol_analysis",
@@ -487,7 +487,8 @@ def sobol_indices(
         Declared model options (solver/fidelity settings, see ``gearuq models NAME``); every
         engine accepts this spelling, validated before the design is drawn.
     **options
-        The same model options as keywords (give each once).
+        Deprecated: model options as keywords (still accepted for one release, with a
+        DeprecationWarning naming the ``model_options={...}`` spelling to use).
 
     Returns
     -------
@@ -523,7 +524,8 @@ def sobol_indices(
         kw = {"rule": "sobol" if n_base & (n_base - 1) == 0 else "lhs", **(pce_options or {})}
         pce = polynomial_chaos(model, space, request.t, order=pce_order, outputs=names,
                                n_samples=n_base, rng=seed, executor=executor, store=store,
-                               chunk_size=chunk_size, progress=progress, **kw, **options)
+                               chunk_size=chunk_size, progress=progress, **kw,
+                               model_options=options)
         out = sobol_from_chaos(pce, names, second_order=second_order, confidence=confidence)
         out.attrs["n_base"] = n_base
     else:
@@ -598,6 +600,14 @@ def morris_analysis(
 
     The grid levels are recovered from the inputs through the marginal cdfs, so any result
     over the design (stored, resumed, lazily loaded) can be analysed.
+
+    Parameters
+    ----------
+    model_options : mapping, optional
+        Declared model options; the other parameters are those of :func:`sobol_indices`.
+    **options
+        Deprecated: model options as keywords (still accepted for one release, with a
+        DeprecationWarning naming the ``model_options={...}`` spelling to use).
 
     Returns
     -------
@@ -676,6 +686,14 @@ def morris_screening(
     Effects are per unit of probability (steps in the unit hypercube), which makes
     ``mu_star`` comparable across parameters of different units. ``store=`` makes the run
     resumable; ``rng=None`` draws a fresh seed, recorded in ``attrs["seed"]``.
+
+    Parameters
+    ----------
+    model_options : mapping, optional
+        Declared model options; the other parameters are those of :func:`sobol_indices`.
+    **options
+        Deprecated: model options as keywords (still accepted for one release, with a
+        DeprecationWarning naming the ``model_options={...}`` spelling to use).
 
     Returns
     -------

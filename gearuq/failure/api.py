@@ -33,10 +33,10 @@ from typing import Any, NamedTuple
 import numpy as np
 import xarray as xr
 
-from gearuq.engines.common import resolve_seed
 from gearuq.failure.evaluator import LimitStateEvaluator
 from gearuq.failure.methods import akmcs, form, importance, mc, mfis, subset
 from gearuq.model import Model, Option
+from gearuq.runs import resolve_model, resolve_seed, route_keywords
 from gearuq.space import ParameterSpace
 
 __all__ = ["failure_probability", "method_settings", "validate_settings", "check_method",
@@ -149,7 +149,10 @@ def failure_probability(
     model_options : mapping, optional
         Declared model options (solver/fidelity settings).
     **settings
-        Method settings (validated; unknown names raise with the list of valid ones).
+        The method's own settings (validated; unknown names raise with the list of valid
+        ones). A model option given here is refused with the spelling to use
+        (``model_options={...}``), and so is a name that is both a setting of the method and
+        an option of the model unless ``model_options`` also holds it.
 
     Returns
     -------
@@ -161,7 +164,8 @@ def failure_probability(
     Raises
     ------
     ValueError
-        Unknown method or setting, bad setting value, a limit state on an unknown output,
+        Unknown method or setting, bad setting value, a model option given as a setting,
+        a limit state on an unknown output,
         ambiguous limit-state input, a point outside the model's valid range.
 
     Examples
@@ -174,6 +178,10 @@ def failure_probability(
     key = check_method(method)
     if not 0.0 < float(confidence) < 1.0:
         raise ValueError(f"confidence: must lie in (0, 1), got {confidence!r}")
+    model = resolve_model(model)
+    settings, model_options = route_keywords(
+        f"failure_probability(method={key!r})", model, model_options, settings,
+        [o.name for o in method_settings(key)], legacy_model_options=False)
     s = validate_settings(key, settings)
     seed = resolve_seed(rng)
     ev = LimitStateEvaluator(model, space, limit_state, t, model_options=model_options,

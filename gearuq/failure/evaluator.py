@@ -40,10 +40,10 @@ import numpy as np
 import xarray as xr
 from scipy import linalg, special
 
-from gearuq.engines.common import resolve_model_and_space
 from gearuq.execution import AllSamplesFailedError, evaluate_chunks
 from gearuq.failure.modes import System, as_limit_state
 from gearuq.model import Model, Request
+from gearuq.runs import resolve_model_and_space
 from gearuq.space import ParameterSpace
 
 __all__ = ["LimitStateEvaluator", "ComponentView", "STATUS_LIMIT_STATE_NONFINITE",

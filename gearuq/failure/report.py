@@ -31,8 +31,8 @@ import numpy as np
 import xarray as xr
 from scipy import linalg, stats
 
-from gearuq.engines.common import provenance
 from gearuq.failure.evaluator import LimitStateEvaluator
+from gearuq.runs import provenance
 
 __all__ = ["failure_report", "REPORT_STATUS", "STATUS_TEXT", "Reason", "ReportStatus",
            "describe_status"]

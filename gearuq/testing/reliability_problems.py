@@ -52,29 +52,22 @@ if TYPE_CHECKING:
     from gearuq.model import FunctionModel
     from gearuq.space import ParameterSpace
 
+# The gear models' cases (helical_pair_problem, HELICAL_PAIR_*, geared_rotor_*,
+# GEARED_ROTOR_*) live in their plugins, registered under ``gearuq.reliability_cases``; their
+# old names here are found through those entry points (``__getattr__`` below).
 __all__ = [
-    "linear_sum", "linear_sum_model", "LINEAR_100D_BETA", "LINEAR_100D_PF",
-    "offset", "offset_model", "offset_space", "OFFSET_PF",
-    "resistance_load", "resistance_load_model", "resistance_load_space", "resistance_load_pf",
-    "oscillator", "oscillator_model", "oscillator_space", "OSCILLATOR_PF",
-    "OSCILLATOR_PF_MC", "OSCILLATOR_PF_MC_SE",
-    "parabola", "parabola_model", "parabola_pf", "PARABOLA_PF",
-    "four_branch_components", "four_branch_components_model", "FOUR_BRANCH_PF",
-    "jump", "jump_model", "JUMP_PF",
+    "linear_sum", "linear_sum_model", "LINEAR_100D_BETA", "LINEAR_100D_PF", "offset",
+    "offset_model", "offset_space", "OFFSET_PF", "resistance_load", "resistance_load_model",
+    "resistance_load_space", "resistance_load_pf", "oscillator", "oscillator_model",
+    "oscillator_space", "OSCILLATOR_PF", "OSCILLATOR_PF_MC", "OSCILLATOR_PF_MC_SE", "parabola",
+    "parabola_model", "parabola_pf", "PARABOLA_PF", "four_branch_components",
+    "four_branch_components_model", "FOUR_BRANCH_PF", "jump", "jump_model", "JUMP_PF",
     "exponential_sum_model", "exponential_sum_space", "EXPONENTIAL_SUM_LEVEL",
-    "helical_pair_problem", "HELICAL_PAIR_LEVEL", "HELICAL_PAIR_PF", "HELICAL_PAIR_PF_INTERVAL",
-    "HELICAL_PAIR_T", "HELICAL_PAIR_GRID_LEVEL", "HELICAL_PAIR_GRID_PF",
-    "HELICAL_PAIR_GRID_PF_INTERVAL", "geared_rotor_problem", "geared_rotor_reference",
-    "geared_rotor_space", "geared_rotor_model", "GEARED_ROTOR_OPTIONS",
-    "GEARED_ROTOR_LOW_FIDELITY_OPTIONS", "GEARED_ROTOR_LEVEL", "GEARED_ROTOR_PF",
-    "GEARED_ROTOR_PF_INTERVAL", "geared_rotor_mfis_settings",
-    "EXPONENTIAL_SUM_PF", "nan_tail_model", "NAN_TAIL_PF",
-    "random_phase", "random_phase_model", "random_phase_rate", "random_phase_first_passage",
-    "gaussian_process", "gaussian_process_model", "gaussian_process_moments",
-    "rice_rate_gaussian", "reliability_problems",
-    "unit_modes_model", "unit_modes_pf", "unit_modes_limit_state", "UNIT_MODES_BETAS",
-    "UNIT_MODES_ANGLE", "HELICAL_PAIR_DEEP_LEVEL", "HELICAL_PAIR_DEEP_PF", "ridge_model",
-    "ridge_pf", "RIDGE_K", "RIDGE_B",
+    "EXPONENTIAL_SUM_PF", "nan_tail_model", "NAN_TAIL_PF", "random_phase", "random_phase_model",
+    "random_phase_rate", "random_phase_first_passage", "gaussian_process",
+    "gaussian_process_model", "gaussian_process_moments", "rice_rate_gaussian",
+    "reliability_problems", "unit_modes_model", "unit_modes_pf", "unit_modes_limit_state",
+    "UNIT_MODES_BETAS", "UNIT_MODES_ANGLE", "ridge_model", "ridge_pf", "RIDGE_K", "RIDGE_B",
     "two_mechanisms", "one_mechanism", "two_mechanisms_model", "one_mechanism_model",
     "TWO_MECHANISMS_BETAS", "TWO_MECHANISMS_PF",
 ]
@@ -462,95 +455,6 @@ def one_mechanism_model() -> FunctionModel:
                          description="g = 2.9 - x1 (blind to the second mechanism)")
 
 
-# =========================================================================== the gear model
-#: Peak dynamic mesh force level [N] of the helical-pair rare-event case.
-HELICAL_PAIR_LEVEL = 76_220.0
-#: Output instants of the case: tau in [100, 200] every 0.05 (about 114 instants per mesh
-#: period); the peak between them is taken by a parabola through each local maximum
-#: (``first_passage="parabola"``): within 0.2 N of the continuous-time peak on 100 draws
-#: about the failure domain (against 0.0025 instants), where the plain maximum over the old
-#: grid (one instant per time unit, 5.7 per mesh period) was up to 190 N low.
-HELICAL_PAIR_T = np.linspace(100.0, 200.0, 2001)
-#: P(continuous-time peak of mesh_force over tau in [100, 200] >= 76 220 N), the model's
-#: default space and options: importance sampling with every weight bounded by 2 (half the
-#: standard normal, half a broad normal about the failure region; 1.2 x 10^5 runs, 9495
-#: failing, CoV 2.1 %, :mod:`gearuq.testing.helical_pair_reference`), 95 % normal interval;
-#: crude Monte Carlo on independent draws agrees (``helical_pair_problem()["source"]``).
-HELICAL_PAIR_PF = 7.92e-5
-HELICAL_PAIR_PF_INTERVAL = (7.60e-5, 8.25e-5)
-
-#: The earlier case: the largest mesh force on the instants tau = 0, 1, ..., 200 within
-#: [100, 200] at 76 200 N (aliased: see :func:`helical_pair_problem`), from the same
-#: bounded-weight runs (8319 failing, CoV 2.3 %). The earlier crude-MC reference, 1.11e-4
-#: [9.69e-5, 1.27e-4] from 2 x 10^6 runs (222 failures), was 1.5 of its own standard errors
-#: above it.
-HELICAL_PAIR_GRID_LEVEL = 76_200.0
-HELICAL_PAIR_GRID_PF = 9.94e-5
-HELICAL_PAIR_GRID_PF_INTERVAL = (9.49e-5, 1.04e-4)
-
-
-_PEAK_SOURCE = ("importance sampling with weights <= 2, 1.2 x 10^5 runs (CoV 2.1 %); crude MC "
-                "on independent draws: 2 x 10^6 runs, 178 failures, 8.90e-5 [7.64e-5, 1.03e-4]")
-_GRID_SOURCE = ("importance sampling with weights <= 2, 1.2 x 10^5 runs (CoV 2.3 %); crude MC: "
-                "2 x 10^6 runs, 222 failures, 1.11e-4 [9.69e-5, 1.27e-4]; on the peak case's "
-                "2 x 10^6 draws 216 failures, 1.08e-4 [9.41e-5, 1.23e-4]")
-
-
-#: The deep level of the aliased grid case [N] and its estimate: four groups of ten pooled
-#: subset runs gave 3.0e-8, 1.5e-8, 2.2e-8 and 2.7e-8 (docs/reliability.md); their mean. An
-#: estimate from one method, not a reference: a coverage row on it is indicative only.
-HELICAL_PAIR_DEEP_LEVEL = 76_300.0
-HELICAL_PAIR_DEEP_PF = 2.35e-8
-_DEEP_SOURCE = ("mean of four groups of ten pooled subset-simulation runs (3.0e-8, 1.5e-8, "
-                "2.2e-8, 2.7e-8); not checkable by crude Monte Carlo (~5e9 runs)")
-
-
-def helical_pair_problem(variant: str = "peak") -> dict[str, Any]:
-    """The helical pair's peak mesh force at Pf ~ 1e-4 with its reference.
-
-    Parameters
-    ----------
-    variant : {"peak", "grid", "deep"}
-        ``"peak"``: the continuous-time peak (parabola through the local maxima on
-        :data:`HELICAL_PAIR_T`) at :data:`HELICAL_PAIR_LEVEL`. ``"grid"``: the earlier case,
-        the largest value on ``tau = 0, 1, ..., 200`` at 76 200 N. Its mesh force peaks are
-        sharp (curvature ~7e4 N per tau^2) and the grid has 5.7 instants per mesh period, so
-        the grid maximum depends on where the instants fall on the peaks: up to 190 N low,
-        and with a pattern that moves with every parameter that shifts the response's phase
-        (aliasing fingers in the failure set); kept to show what that does to the methods.
-        ``"deep"``: the same grid at 76 300 N (Pf ~ 2e-8, the README's old level), where
-        subset simulation's chains do not mix; its value is the mean of four pooled groups
-        of ten subset runs (no method can check it: crude MC would need ~5e9 runs).
-
-    Not in :func:`reliability_problems` (it needs the plugin and ~1 ms per run); the
-    reference's own interval is in the ``"pf_interval"`` entry: a method's interval is judged
-    against the point value, as for the 2e7-sample oscillator reference.
-    """
-    from gearuq.failure.modes import LimitState
-    from gearuq.registry import get_model
-
-    model = get_model("helical_pair")
-    if variant == "peak":
-        limit = LimitState.upper("mesh_force", HELICAL_PAIR_LEVEL, window=(100.0, 200.0),
-                                 first_passage="parabola")
-        return {"model": model, "space": model.default_space(), "limit_state": limit,
-                "t": HELICAL_PAIR_T, "pf": HELICAL_PAIR_PF,
-                "pf_interval": HELICAL_PAIR_PF_INTERVAL,
-                "source": _PEAK_SOURCE}
-    if variant == "deep":
-        limit = LimitState.upper("mesh_force", HELICAL_PAIR_DEEP_LEVEL, window=(100.0, 200.0))
-        return {"model": model, "space": model.default_space(), "limit_state": limit,
-                "t": np.linspace(0.0, 200.0, 201), "pf": HELICAL_PAIR_DEEP_PF,
-                "pf_interval": (math.nan, math.nan), "source": _DEEP_SOURCE}
-    if variant == "grid":
-        limit = LimitState.upper("mesh_force", HELICAL_PAIR_GRID_LEVEL, window=(100.0, 200.0))
-        return {"model": model, "space": model.default_space(), "limit_state": limit,
-                "t": np.linspace(0.0, 200.0, 201), "pf": HELICAL_PAIR_GRID_PF,
-                "pf_interval": HELICAL_PAIR_GRID_PF_INTERVAL,
-                "source": _GRID_SOURCE}
-    raise ValueError(f"variant: {variant!r} is not 'peak', 'grid' or 'deep'")
-
-
 # =========================================================================== all of them
 def reliability_problems() -> dict[str, dict[str, Any]]:
     """The static problems by name: ``{"model", "space", "limit_state", "pf", "source"}``."""
@@ -594,106 +498,6 @@ def _named_normals(names: list[str]) -> ParameterSpace:
     from gearuq.space import ParameterSpace
 
     return ParameterSpace.normal(**{n: (0.0, 1.0) for n in names})
-
-
-# ======================================================================= the geared rotor
-#: Options of the geared rotor in its rare-event case: the speed range on 40 speeds with 2 mesh
-#: harmonics (the headline study's cheap model; 160 speeds and 3 harmonics by default), so that
-#: 20 seeds of 1000 rotor runs fit in half an hour on 2 cores. The same physics on a coarser
-#: grid: Pearson 1.0000 with the default's ``dte_rms_max``, at most 0.36 um below it.
-GEARED_ROTOR_OPTIONS = {"n_speeds": 40, "range_mesh_harmonics": 2}
-#: The cheap model of the case for multi-fidelity importance sampling: 20 speeds, 1 harmonic
-#: (about 0.55 of a run of the case: the loaded tooth contact analysis is a fixed cost).
-GEARED_ROTOR_LOW_FIDELITY_OPTIONS = {"n_speeds": 20, "range_mesh_harmonics": 1}
-#: Limit on ``dte_rms_max`` [m] of the case.
-GEARED_ROTOR_LEVEL = 60e-6
-#: P(dte_rms_max >= 60 um) of the case, from :func:`geared_rotor_reference` (seed 77): 10^4
-#: rotor runs from the tilted normal of a quadratic form fitted to 2400 runs of the case's
-#: rotor itself, 3542 failing, CoV 4.5 %, Pareto k -0.61, largest weight 0.4 % of the
-#: estimate; 95 % normal interval.
-GEARED_ROTOR_PF = 7.12e-7
-GEARED_ROTOR_PF_INTERVAL = (6.49e-7, 7.76e-7)
-_ROTOR_SOURCE = ("importance sampling from the tilted normal of a quadratic form fitted to the "
-                 "case's rotor itself: 10^4 runs (plus 2400 for the fit), CoV 4.5 %, Pareto "
-                 "k -0.61")
-
-
-def geared_rotor_space() -> ParameterSpace:
-    """The headline space of the geared rotor: its pitch germ, tip-relief tolerance and torque.
-
-    58 independent standard normals ``pitch_xi_{p,g}_{1..29}`` (the germ of each gear's random
-    cumulative pitch deviations), ``tip_relief_amount`` uniform on 37-47 um (the 42 um design
-    relief with a +-5 um drawing tolerance) and ``torque`` lognormal with mean 1000 N m and
-    CoV 10 %.
-    """
-    from gearuq.space import ParameterSpace
-
-    germ = {f"pitch_xi_{gear}_{k}": {"dist": "normal", "mean": 0.0, "std": 1.0}
-            for gear in ("p", "g") for k in range(1, 30)}
-    return ParameterSpace({
-        "torque": {"dist": "lognormal", "mean": 1000.0, "std": 100.0},
-        "tip_relief_amount": {"dist": "uniform", "lower": 37.0, "upper": 47.0},
-        **germ})
-
-
-def geared_rotor_model() -> Any:
-    """The geared rotor of Yuan, Liu and Liu (2020) at ISO 1328-1 grade 6."""
-    from gearuq.registry import get_model
-
-    return get_model("geared_rotor").with_nominal(iso_grade=6)
-
-
-def geared_rotor_problem() -> dict[str, Any]:
-    """The geared rotor's largest RMS DTE over 25-8000 rpm at Pf ~ 1e-6, with its reference.
-
-    ``dte_rms_max >= GEARED_ROTOR_LEVEL`` over :func:`geared_rotor_space` (60 inputs), the
-    rotor at :data:`GEARED_ROTOR_OPTIONS`. The reference comes from
-    :func:`geared_rotor_reference` (see ``"source"``); like the helical pair's, it is not in
-    :func:`reliability_problems` (about 0.1 s per run).
-    """
-    from gearuq.failure.modes import LimitState
-
-    return {"model": geared_rotor_model(), "space": geared_rotor_space(),
-            "limit_state": LimitState.upper("dte_rms_max", GEARED_ROTOR_LEVEL),
-            "model_options": dict(GEARED_ROTOR_OPTIONS), "pf": GEARED_ROTOR_PF,
-            "pf_interval": GEARED_ROTOR_PF_INTERVAL, "source": _ROTOR_SOURCE}
-
-
-def geared_rotor_mfis_settings(level: float = GEARED_ROTOR_LEVEL,
-                               low_fidelity_options: Any = None) -> dict[str, Any]:
-    """MFIS settings of the rotor at Pf ~ 1e-6, as the headline study and the benchmark run it.
-
-    The cheap model (the same rotor with ``low_fidelity_options``; default
-    :data:`GEARED_ROTOR_LOW_FIDELITY_OPTIONS`) has its ``dte_rms_max^2`` fitted as a
-    quadratic form on 2400 runs (the form has 1891 coefficients in 60 inputs); the rotor then
-    runs in batches of 200 from the tilted normal of that form (5 % defensive), up to 1000
-    runs or a CoV of 0.15. ``level`` [m] is the limit X of ``g = X - dte_rms_max`` (the
-    response offset).
-    """
-    options = GEARED_ROTOR_LOW_FIDELITY_OPTIONS if low_fidelity_options is None \
-        else low_fidelity_options
-    return {"low_fidelity": geared_rotor_model(), "low_fidelity_options": dict(options),
-            "biasing": "quadratic", "response_offset": level, "n_fit": 2400,
-            "n_samples": 200, "max_samples": 1000, "target_cov": 0.15, "defensive": 0.05}
-
-
-def geared_rotor_reference(n_samples: int = 10_000, seed: int = 77, executor: Any = "processes",
-                           chunk_size: int = 250) -> Any:
-    """The reference of :func:`geared_rotor_problem`: one long importance-sampling run.
-
-    The quadratic form of ``dte_rms_max^2`` is fitted to 2400 runs of the case's rotor itself
-    (not of a cheaper model), and ``n_samples`` rotor runs are drawn from the exponentially
-    tilted normal of that form (:mod:`gearuq.failure.methods.quadratic`), 5 % defensive.
-    Returns the report (``pf``, ``pf_lower``, ``pf_upper``, ``cov_pf``).
-    """
-    from gearuq.failure.api import failure_probability
-
-    p = geared_rotor_problem()
-    settings = {**geared_rotor_mfis_settings(GEARED_ROTOR_LEVEL, p["model_options"]),
-                "n_samples": 1000, "max_samples": n_samples, "target_cov": 1e-4}
-    return failure_probability(p["model"], p["space"], p["limit_state"], method="mfis",
-                               rng=seed, executor=executor, chunk_size=chunk_size,
-                               model_options=p["model_options"], **settings)
 
 
 # =========================================================================== modes in units
@@ -791,3 +595,13 @@ def ridge_pf(k: float = RIDGE_K, b: float = RIDGE_B) -> float:
 
     val, _ = integrate.quad(integrand, 0.0, 12.0, epsabs=1e-16, epsrel=1e-11, limit=200)
     return float(val)
+
+
+def __getattr__(name: str) -> Any:
+    """The gear models' benchmark cases, references and MFIS settings under their old names
+    (``helical_pair_problem``, ``HELICAL_PAIR_LEVEL``, ``geared_rotor_problem``, ...): they
+    live in their plugins now and are found through the ``gearuq.reliability_cases`` entry
+    points (:func:`gearuq.registry.reliability_case_attribute`)."""
+    from gearuq.registry import reliability_case_attribute
+
+    return reliability_case_attribute(name, __name__)

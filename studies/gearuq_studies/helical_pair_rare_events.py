@@ -91,7 +91,7 @@ def crude_monte_carlo(model: Any, space: Any, n: int, seed: int, store: Path
     """
     t0 = time.perf_counter()
     ds = gearuq.monte_carlo(model, space, TAU, n_samples=n, rng=seed, outputs=["mesh_force"],
-                            executor="serial", store=store, **OPTIONS)
+                            executor="serial", store=store, model_options=OPTIONS)
     wall = time.perf_counter() - t0
     modes = [LimitState.upper("mesh_force", f, name=k) for k, f in MARGINS.items()]
     rel = gearuq.reliability(ds, modes, system=False)
@@ -142,7 +142,7 @@ def grid_check(model: Any, space: Any, seed: int, n: int = 2000) -> Any:
     from gearuq.failure.outcrossing import first_passage
 
     ds = gearuq.monte_carlo(model, space, TAU, n_samples=n, rng=seed + 1,
-                            outputs=["p1", "dp1"], executor="serial", **OPTIONS)
+                            outputs=["p1", "dp1"], executor="serial", model_options=OPTIONS)
     level = float(np.quantile(ds["p1"].max("time").values, 0.98))
     fp = first_passage(ds, "p1", level, derivative="dp1")
     print(f"  grid check on p1 >= {level:.4g} ({n} samples): grid {float(fp['pf_grid']):.4g}, "

@@ -261,7 +261,7 @@ def reliability(out: Path, quick: bool) -> dict:
     n = 400 if quick else 4000
     t0 = time.perf_counter()
     ds = gearuq.monte_carlo(model, space, n_samples=n, rule="lhs", rng=7, outputs=outs,
-                            executor="serial", **opts)
+                            executor="serial", model_options=opts)
     wall = time.perf_counter() - t0
     valid = ds["status"].values == 0
     peaks = _peaks(ds)

@@ -20,17 +20,18 @@ import chaospy as cp
 import numpy as np
 import xarray as xr
 
-from gearuq.engines.common import (
+from gearuq.engines.pce.basis import Germ, multi_indices
+from gearuq.engines.pce.surrogate import ChaosSettings, PolynomialChaos
+from gearuq.model import Model, Request
+from gearuq.runs import (
     check_positive_int,
     merge_model_options,
     provenance,
     resolve_model_and_space,
     resolve_seed,
+    route_keywords,
     space_json,
 )
-from gearuq.engines.pce.basis import Germ, multi_indices
-from gearuq.engines.pce.surrogate import ChaosSettings, PolynomialChaos
-from gearuq.model import Model, Request
 from gearuq.space import RULES, ParameterSpace
 
 __all__ = ["polynomial_chaos", "chaos_design", "compare_mc_surrogate", "surrogate_reliability"]
@@ -167,7 +168,8 @@ def polynomial_chaos(
         Declared model options (solver/fidelity settings, see ``gearuq models NAME``); every
         engine accepts this spelling, validated before the design is drawn.
     **options
-        The same model options as keywords (give each once).
+        Deprecated: model options as keywords (still accepted for one release, with a
+        DeprecationWarning naming the ``model_options={...}`` spelling to use).
 
     Returns
     -------
@@ -227,26 +229,11 @@ def surrogate_reliability(pce: PolynomialChaos, space: ParameterSpace | None, ba
 
 
 #: Keywords of :func:`polynomial_chaos` that :func:`compare_mc_surrogate` passes to the fit;
-#: every other keyword is a model option and goes to both sides.
+#: any other keyword is a model option (deprecated spelling) and goes to both sides.
 _FIT_KEYWORDS = frozenset({
     "order", "method", "n_samples", "rule", "sparse_grid", "truncation", "compress",
     "oversampling", "solver", "max_order", "n_holdout", "germ", "chunk_size", "progress",
 })
-
-
-def _split_options(model: Model, model_options: Mapping[str, Any] | None,
-                   keywords: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(fit keywords, model options) from the keywords of compare_mc_surrogate."""
-    fit = {k: v for k, v in keywords.items() if k in _FIT_KEYWORDS}
-    opts = {k: v for k, v in keywords.items() if k not in _FIT_KEYWORDS}
-    clash = sorted(set(fit) & set(model.option_names))
-    if clash:
-        raise ValueError(f"{clash}: both a fitting keyword and an option of model "
-                         f"{model.name!r}; pass the model option in model_options={{...}}")
-    both = sorted(set(opts) & set(model_options or {}))
-    if both:
-        raise ValueError(f"model option(s) {both} given twice (keyword and model_options)")
-    return fit, {**dict(model_options or {}), **opts}
 
 
 def compare_mc_surrogate(
@@ -287,9 +274,13 @@ def compare_mc_surrogate(
         A precomputed Monte Carlo result and its wall time (reused as reference; it must
         have been computed with the same model options).
     model_options : mapping, optional
-        Model options (also accepted as keywords: every keyword that is not a fitting
-        keyword of :func:`polynomial_chaos` -- ``order``, ``method`` (default
-        ``"regression"``), ``n_samples``, ``rule``, ... -- is a model option).
+        Model options, used on both sides.
+    **keywords
+        Fitting settings of :func:`polynomial_chaos` (``order``, ``method`` (default
+        ``"regression"``), ``n_samples``, ``rule``, ...). Deprecated: any other keyword is
+        taken as a model option, with a DeprecationWarning naming the ``model_options={...}``
+        spelling. A name that is both a fitting setting and an option of the model is
+        refused unless ``model_options`` also holds it (then the keyword is the fit's).
 
     Returns
     -------
@@ -311,7 +302,8 @@ def compare_mc_surrogate(
     from gearuq.failure.samples import reliability
 
     model, space = resolve_model_and_space(model, space)
-    fit_kw, options = _split_options(model, model_options, keywords)
+    fit_kw, options = route_keywords("compare_mc_surrogate", model, model_options, keywords,
+                                     _FIT_KEYWORDS, legacy_model_options=True)
     fit_kw.setdefault("order", 2)
     band_list = as_bands(bands)
     outs = list(dict.fromkeys(b.output for b in band_list))
@@ -319,7 +311,7 @@ def compare_mc_surrogate(
     if mc is None:
         t0 = time.perf_counter()
         mc = monte_carlo(model, space, t, n_samples=n_mc, rng=rng, outputs=outs,
-                         executor=executor, progress=False, **options)
+                         executor=executor, progress=False, model_options=options)
         mc_wall_time = time.perf_counter() - t0
     elif mc.attrs.get("options", request.options_json()) != request.options_json():
         raise ValueError(f"mc: computed with model options {mc.attrs['options']}, the "
@@ -327,7 +319,7 @@ def compare_mc_surrogate(
     rel_mc = reliability(mc, band_list, confidence=confidence)
     t0 = time.perf_counter()
     pce = polynomial_chaos(model, space, t, outputs=outs, rng=rng + 1, executor=executor,
-                           **fit_kw, **options)
+                           **fit_kw, model_options=options)
     t_fit = time.perf_counter() - t0
     rel_pce = pce.reliability(band_list, n_samples=n_surrogate, rng=rng + 2,
                               confidence=confidence)

@@ -514,9 +514,9 @@ class PolynomialChaos(Model):
         the surrogate error (see :func:`gearuq.engines.pce.compare_mc_surrogate`).
         ``rng=None`` draws a fresh seed, recorded in ``attrs["seed"]``.
         """
-        from gearuq.engines.common import check_positive_int, resolve_seed
         from gearuq.failure.modes import as_bands
         from gearuq.failure.samples import reliability
+        from gearuq.runs import check_positive_int, resolve_seed
 
         self._require_fitted()
         sampling = self.space if space is None else space
