@@ -601,14 +601,6 @@ def morris_analysis(
     The grid levels are recovered from the inputs through the marginal cdfs, so any result
     over the design (stored, resumed, lazily loaded) can be analysed.
 
-    Parameters
-    ----------
-    model_options : mapping, optional
-        Declared model options; the other parameters are those of :func:`sobol_indices`.
-    **options
-        Deprecated: model options as keywords (still accepted for one release, with a
-        DeprecationWarning naming the ``model_options={...}`` spelling to use).
-
     Returns
     -------
     xarray.Dataset
