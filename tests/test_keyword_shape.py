@@ -129,3 +129,13 @@ def test_failure_probability_keywords_are_method_settings_only():
     rep = gearuq.failure_probability(model, SPACE, "g", method="mc", n_samples=500, rng=1,
                                      model_options={"n_samples": 7})
     assert int(rep["n_model_runs"]) == 500 and set(seen) == {7}
+
+
+def test_the_run_context_keeps_its_former_names():
+    """``gearuq.engines.common`` re-exports the run context from its floor, ``gearuq.runs``."""
+    from gearuq import runs
+    from gearuq.engines import common
+
+    for name in common.__all__:
+        assert getattr(common, name) is getattr(runs, name), name
+    assert set(common.__all__) < set(runs.__all__)
