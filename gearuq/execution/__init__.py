@@ -26,6 +26,7 @@ from gearuq.execution.runners import (
     Task,
     main_is_guarded,
     resolve_executor,
+    workers_for_run,
 )
 from gearuq.execution.store import (
     ChunkStore,
@@ -52,6 +53,7 @@ __all__ = [
     "ExecutorFailure",
     "resolve_executor",
     "main_is_guarded",
+    "workers_for_run",
     "ChunkStore",
     "StoreMismatchError",
     "StoreLockedError",

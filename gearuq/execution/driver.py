@@ -250,6 +250,8 @@ class _Run:
         # samples passed to the model: re-runs of bisected chunks and attempts whose worker
         # died count too, so the cost reported is the cost paid
         self.n_evaluations = 0
+        self.cpu_seconds = 0.0  # CPU of every process that ran a chunk of this call
+        self.worker_cpu_seconds = 0.0  # ... of those that were not this process
 
     def task(self, i: int) -> Task:
         s, e = self.bounds[i]
@@ -259,6 +261,9 @@ class _Run:
         """File a finished chunk: into the store or the accumulator."""
         self.failures.extend(res.failures)
         self.n_evaluations += res.n_evaluations
+        self.cpu_seconds += res.cpu_seconds
+        if res.pid and res.pid != os.getpid():
+            self.worker_cpu_seconds += res.cpu_seconds
         if res.ds is None and not res.stored:
             self.all_failed[res.index] = res
         else:
@@ -308,7 +313,10 @@ class _Run:
                failed: list[dict[str, Any]], n_dead: int = 0) -> ChunkResult:
         res = ChunkResult(task.index, task.start, task.start + task.size,
                           failures=failed + [f for p in pieces for f in p.failures],
-                          n_evaluations=n_dead + sum(p.n_evaluations for p in pieces))
+                          n_evaluations=n_dead + sum(p.n_evaluations for p in pieces),
+                          cpu_seconds=sum(p.cpu_seconds for p in pieces),
+                          # -1: pieces ran in several processes (isolation runs in workers)
+                          pid=pieces[0].pid if len({p.pid for p in pieces}) == 1 else -1)
         good = [p for p in pieces if p.ds is not None]
         if not good:
             return res
@@ -471,8 +479,10 @@ def evaluate_chunks(
         ``executor``, ``executor_reason``, ``chunk_size``, ``n_chunks``, ``n_failed``
         (samples with nonzero status), ``n_model_errors``, ``n_evaluations`` (samples
         passed to the model in this call, every re-run of a bisected chunk and every attempt
-        whose worker died included), ``n_reused_samples`` (taken from a store, not run
-        again), and, when samples raised,
+        whose worker died included), ``cpu_seconds`` (CPU time of every process that ran a
+        chunk of this call, workers included; ``worker_cpu_seconds`` the part spent in other
+        processes than the caller), ``n_reused_samples`` (taken from a store, not
+        run again), and, when samples raised,
         ``failures`` (JSON list of ``{"error", "samples", "traceback"}``), and
         ``store`` / ``reused_chunks`` for stored runs.
 
@@ -536,6 +546,7 @@ def evaluate_chunks(
         finally:
             if bar is not None:
                 bar.close()
+            runner.worker_cpu_seconds += run.worker_cpu_seconds
             if runner is not executor:
                 runner.close(abort=not finished)
         if chunk_store is not None:
@@ -567,6 +578,8 @@ def _finish(ds: xr.Dataset, run: _Run, runner: Runner, reason: str, chunk_size: 
         "n_failed": int(np.count_nonzero(status)),
         "n_model_errors": int(np.count_nonzero(status == STATUS_MODEL_ERROR)),
         "n_evaluations": int(run.n_evaluations),
+        "cpu_seconds": float(run.cpu_seconds),
+        "worker_cpu_seconds": float(run.worker_cpu_seconds),
         "n_reused_samples": int(sum(bounds[i][1] - bounds[i][0] for i in reused)),
     })
     if store is not None:

@@ -34,6 +34,7 @@ import sys
 import threading
 import traceback
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,6 +54,7 @@ __all__ = [
     "DaskRunner",
     "resolve_executor",
     "main_is_guarded",
+    "workers_for_run",
 ]
 
 
@@ -150,6 +152,10 @@ class Runner:
 
     name = "runner"
     n_workers = 1
+    #: CPU seconds that runs through this runner spent in other processes than the caller
+    #: (added by :func:`gearuq.execution.evaluate_chunks`): a study that keeps one pool for
+    #: all its stages reads its workers' CPU here
+    worker_cpu_seconds = 0.0
 
     def run(self, model: Model, tasks: list[Task], request: Request,
             store_path: str | None = None) -> Iterator[tuple[Task, Outcome]]:
@@ -162,8 +168,9 @@ class Runner:
     def __enter__(self) -> Runner:
         return self
 
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
+    def __exit__(self, exc_type: Any, *exc: Any) -> None:
+        # an interrupted block terminates running workers: nothing is left behind
+        self.close(abort=exc_type is not None)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(n_workers={self.n_workers})"
@@ -303,6 +310,28 @@ class DaskRunner(Runner):
     def close(self, abort: bool = False) -> None:
         if self.owns:
             self.client.close()
+
+
+# =========================================================================== lasting workers
+_PROCESS_NAMES = ("processes", "process", "local")
+
+
+@contextmanager
+def workers_for_run(executor: Any) -> Iterator[Any]:
+    """``executor`` for a method that evaluates the model many times (one call per step).
+
+    ``"processes"`` becomes one :class:`ProcessRunner` for the whole method, so its steps
+    (levels, batches, probes) reuse the same workers instead of starting new ones at each
+    step (each costs seconds of imports and compiled kernels); anything else is passed
+    through unchanged. A study that chains several methods keeps its workers for all of them
+    the same way: ``with ProcessRunner() as pool:`` and ``executor=pool`` for each call (a
+    given runner, pool or client is left open by the calls).
+    """
+    if isinstance(executor, str) and executor.strip().lower() in _PROCESS_NAMES:
+        with ProcessRunner() as pool:
+            yield pool
+    else:
+        yield executor
 
 
 # =========================================================================== main guard

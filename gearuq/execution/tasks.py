@@ -9,6 +9,8 @@ travel back to, or accumulate in, the calling process.
 
 from __future__ import annotations
 
+import os
+import time
 import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -44,6 +46,11 @@ class ChunkResult:
     n_evaluations : int
         Samples passed to ``model.evaluate`` by the task, every call counted: a chunk that
         raised and was bisected counts its first try and every re-run of its pieces.
+    cpu_seconds : float
+        CPU time of the process that ran the task, spent on it (``time.process_time``), so a
+        run can report its CPU cost beside its wall time whatever executor it used.
+    pid : int
+        Process that ran the task (the driver tells worker CPU from its own by it).
     """
 
     index: int
@@ -54,6 +61,8 @@ class ChunkResult:
     n_bytes: int = 0
     stored: bool = False
     n_evaluations: int = 0
+    cpu_seconds: float = 0.0
+    pid: int = 0
 
 
 def _error_text(exc: BaseException) -> tuple[str, str]:
@@ -178,6 +187,7 @@ def run_chunk(
         Chunk store directory: the task writes its result there (atomically, with a
         checksum) and returns no data.
     """
+    cpu_start = time.process_time()
     n = len(next(iter(params.values())))
     pieces: list[tuple[int, int, xr.Dataset]] = []
     raw: list[tuple[int, str, str]] = []
@@ -185,8 +195,9 @@ def run_chunk(
     _evaluate_range(model, params, request, 0, n, pieces, raw, counter)
     failures = [{"sample": start + i, "error": e, "traceback": tb} for i, e, tb in raw]
     result = ChunkResult(index=index, start=start, stop=start + n, failures=failures,
-                         n_evaluations=counter[0])
+                         n_evaluations=counter[0], pid=os.getpid())
     if not pieces:
+        result.cpu_seconds = time.process_time() - cpu_start
         return result  # every sample failed: the driver templates them from another chunk
     ds = _assemble(model, params, n, pieces, [i for i, _, _ in raw])
     ds = ds.assign_coords(sample=np.arange(start, start + n))
@@ -200,6 +211,7 @@ def run_chunk(
         result.stored = True
     else:
         result.ds = ds
+    result.cpu_seconds = time.process_time() - cpu_start
     return result
 
 

@@ -27,12 +27,14 @@ from __future__ import annotations
 
 import functools
 import os
+import time
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
 import xarray as xr
 
+from gearuq.execution import workers_for_run
 from gearuq.failure.evaluator import LimitStateEvaluator
 from gearuq.failure.methods import akmcs, form, importance, mc, mfis, subset
 from gearuq.model import Model, Option
@@ -184,11 +186,19 @@ def failure_probability(
         [o.name for o in method_settings(key)], legacy_model_options=False)
     s = validate_settings(key, settings)
     seed = resolve_seed(rng)
-    ev = LimitStateEvaluator(model, space, limit_state, t, model_options=model_options,
-                             executor=executor, chunk_size=chunk_size, store=store,
-                             engine=f"failure_probability/{key}", seed=seed,
-                             fingerprint={"settings": _jsonable(s)})
-    return METHOD_TABLE[key].run(ev, s, seed, float(confidence))
+    cpu_start = time.process_time()
+    # one pool of workers for every step of the method (levels, batches, probes), not one
+    # per step: each fresh worker costs seconds of imports and compiled kernels
+    with workers_for_run(executor) as runner:
+        ev = LimitStateEvaluator(model, space, limit_state, t, model_options=model_options,
+                                 executor=runner, chunk_size=chunk_size, store=store,
+                                 engine=f"failure_probability/{key}", seed=seed,
+                                 fingerprint={"settings": _jsonable(s)})
+        report = METHOD_TABLE[key].run(ev, s, seed, float(confidence))
+    worker_cpu = ev.worker_cpu + sum(c.worker_cpu for c in ev.companions)
+    report["cpu_time"] = ((), time.process_time() - cpu_start + worker_cpu, {
+        "units": "s", "long_name": "CPU time of the method, its worker processes included"})
+    return report
 
 
 def _jsonable(settings: Mapping[str, Any]) -> dict[str, Any]:

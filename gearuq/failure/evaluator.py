@@ -113,6 +113,10 @@ class LimitStateEvaluator:
         self.engine, self.seed = engine, seed
         self.extra_fingerprint = dict(fingerprint or {})
         self.n_runs = 0  # samples passed to the model, re-runs of bisected chunks included
+        self.worker_cpu = 0.0  # CPU seconds of model runs in worker processes
+        #: evaluators of other models the method runs beside this one (MFIS's cheap model):
+        #: their worker CPU counts in the method's cost
+        self.companions: list[LimitStateEvaluator] = []
         self.n_points = 0  # points evaluated (each once, however often the model was called)
         self.n_invalid = 0
         self.time_dependent = False
@@ -225,6 +229,7 @@ class LimitStateEvaluator:
         # included; samples taken from a store were paid for by the run that wrote them
         self.n_runs += int(ds.attrs.get("n_evaluations", n)) + int(
             ds.attrs.get("n_reused_samples", 0))
+        self.worker_cpu += float(ds.attrs.get("worker_cpu_seconds", 0.0))
         self.n_points += n
         out = self._limit_state_values(ds, x, n, tag)
         failing = np.flatnonzero((out["status"] == 0) & (out["g"] <= 0.0))

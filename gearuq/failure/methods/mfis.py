@@ -155,11 +155,13 @@ def _low_fidelity(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int
     limit = s["low_fidelity_limit_state"] or ev.limit_state
     t = ev.request.t if s["low_fidelity_t"] is None else s["low_fidelity_t"]
     # the cheap side runs on the same executor and chunking as the expensive one
-    return LimitStateEvaluator(lf, ev.space, limit, t,
-                               model_options=s["low_fidelity_options"], executor=ev.executor,
-                               chunk_size=ev.chunk_size,
-                               store=None if ev.store is None else ev.store / "low_fidelity",
-                               engine="failure_probability/mfis/low_fidelity", seed=seed)
+    ev_lf = LimitStateEvaluator(lf, ev.space, limit, t,
+                                model_options=s["low_fidelity_options"], executor=ev.executor,
+                                chunk_size=ev.chunk_size,
+                                store=None if ev.store is None else ev.store / "low_fidelity",
+                                engine="failure_probability/mfis/low_fidelity", seed=seed)
+    ev.companions.append(ev_lf)
+    return ev_lf
 
 
 def excess_margin(g_lf: np.ndarray, g_hf: np.ndarray) -> np.ndarray:

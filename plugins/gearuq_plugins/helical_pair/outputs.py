@@ -41,9 +41,11 @@ DOFS = (
 #: chunk of a run carries the same flag attributes).
 STATUS_STATIC_NOT_FINITE = 16
 STATUS_LENGTH_SCALE_ZERO = 17
+STATUS_KV_NO_LOAD = 18
 STATUS_MEANINGS = {
     STATUS_STATIC_NOT_FINITE: "static_equilibrium_not_finite",
     STATUS_LENGTH_SCALE_ZERO: "length_scale_b5_is_zero",
+    STATUS_KV_NO_LOAD: "kv_undefined_without_torque",
 }
 
 
@@ -75,6 +77,9 @@ def _declare() -> tuple[Output, ...]:
                "dynamic transmission error: relative normal displacement of the contact points"),
         Output("mesh_deflection", "m", ("sample", "time"),
                "mesh deflection delta = dte - e(t) (contact when |delta| > b5)"),
+        Output("kv", "1", ("sample",),
+               "dynamic factor: largest mesh_force over the output instants / the static "
+               "normal mesh force T / (r_p cos a_n cos b) (ISO 6336-1 K_v; 1 quasi-static)"),
         Output("omega_n", "rad s-1", ("sample",), "time scale sqrt(k_m / m_e)"),
         Output("mesh_frequency", "Hz", ("sample",), "mesh frequency z1 n / 60"),
         Output("k_mesh", "N m-1", ("sample",), "mean mesh stiffness (ISO 6336-1 method B)"),
@@ -99,7 +104,7 @@ for _i, (_name, _, _) in enumerate(DOFS):
     _STATE_OUTPUTS[_name] = (_i, "si")
     _STATE_OUTPUTS[f"{_name}_dot"] = (N_DOF + _i, "si")
     _STATE_OUTPUTS[f"vib_{_name}"] = (_i, "vib_si")
-MESH_OUTPUTS = ("mesh_force", "dte", "mesh_deflection")
+MESH_OUTPUTS = ("mesh_force", "dte", "mesh_deflection", "kv")
 _NONDIMENSIONAL = ("nondim", "vib")
 
 
@@ -179,6 +184,8 @@ def assemble(
         data[o] = q * scale[:, None]
     if any(o in MESH_OUTPUTS for o in outputs):
         data.update(_mesh_outputs(system, states, tau, outputs))
+    if "kv" in outputs:  # a dynamic factor needs a static load to be a factor of
+        _flag(status, ~(system.gear["static_mesh_force"] > 0), STATUS_KV_NO_LOAD)
     per_sample = {
         "omega_n": system.gear["omega_n"], "mesh_frequency": system.gear["mesh_frequency"],
         "k_mesh": system.gear["k_mesh"], "contact_ratio": system.gear["eps_alpha"],
@@ -205,9 +212,11 @@ def _mesh_outputs(system: PairSystem, states: np.ndarray, tau: np.ndarray,
     eps, deps = error_excitation(tau2, coef)
     d = rel - eps
     out = {"dte": rel * INTERNAL_LENGTH, "mesh_deflection": d * INTERNAL_LENGTH}
-    if "mesh_force" in outputs:
+    if "mesh_force" in outputs or "kv" in outputs:
         fm = mesh_force(stiffness_factor(tau2, coef), d, drel - deps, coef)
         out["mesh_force"] = fm * (system.gear["k_mesh"] * INTERNAL_LENGTH)[:, None]
+        static = system.gear["static_mesh_force"]
+        out["kv"] = out["mesh_force"].max(axis=1) / np.where(static > 0, static, np.nan)
     return {k: val for k, val in out.items() if k in outputs}
 
 

@@ -221,8 +221,11 @@ def coefficients(
     coef[:, I_NHARM] = harmonics.shape[0]
     coef[:, I_HARM:I_HARM + harmonics.size] = harmonics.ravel()[None, :]
     coef[:, I_GATE] = 1.0 if gated else 0.0
+    # the normal mesh force that carries the torque alone: its torsional component (the
+    # pinion's tangential direction, mesh_direction's column 4) balances T / r_p
     derived = {"omega_n": omega_n, "m_e": m_e, "M": M,
-               "mesh_frequency": params["n"] * params["z1"] / 60.0}
+               "mesh_frequency": params["n"] * params["z1"] / 60.0,
+               "static_mesh_force": tangential / coef[:, I_V + 4]}
     return coef, derived
 
 
