@@ -245,12 +245,15 @@ class GearedRotor(Model):
         Number of LTCA excitations and rotor reductions kept between calls (a speed sweep at
         fixed torque and deviations runs the LTCA once).
     stage : GearStage or None
-        Build the rotor of a stage (docs/stage.md): its pair, shafts, bearings, end inertias,
-        material and operating point, its pitch-deviation germ (``pitch_xi_*`` for its tooth
-        numbers). A long period beyond 120 mesh cycles (a hunting-tooth pair) gives the
-        speed-range outputs, from a line-load table excitation on spectral orders. Refused
-        with the reason: other than two bearings per shaft, bearings that differ, per-gear
-        classes or reliefs other than one shared parabolic tip relief.
+        Build the rotor of a stage (docs/stage.md): its pair, shafts, each bearing's stiffness
+        and damping (bearings that differ: common scale factors ``bearing_*_scale`` on the
+        stage's values), end inertias, material and operating point, each gear's ISO class
+        (``iso_grade``, ``iso_grade_wheel``) or measured pitch deviations, its reliefs of any
+        shape per gear (``pinion_tip_relief_amount``...), crowning and helix slope, and its
+        pitch-deviation germ (``pitch_xi_*`` for its tooth numbers). A long period beyond
+        120 mesh cycles (a hunting-tooth pair) gives the speed-range outputs, from a
+        line-load table excitation. Refused with the reason: other than two bearings per
+        shaft.
     """
 
     name = "geared_rotor"
@@ -271,6 +274,7 @@ class GearedRotor(Model):
         self.stage = stage
         if stage is not None:
             from gearuq_plugins.geared_rotor.stage import (
+                StageFlanks,
                 check_stage,
                 stage_compliance,
                 stage_parameters,
@@ -279,6 +283,7 @@ class GearedRotor(Model):
             check_stage(stage)
             self.parameters = stage_parameters(stage, _PARAMETERS)
             self.compliance = stage_compliance(stage)
+            self.flanks = StageFlanks(stage)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -299,25 +304,41 @@ class GearedRotor(Model):
         20 % scatter); ``damping_ratio`` uniform on 0.03-0.08; ``pitch_amplitude`` uniform on
         5-15 um and ``pitch_sigma`` on 1-3 um; the germ ``pitch_xi_p_*``, ``pitch_xi_g_*``
         independent standard normals (all 29 per gear, or those of ``pitch_harmonics``
-        harmonics; pass the same value as the option). Every input is continuous, so FORM,
+        harmonics; pass the same value as the option). A stage other than the paper's: torque
+        uniform on its operating range, and, when its bearings differ, the factor
+        ``bearing_stiffness_scale`` lognormal (median 1, 20 % scatter) instead of
+        ``bearing_stiffness``; a gear with measured pitch deviations has no germ. Every input
+        is continuous, so FORM,
         subset simulation, surrogates and Sobol' indices see the pitch deviations. Speed is a
         study variable (or the range of ``dte_rms_max``), not a random input.
         """
         from gearuq.gears.deviations import pitch_germ_dimension
         from gearuq.space import ParameterSpace
+        from gearuq_plugins.geared_rotor.stage import is_paper_rotor
 
         stage = getattr(self, "stage", None)
         teeth = (30, 30) if stage is None else stage.teeth  # a stage: its own germ
+        names = set(self.parameter_names)
         germ = {name: {"dist": "normal", "mean": 0.0, "std": 1.0}
                 for g, z in ((1, teeth[0]), (2, teeth[1]))
-                for name in pitch_germ_names(z, g)[:pitch_germ_dimension(z, pitch_harmonics)]}
-        return ParameterSpace({
+                for name in pitch_germ_names(z, g)[:pitch_germ_dimension(z, pitch_harmonics)]
+                if name in names}  # a gear with measured deviations has no germ
+        spec = {
             "torque": {"dist": "uniform", "lower": 800.0, "upper": 1200.0},
             "bearing_stiffness": {"dist": "lognormal", "mu": math.log(5.0e8), "sigma": 0.2},
             "damping_ratio": {"dist": "uniform", "lower": 0.03, "upper": 0.08},
             "pitch_amplitude": {"dist": "uniform", "lower": 5.0, "upper": 15.0},
             "pitch_sigma": {"dist": "uniform", "lower": 1.0, "upper": 3.0},
-        } | germ)
+        }
+        if stage is not None and "bearing_stiffness" not in names:
+            # bearings that differ: the same 20 % scatter as a common factor on the stage's
+            spec.pop("bearing_stiffness")
+            spec["bearing_stiffness_scale"] = {"dist": "lognormal", "mu": 0.0, "sigma": 0.2}
+        if stage is not None and not is_paper_rotor(stage):
+            # a stage that is not the paper's: its own torque range
+            spec["torque"] = {"dist": "uniform", "lower": stage.operation.torque[0],
+                              "upper": stage.operation.torque[1]}
+        return ParameterSpace(spec | germ)
 
     def rotor_problem(self, params: dict[str, float] | None = None, *,
                       speed_range: bool = False, **options: Any) -> Any:
