@@ -216,3 +216,32 @@ def test_e_axle_run_up_resonance_where_the_mesh_frequency_meets_a_mesh_mode(e_ax
     # the peak is where z1 n / 60 meets it (light damping: the peak shifts by ~zeta^2)
     assert z1 * speed / 60.0 == pytest.approx(in_band[0], rel=5e-3)
 
+
+def test_rotor_link_takes_the_e_axle_rotor(e_axle):
+    from gearuq_plugins.links.geared_rotor import equivalent_mass
+
+    link = gearuq.get_link("geared_rotor", "mesh_oscillator", stage=e_axle)
+    assert link.parameter_names == link.high.parameter_names
+    assert link.high.stage is e_axle
+    # the gear bodies by hand: steel annuli from the seat to sqrt((d_f^2 + d_a^2) / 2),
+    # turning about their axes, their torsional mass on the normal line of action
+    p = e_axle.pair
+    inertia = []
+    for shaft, df, da, b in ((e_axle.pinion_shaft, p.df1, p.da1, p.b1),
+                             (e_axle.wheel_shaft, p.df2, p.da2, p.b2)):
+        bore = shaft.section_at(shaft.gear_position)[1] * 1e-3
+        outer = math.sqrt((df**2 + da**2) / 2.0)
+        inertia.append(e_axle.material.density * math.pi * b * (outer**4 - bore**4) / 32.0)
+    rbp, rbg = p.db1 / 2.0, p.db2 / 2.0
+    ip, ig = inertia
+    mass = ip * ig / (ip * rbg**2 + ig * rbp**2) / math.cos(p.beta_b) ** 2
+    assert equivalent_mass(stage=e_axle) == pytest.approx(mass, rel=1e-9)
+    # the oscillator's resonance: z1 n / 60 meets sqrt(k / m) with the rotor's LTCA stiffness
+    options = dict(positions_per_cycle=8, n_pts=6, range_mesh_harmonics=1)
+    k_mesh = link.high.rotor_problem({}, speed_range=True, **options
+                                     ).excitation.mean_stiffness
+    n_res = 60.0 * math.sqrt(k_mesh / mass) / (2 * math.pi * e_axle.teeth[0])
+    ds = link.response({}, None, outputs=["dte_rms_max", "speed_at_dte_rms_max"],
+                       speed_min=15000.0, speed_max=20000.0, n_speeds=201, **options)
+    assert int(ds["status"][0]) == 0
+    assert ds["speed_at_dte_rms_max"].item() == pytest.approx(n_res, rel=5e-3)
