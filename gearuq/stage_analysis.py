@@ -421,8 +421,9 @@ def _reliability_html(report: xr.Dataset, sobol: xr.Dataset, cfg: dict[str, Any]
 
 # ---------------------------------------------------------------------- writing
 def _write_csv(table: xr.Dataset | xr.DataArray, path: Path) -> Path:
-    """One CSV table (the one place CSVs are written, so it can be switched to a shared
-    exporter)."""
+    """One CSV table, plain column names (the one place CSVs are written; not
+    ``gearuq.export_csv``, whose output differs: a folder per group of dimensions, units in
+    the headers, see docs/stage.md)."""
     frame = table.to_dataframe()
     frame.to_csv(path)
     return path

@@ -137,7 +137,8 @@ _OUTPUTS = (
            "bearing-1 y acceleration amplitude at the mesh harmonics at each grid speed"),
     Output("kv_iso_max", "1", _S, "largest ISO 6336-1:2019 Method B K_v over the grid speeds "
            "of the range, for the sample's torque, tip relief and accuracy class (iso_grade, "
-           "or kv_iso_class when iso_grade = 0); K_A = 1, case-hardened running-in"),
+           "the coarser of iso_grade and iso_grade_wheel for a stage with two classes, "
+           "or kv_iso_class when a class is 0); K_A = 1, case-hardened running-in"),
     Output("speed_at_kv_iso_max", "rpm", _S, "grid speed of kv_iso_max"),
     Output("kv_iso_over_speed", "1", _SR, "ISO 6336-1 Method B K_v at each grid speed"),
     Output("pitch_total_deviation_pinion", "m", _S, "total cumulative pitch deviation F_p "
@@ -307,7 +308,8 @@ class GearedRotor(Model):
         harmonics; pass the same value as the option). A stage other than the paper's: torque
         uniform on its operating range, and, when its bearings differ, the factor
         ``bearing_stiffness_scale`` lognormal (median 1, 20 % scatter) instead of
-        ``bearing_stiffness``; a gear with measured pitch deviations has no germ. Every input
+        ``bearing_stiffness``; without ``pitch_amplitude`` and ``pitch_sigma`` when both gears
+        have an ISO class; a gear with measured pitch deviations has no germ. Every input
         is continuous, so FORM,
         subset simulation, surrogates and Sobol' indices see the pitch deviations. Speed is a
         study variable (or the range of ``dte_rms_max``), not a random input.
@@ -338,6 +340,10 @@ class GearedRotor(Model):
             # a stage that is not the paper's: its own torque range
             spec["torque"] = {"dist": "uniform", "lower": stage.operation.torque[0],
                               "upper": stage.operation.torque[1]}
+            if stage.pinion.iso_grade and stage.wheel.iso_grade:
+                # both gears have a class: amplitude and sigma are unused
+                spec.pop("pitch_amplitude")
+                spec.pop("pitch_sigma")
         return ParameterSpace(spec | germ)
 
     def rotor_problem(self, params: dict[str, float] | None = None, *,
