@@ -245,3 +245,27 @@ def test_rotor_link_takes_the_e_axle_rotor(e_axle):
                        speed_min=15000.0, speed_max=20000.0, n_speeds=201, **options)
     assert int(ds["status"][0]) == 0
     assert ds["speed_at_dte_rms_max"].item() == pytest.approx(n_res, rel=5e-3)
+
+
+def test_e_axle_excitation_equals_mesh_excitations_for_the_same_stage(e_axle):
+    """Per-gear classes (6/7), per-gear linear reliefs with a sampled amount and the pitch
+    germ: the rotor's LTCA excitation over the 2133-cycle long period is mesh_excitation's
+    (its own deviation code) for the same stage and compliance, by the line-load table."""
+    rotor = gearuq.get_model("geared_rotor", stage=e_axle)
+    excitation = gearuq.get_model("mesh_excitation", stage=e_axle,
+                                  bore_ratio=rotor.compliance.bore_ratio)
+    values = {"pitch_xi_p_1": 0.8, "pitch_xi_g_2": -0.5, "pinion_tip_relief_amount": 5.0}
+    ltca = dict(positions_per_cycle=8, n_pts=6)
+    ex = rotor.rotor_problem(values, speed_range=True, range_mesh_harmonics=1,
+                             **ltca).excitation
+    ds = excitation.response({k: np.array([v]) for k, v in (values | {"torque": 250.0}).items()},
+                             ex.tau, outputs=["ste", "lpms_tangent_mean"], threads=1,
+                             ltca_route="table", **ltca)
+    assert int(ds["status"][0]) == 0
+    ste = ex.ste * 1e6
+    np.testing.assert_allclose(ste, ds["ste"].values[0], rtol=0, atol=1e-6 * np.ptp(ste))
+    assert ex.mean_stiffness / 1e6 == pytest.approx(ds["lpms_tangent_mean"].item(), rel=1e-6)
+    # the wheel's class matters: at class 6 its pitch deviations, and so the STE, shrink
+    at_6 = rotor.rotor_problem(values | {"iso_grade_wheel": 6}, speed_range=True,
+                               range_mesh_harmonics=1, **ltca).excitation
+    assert np.ptp(at_6.ste) < np.ptp(ex.ste) - 1e-6
