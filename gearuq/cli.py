@@ -341,7 +341,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     is_file = any(c in args.stage for c in "./\\")
     stage = GearStage.from_toml(args.stage) if is_file else GearStage.example(args.stage)
     ds = analyse_stage(stage, progress=not args.quiet, stage_file=str(args.stage),
-                       n_speeds=args.n_speeds)
+                       n_speeds=args.n_speeds, rotor_speeds=args.rotor_speeds)
     out = args.out or f"gearuq_{stage.name}"
     rel = None
     if stage.reliability and not args.no_reliability:
@@ -474,6 +474,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(GearStage.examples(), e.g. e_axle_27_79)")
     p.add_argument("--out", default=None, help="output folder (default: gearuq_<stage name>)")
     p.add_argument("--n-speeds", type=int, default=1000, help="speeds of the run-up")
+    p.add_argument("--rotor-speeds", type=int, default=32,
+                   help="speeds of the geared rotor's harmonic-balance run-up (0: skip it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--no-reliability", action="store_true",
                    help="skip the [reliability] step of the file (failure probability, Sobol')")

@@ -13,7 +13,11 @@ Steps, each a function that receives what it needs and returns what it made:
    modal superposition, modal damping), the dynamic mesh force per harmonic and speed, and
    the resonances marked (speeds where ``h z1 n / 60`` meets a natural frequency that loads
    the mesh);
-4. :func:`analyse_stage` gathers them in one Dataset (units, provenance);
+4. :func:`rotor_run_up`: the ``geared_rotor`` model built from the stage (per-bearing
+   stiffness, per-gear classes and reliefs, the long period of a hunting-tooth pair) at its
+   nominal values, its harmonic-balance steady states over the speed range: K_v and the DTE
+   at the mesh harmonics per speed, each peak located between the grid speeds;
+5. :func:`analyse_stage` gathers them in one Dataset (units, provenance);
    :func:`write_stage_results` writes it as netCDF, CSV tables and one self-contained HTML
    report (figures embedded as base64 PNG).
 
@@ -37,7 +41,7 @@ import xarray as xr
 from gearuq._version import __version__
 
 __all__ = ["analyse_stage", "geometry_table", "iso6336_table", "mesh_cycle", "reliability",
-           "run_up", "write_stage_results"]
+           "rotor_run_up", "run_up", "write_stage_results"]
 
 _GEOMETRY = (  # (name, units, description)
     ("d1", "mm", "pinion reference diameter z1 m_n / cos(beta)"),
@@ -224,14 +228,74 @@ def _resonances(ds: xr.Dataset, mesh_stiffness: float) -> list[dict[str, float]]
     return rows
 
 
+#: outputs of the geared rotor's run-up -> (name in the stage's Dataset, meaning)
+_ROTOR_OUTPUTS = {
+    "kv_over_speed": ("rotor_kv", "dynamic factor K_v (largest mesh force over the long "
+                      "period / static mesh force) at each speed"),
+    "kv_max": ("rotor_kv_max", "largest K_v over the range, peak located"),
+    "speed_at_kv_max": ("rotor_speed_at_kv_max", "speed of rotor_kv_max"),
+    "dte_mesh_order_over_speed": ("rotor_dte_mesh_order", "DTE amplitude at mesh harmonic "
+                                  "m f_m at each speed"),
+    "dte_mesh_order_max": ("rotor_dte_mesh_order_max", "largest DTE amplitude at m f_m, peak "
+                           "located"),
+    "speed_at_dte_mesh_order_max": ("rotor_speed_at_dte_mesh_order_max",
+                                    "speed of rotor_dte_mesh_order_max"),
+}
+
+
+def rotor_run_up(stage: Any, *, n_speeds: int = 32, positions_per_cycle: int = 24,
+                 n_pts: int = 20, mesh_harmonics: int = 2) -> xr.Dataset:
+    """The ``geared_rotor`` model of the stage over its speed range, at its nominal values.
+
+    Harmonic-balance steady states of the FE rotor with the LTCA's mesh stiffness and error
+    over the long period (``n_speeds`` grid speeds, each peak located by golden-section
+    search), so the run-up carries the parametric excitation, the per-bearing stiffness and
+    the per-gear classes and reliefs that :func:`run_up`'s modal superposition leaves out.
+    Variables ``rotor_*`` on the coordinates ``rotor_speed`` and ``rotor_mesh_harmonic``;
+    the sample's status (0: every steady state converged) in ``rotor_status``, its meaning
+    in the attrs. A stage the model refuses raises its ValueError, naming the reason.
+    """
+    from gearuq.registry import get_model
+
+    model = get_model("geared_rotor", stage=stage)
+    lo, hi = stage.operation.speed
+    options = dict(positions_per_cycle=positions_per_cycle, n_pts=n_pts, n_speeds=n_speeds,
+                   speed_min=lo, speed_max=hi, range_mesh_harmonics=mesh_harmonics)
+    res = model.response({}, None, outputs=list(_ROTOR_OUTPUTS), **options)
+    out = xr.Dataset(coords={
+        "rotor_speed": ("rotor_speed", res["range_speed"].values,
+                        {"units": "rpm", "long_name": "pinion speed of the rotor's run-up"}),
+        "rotor_mesh_harmonic": ("rotor_mesh_harmonic", res["mesh_harmonic"].values,
+                                {"units": "1", "long_name": "mesh harmonic m of m f_m"})})
+    src = (f"gearuq model geared_rotor (stage {stage.name}) at its nominal values, "
+           + ", ".join(f"{k}={v:g}" for k, v in options.items()))
+    dims = {"range_speed": "rotor_speed", "mesh_harmonic": "rotor_mesh_harmonic"}
+    for name, (target, meaning) in _ROTOR_OUTPUTS.items():
+        var = res[name].isel(sample=0, drop=True)
+        out[target] = (tuple(dims[d] for d in var.dims), var.values,
+                       {"units": var.attrs.get("units", "1"), "long_name": meaning,
+                        "source": src})
+    status = int(res["status"].values[0])
+    meanings = dict(zip(res["status"].attrs["flag_values"].tolist(),
+                        res["status"].attrs["flag_meanings"].split(), strict=True))
+    out["rotor_status"] = ((), status, {"units": "1", "long_name": "status of the rotor's "
+                                        "run-up: " + meanings.get(status, str(status))})
+    return out
+
+
 def analyse_stage(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20,
                   n_speeds: int = 1000, n_harmonics: int = 3, damping_ratio: float = 0.03,
-                  progress: bool = True, stage_file: str | None = None) -> xr.Dataset:
-    """The whole deterministic analysis of a stage in one Dataset (see the module text)."""
+                  progress: bool = True, stage_file: str | None = None,
+                  rotor_speeds: int = 0) -> xr.Dataset:
+    """The whole deterministic analysis of a stage in one Dataset (see the module text).
+
+    ``rotor_speeds`` > 0 adds :func:`rotor_run_up` on that many speeds (with the same LTCA
+    settings); a stage the geared rotor refuses is noted in the attr ``rotor_run_up``.
+    """
     from tqdm.auto import tqdm
 
     steps = ["geometry", "ISO 6336-1", "LTCA over a mesh cycle", "mesh stiffness",
-             "FE rotor run-up"]
+             "FE rotor run-up", "geared rotor run-up"]
     bar = tqdm(total=len(steps), desc="stage", disable=not progress, unit="step")
     parts = []
     bar.set_postfix_str(steps[0])
@@ -252,6 +316,16 @@ def analyse_stage(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20,
         up = run_up(stage, cycle["ltca_ste"].values, stiffness.value_N_per_m,
                     n_speeds=n_speeds, n_harmonics=n_harmonics, damping_ratio=damping_ratio)
         parts.append(up)
+    bar.update()
+    rotor_note = "not run (rotor_speeds=0)"
+    if rotor_speeds > 0:
+        bar.set_postfix_str(steps[5])
+        try:
+            parts.append(rotor_run_up(stage, n_speeds=rotor_speeds,
+                                      positions_per_cycle=positions_per_cycle, n_pts=n_pts))
+            rotor_note = f"geared_rotor on {rotor_speeds} speeds"
+        except ValueError as exc:  # a stage the model refuses: said in the report
+            rotor_note = f"not run: {exc}"
     bar.update()
     bar.close()
     ds = xr.merge(parts, combine_attrs="drop_conflicts")
@@ -280,6 +354,7 @@ def analyse_stage(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20,
         "run_up_settings": f"n_speeds={n_speeds}, n_harmonics={n_harmonics}, "
                            f"damping_ratio={damping_ratio}",
         "ltca_settings": f"positions_per_cycle={positions_per_cycle}, n_pts={n_pts}",
+        "rotor_run_up": rotor_note,
         "gearuq_version": __version__,
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     })
@@ -346,8 +421,9 @@ def _reliability_html(report: xr.Dataset, sobol: xr.Dataset, cfg: dict[str, Any]
 
 # ---------------------------------------------------------------------- writing
 def _write_csv(table: xr.Dataset | xr.DataArray, path: Path) -> Path:
-    """One CSV table (the one place CSVs are written, so it can be switched to a shared
-    exporter)."""
+    """One CSV table, plain column names (the one place CSVs are written; not
+    ``gearuq.export_csv``, whose output differs: a folder per group of dimensions, units in
+    the headers, see docs/stage.md)."""
     frame = table.to_dataframe()
     frame.to_csv(path)
     return path
@@ -389,6 +465,20 @@ def _figures(ds: xr.Dataset) -> list[tuple[str, str]]:
                title="run-up (triangles: resonances)")
         ax.legend()
         out.append(("Run-up: dynamic mesh force per mesh harmonic", _figure_png(fig)))
+        plt.close(fig)
+    if "rotor_kv" in ds:
+        fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
+        ax[0].plot(ds["rotor_speed"], ds["rotor_kv"], marker=".")
+        ax[0].plot(ds["rotor_speed_at_kv_max"], ds["rotor_kv_max"], "kv")
+        ax[0].set(xlabel="pinion speed [rpm]", ylabel="K_v [1]", title="dynamic factor")
+        for m in ds["rotor_mesh_harmonic"].values:
+            ax[1].semilogy(ds["rotor_speed"], ds["rotor_dte_mesh_order"].sel(
+                rotor_mesh_harmonic=m) * 1e6, marker=".", label=f"{m} f_m")
+        ax[1].set(xlabel="pinion speed [rpm]", ylabel="DTE amplitude [um]",
+                  title="DTE at the mesh harmonics")
+        ax[1].legend()
+        out.append(("Geared rotor run-up (harmonic balance; triangle: located peak)",
+                    _figure_png(fig)))
         plt.close(fig)
     return out
 
@@ -446,6 +536,21 @@ def _report_html(ds: xr.Dataset, extra: str = "") -> str:
              "dynamic mesh force [N]")))
         parts.append("<p>Provenance: " + html.escape(ds["dynamic_mesh_force"].attrs["source"])
                      + "; " + html.escape(a["run_up_settings"]) + ".</p>")
+    if "rotor_kv" in ds:
+        parts.append("<h2>Geared rotor run-up</h2>")
+        rows = [("largest K_v", float(ds["rotor_kv_max"]), "1",
+                 float(ds["rotor_speed_at_kv_max"]))]
+        rows += [(f"largest DTE amplitude at {m} f_m", float(v) * 1e6, "um", float(n))
+                 for m, v, n in zip(ds["rotor_mesh_harmonic"].values,
+                                    ds["rotor_dte_mesh_order_max"].values,
+                                    ds["rotor_speed_at_dte_mesh_order_max"].values,
+                                    strict=True)]
+        parts.append(_html_table(rows, ("quantity", "value", "units", "at speed [rpm]")))
+        parts.append("<p>Provenance: " + html.escape(ds["rotor_kv"].attrs["source"]) + "; "
+                     + html.escape(ds["rotor_status"].attrs["long_name"]) + ".</p>")
+    elif a.get("rotor_run_up", "").startswith("not run: "):
+        parts.append("<h2>Geared rotor run-up</h2><p>" + html.escape(a["rotor_run_up"])
+                     + "</p>")
     parts.append(extra)
     for title, png in _figures(ds):
         parts.append(f"<h2>{html.escape(title)}</h2><img alt='{html.escape(title)}' "
@@ -493,6 +598,8 @@ def write_stage_results(ds: xr.Dataset, out: str | Path, *,
                    "resonances": ["resonance_speed", "resonance_harmonic",
                                   "resonance_frequency", "resonance_mode_frequency",
                                   "resonance_force"]}
+    if "rotor_kv" in ds:
+        tables["rotor_run_up"] = ["rotor_kv", "rotor_dte_mesh_order"]
     for name, variables in tables.items():
         paths[name] = _write_csv(ds[variables], out / f"{name}.csv")
     paths["report"] = out / "report.html"

@@ -169,10 +169,19 @@ def test_geared_rotor_from_a_stage_that_is_not_the_paper():
     assert 0 < ds["dte_rms"].item() < 1e-5 and np.isfinite(ds["ste_ptp"].item())
 
 
-def test_geared_rotor_refuses_a_hunting_tooth_stage(e_axle):
-    # its long period is taken now (tests/test_hunting.py); its bearings are not
-    with pytest.raises(ValueError, match="bearings' radial_stiffness differ"):
-        gearuq.get_model("geared_rotor", stage=e_axle)
+def test_geared_rotor_takes_the_e_axle_stage(e_axle):
+    # its long period (tests/test_hunting.py), bearings, classes and linear reliefs
+    # (tests/test_stage_rotor_e_axle.py); one stage taken only with two bearings per shaft
+    from dataclasses import replace
+
+    model = gearuq.get_model("geared_rotor", stage=e_axle)
+    assert {"iso_grade_wheel", "bearing_stiffness_scale", "pinion_tip_relief_amount",
+            "wheel_tip_relief_amount"} <= set(model.parameter_names)
+    shaft = e_axle.pinion_shaft
+    three = replace(e_axle, pinion_shaft=replace(shaft, bearings=shaft.bearings + (
+        replace(shaft.bearings[0], position=100.0),)))
+    with pytest.raises(ValueError, match=r"\[pinion_shaft\] needs exactly two bearings"):
+        gearuq.get_model("geared_rotor", stage=three)
 
 
 def test_pair_link_from_a_stage(e_axle):

@@ -18,15 +18,16 @@ def e_axle_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run")
     path = out / "e_axle.toml"
     GearStage.example("e_axle_27_79").to_toml(path)
+    # the geared rotor's run-up at a reduced setting (12 speeds; 32 by default)
     assert main(["run", str(path), "--out", str(out / "res"), "--quiet", "--no-reliability",
-                 "--n-speeds", "400"]) == 0
+                 "--n-speeds", "400", "--rotor-speeds", "12"]) == 0
     return out / "res"
 
 
 def test_run_writes_netcdf_csv_and_a_self_contained_report(e_axle_run):
     names = {p.name for p in e_axle_run.iterdir()}
     assert {"stage.nc", "report.html", "geometry.csv", "iso6336.csv", "mesh_cycle.csv",
-            "run_up.csv", "modes.csv", "resonances.csv"} <= names
+            "run_up.csv", "modes.csv", "resonances.csv", "rotor_run_up.csv"} <= names
     ds = gearuq.load(e_axle_run / "stage.nc")
     stage = GearStage.example("e_axle_27_79")
     # the file holds the stage itself: it rebuilds the same stage
@@ -38,7 +39,7 @@ def test_run_writes_netcdf_csv_and_a_self_contained_report(e_axle_run):
     assert ds["ltca_ste"].attrs["units"] == "um"
     assert int(ds["ltca_status"].max()) == 0
     report = (e_axle_run / "report.html").read_text()
-    assert report.count("data:image/png;base64,") == 2 and "<script" not in report
+    assert report.count("data:image/png;base64,") == 3 and "<script" not in report
     for text in ("ISO 21771 closed form", "ISO 6336-1", "LTCA", "modal damping"):
         assert text in report
     with open(e_axle_run / "resonances.csv") as fh:
@@ -68,6 +69,26 @@ def test_run_up_resonance_is_at_the_mesh_frequency_of_a_mesh_mode(e_axle_run):
     mode = f_all[in_range][np.argmax(share[in_range])]
     h1 = ds["resonance_speed"].values[ds["resonance_harmonic"].values == 1]
     assert np.any(abs(h1 * 27 / 60.0 - mode) < 0.015 * mode)
+
+
+def test_geared_rotor_run_up_peaks_where_the_mesh_frequency_meets_a_mesh_mode(e_axle_run):
+    """The geared rotor's harmonic-balance run-up (per-bearing stiffness, classes 6/7, linear
+    reliefs, the 2133-cycle long period): its located peak of the DTE at f_m is where
+    z1 n / 60 meets a natural frequency of a mode that strains the mesh (>= 1 % of its
+    strain energy in the mesh, the modal run-up's criterion; its rotor has the stage's mesh
+    stiffness, the geared rotor's LTCA stiffness over the long period differs by a few per
+    cent, which moves a mesh mode by less)."""
+    ds = gearuq.load(e_axle_run / "stage.nc")
+    assert ds.attrs["rotor_run_up"] == "geared_rotor on 12 speeds"
+    assert int(ds["rotor_status"]) == 0
+    assert ds["rotor_kv"].sizes["rotor_speed"] == 12 and np.all(ds["rotor_kv"].values >= 1.0)
+    n = ds["rotor_speed_at_dte_mesh_order_max"].sel(rotor_mesh_harmonic=1).item()
+    f_n = ds["natural_frequency"].values[ds["mesh_energy_share"].values >= 0.01]
+    f_mesh = 27 * n / 60.0
+    assert np.min(abs(f_n - f_mesh)) < 0.02 * f_mesh
+    with open(e_axle_run / "rotor_run_up.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 12 * 2 and {"rotor_kv", "rotor_dte_mesh_order"} <= set(rows[0])
 
 
 def test_run_up_limits(e_axle_run):

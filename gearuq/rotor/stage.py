@@ -64,6 +64,7 @@ def stage_shaft_line(shaft: Any, *, max_element_length: float = 0.02, first_node
 def stage_rotor(stage: Any, mesh_stiffness: float, *, mesh_damping: float = 0.0,
                 max_element_length: float = 0.02, bearing_labels: str = "stage",
                 bearings: tuple[float, float, float] | None = None,
+                bearing_scale: tuple[float, float, float] | None = None,
                 end_inertias: tuple[float | None, float | None] | None = None,
                 moment_arm: str = "pitch_point") -> Rotor:
     """The stage's geared rotor with mesh stiffness ``mesh_stiffness`` [N/m].
@@ -73,15 +74,22 @@ def stage_rotor(stage: Any, mesh_stiffness: float, *, mesh_damping: float = 0.0,
     ``input``, ``output`` and the bearings: ``pinion bearing 1``... ``wheel bearing 2``, or
     with ``bearing_labels="numbered"`` ``bearing 1``, ``bearing 2``... (pinion shaft first).
     ``bearings`` = (radial [N/m], axial [N/m], damping [N s/m]) replaces every bearing's
-    values, ``end_inertias`` = (pinion shaft, wheel shaft) [kg m^2] (``None``: no hub) the
+    values; ``bearing_scale`` = (radial, axial, damping) factors multiply each bearing's own
+    stage values instead (one random factor on bearings that differ), ``end_inertias`` =
+    (pinion shaft, wheel shaft) [kg m^2] (``None``: no hub) the
     stage's end inertias; ``moment_arm`` goes to the mesh element.
 
     Raises
     ------
     ValueError
-        When the stage has no shafts (``[pinion_shaft]`` and ``[wheel_shaft]``).
+        When the stage has no shafts (``[pinion_shaft]`` and ``[wheel_shaft]``), or when
+        both ``bearings`` and ``bearing_scale`` are given.
     """
     from gearuq.gears.stage import to_si
+
+    if bearings is not None and bearing_scale is not None:
+        raise ValueError("give bearings= (values for every bearing) or bearing_scale= "
+                         "(factors on each bearing's own values), not both")
 
     if stage.pinion_shaft is None or stage.wheel_shaft is None:
         raise ValueError(f"stage {stage.name!r}: the rotor needs [pinion_shaft] and "
@@ -123,6 +131,8 @@ def stage_rotor(stage: Any, mesh_stiffness: float, *, mesh_damping: float = 0.0,
             c = brg.damping
             if bearings is not None:
                 kr, ka, c = bearings
+            elif bearing_scale is not None:
+                kr, ka, c = kr * bearing_scale[0], ka * bearing_scale[1], c * bearing_scale[2]
             count += 1
             tag = f"{label} bearing {i + 1}" if bearing_labels == "stage" else f"bearing {count}"
             elements.append(BearingElement(bnode, kr, kr, ka, c, c, c, label=tag))

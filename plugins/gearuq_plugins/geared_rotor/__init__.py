@@ -66,7 +66,8 @@ _PARAMETERS = (
          f"{i // 2 + 1} (pitch_model='germ'; docs/theory/mesh_excitation.md)")
       for g in (1, 2) for i, name in enumerate(pitch_germ_names(30, g))),
     _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
-       "parabolic tip relief e_max on pinion and wheel (Yuan et al. Eq. 12); 0: unmodified"),
+       "tip relief e_max on pinion and wheel (parabolic as Yuan et al. Eq. 12, or the shape "
+       "of the option tip_relief_shape); 0: unmodified"),
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
        "tip relief length along the path of contact (LTCA optimum at 1000 N m: 11.4 mm)"),
     _P("bearing_stiffness", "N m-1", 5.0e8, 1.0e7, 1.0e11,
@@ -136,7 +137,8 @@ _OUTPUTS = (
            "bearing-1 y acceleration amplitude at the mesh harmonics at each grid speed"),
     Output("kv_iso_max", "1", _S, "largest ISO 6336-1:2019 Method B K_v over the grid speeds "
            "of the range, for the sample's torque, tip relief and accuracy class (iso_grade, "
-           "or kv_iso_class when iso_grade = 0); K_A = 1, case-hardened running-in"),
+           "the coarser of iso_grade and iso_grade_wheel for a stage with two classes, "
+           "or kv_iso_class when a class is 0); K_A = 1, case-hardened running-in"),
     Output("speed_at_kv_iso_max", "rpm", _S, "grid speed of kv_iso_max"),
     Output("kv_iso_over_speed", "1", _SR, "ISO 6336-1 Method B K_v at each grid speed"),
     Output("pitch_total_deviation_pinion", "m", _S, "total cumulative pitch deviation F_p "
@@ -221,6 +223,10 @@ _OPTIONS = (
        "spectral orders (docs/theory/geared_rotor.md)", choices=("gmres", "spectral_orders")),
     _O("spectral_energy", 0.99, "with long_period_solver='spectral_orders': share of the "
        "excitation's energy held by the long-period harmonics kept", lower=1e-3, upper=1.0),
+    _O("tip_relief_shape", "parabolic", "shape of the tip relief of tip_relief_amount / "
+       "tip_relief_length on both gears: 'parabolic' (Yuan, Liu and Liu Eq. 12), 'linear' "
+       "or 'arc' (the profiles of a stage's relief, gearuq.gears.stage.Relief)",
+       choices=("parabolic", "linear", "arc")),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),
@@ -240,12 +246,15 @@ class GearedRotor(Model):
         Number of LTCA excitations and rotor reductions kept between calls (a speed sweep at
         fixed torque and deviations runs the LTCA once).
     stage : GearStage or None
-        Build the rotor of a stage (docs/stage.md): its pair, shafts, bearings, end inertias,
-        material and operating point, its pitch-deviation germ (``pitch_xi_*`` for its tooth
-        numbers). A long period beyond 120 mesh cycles (a hunting-tooth pair) gives the
-        speed-range outputs, from a line-load table excitation on spectral orders. Refused
-        with the reason: other than two bearings per shaft, bearings that differ, per-gear
-        classes or reliefs other than one shared parabolic tip relief.
+        Build the rotor of a stage (docs/stage.md): its pair, shafts, each bearing's stiffness
+        and damping (bearings that differ: common scale factors ``bearing_*_scale`` on the
+        stage's values), end inertias, material and operating point, each gear's ISO class
+        (``iso_grade``, ``iso_grade_wheel``) or measured pitch deviations, its reliefs of any
+        shape per gear (``pinion_tip_relief_amount``...), crowning and helix slope, and its
+        pitch-deviation germ (``pitch_xi_*`` for its tooth numbers). A long period beyond
+        120 mesh cycles (a hunting-tooth pair) gives the speed-range outputs, from a
+        line-load table excitation. Refused with the reason: other than two bearings per
+        shaft.
     """
 
     name = "geared_rotor"
@@ -266,6 +275,7 @@ class GearedRotor(Model):
         self.stage = stage
         if stage is not None:
             from gearuq_plugins.geared_rotor.stage import (
+                StageFlanks,
                 check_stage,
                 stage_compliance,
                 stage_parameters,
@@ -274,6 +284,7 @@ class GearedRotor(Model):
             check_stage(stage)
             self.parameters = stage_parameters(stage, _PARAMETERS)
             self.compliance = stage_compliance(stage)
+            self.flanks = StageFlanks(stage)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -294,25 +305,46 @@ class GearedRotor(Model):
         20 % scatter); ``damping_ratio`` uniform on 0.03-0.08; ``pitch_amplitude`` uniform on
         5-15 um and ``pitch_sigma`` on 1-3 um; the germ ``pitch_xi_p_*``, ``pitch_xi_g_*``
         independent standard normals (all 29 per gear, or those of ``pitch_harmonics``
-        harmonics; pass the same value as the option). Every input is continuous, so FORM,
+        harmonics; pass the same value as the option). A stage other than the paper's: torque
+        uniform on its operating range, and, when its bearings differ, the factor
+        ``bearing_stiffness_scale`` lognormal (median 1, 20 % scatter) instead of
+        ``bearing_stiffness``; without ``pitch_amplitude`` and ``pitch_sigma`` when both gears
+        have an ISO class; a gear with measured pitch deviations has no germ. Every input
+        is continuous, so FORM,
         subset simulation, surrogates and Sobol' indices see the pitch deviations. Speed is a
         study variable (or the range of ``dte_rms_max``), not a random input.
         """
         from gearuq.gears.deviations import pitch_germ_dimension
         from gearuq.space import ParameterSpace
+        from gearuq_plugins.geared_rotor.stage import is_paper_rotor
 
         stage = getattr(self, "stage", None)
         teeth = (30, 30) if stage is None else stage.teeth  # a stage: its own germ
+        names = set(self.parameter_names)
         germ = {name: {"dist": "normal", "mean": 0.0, "std": 1.0}
                 for g, z in ((1, teeth[0]), (2, teeth[1]))
-                for name in pitch_germ_names(z, g)[:pitch_germ_dimension(z, pitch_harmonics)]}
-        return ParameterSpace({
+                for name in pitch_germ_names(z, g)[:pitch_germ_dimension(z, pitch_harmonics)]
+                if name in names}  # a gear with measured deviations has no germ
+        spec = {
             "torque": {"dist": "uniform", "lower": 800.0, "upper": 1200.0},
             "bearing_stiffness": {"dist": "lognormal", "mu": math.log(5.0e8), "sigma": 0.2},
             "damping_ratio": {"dist": "uniform", "lower": 0.03, "upper": 0.08},
             "pitch_amplitude": {"dist": "uniform", "lower": 5.0, "upper": 15.0},
             "pitch_sigma": {"dist": "uniform", "lower": 1.0, "upper": 3.0},
-        } | germ)
+        }
+        if stage is not None and "bearing_stiffness" not in names:
+            # bearings that differ: the same 20 % scatter as a common factor on the stage's
+            spec.pop("bearing_stiffness")
+            spec["bearing_stiffness_scale"] = {"dist": "lognormal", "mu": 0.0, "sigma": 0.2}
+        if stage is not None and not is_paper_rotor(stage):
+            # a stage that is not the paper's: its own torque range
+            spec["torque"] = {"dist": "uniform", "lower": stage.operation.torque[0],
+                              "upper": stage.operation.torque[1]}
+            if stage.pinion.iso_grade and stage.wheel.iso_grade:
+                # both gears have a class: amplitude and sigma are unused
+                spec.pop("pitch_amplitude")
+                spec.pop("pitch_sigma")
+        return ParameterSpace(spec | germ)
 
     def rotor_problem(self, params: dict[str, float] | None = None, *,
                       speed_range: bool = False, **options: Any) -> Any:

@@ -76,6 +76,14 @@ def compliance_model(pair: Any) -> Any:
     return ComplianceModel(pair, bore_ratio=_SEAT_DIAMETER / pair.df1)
 
 
+def gear_grade(values: dict[str, float], gear: int) -> int:
+    """ISO 1328-1 class of the pinion (``gear=1``) or the wheel: ``iso_grade``, or for the
+    wheel of a stage whose classes differ ``iso_grade_wheel``."""
+    if gear == 2 and "iso_grade_wheel" in values:
+        return int(values["iso_grade_wheel"])
+    return int(values["iso_grade"])
+
+
 def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int,
                           law: tuple[str, float] = ("untruncated_iso", 0.05)
                           ) -> tuple[float, float]:
@@ -86,7 +94,7 @@ def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int,
     """
     from gearuq.gears.deviations import capable_pitch_scatter, iso1328_pitch_tolerances
 
-    grade = int(values["iso_grade"])
+    grade = gear_grade(values, gear)
     if grade > 0:
         z = pair.z1 if gear == 1 else pair.z2
         f_pT, F_pT = iso1328_pitch_tolerances(pair.d1 if gear == 1 else pair.d2, pair.mn,
@@ -97,10 +105,58 @@ def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int,
     return values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
 
 
+class SharedTipRelief:
+    """One tip relief of the same shape, amount and length on pinion and wheel, as the normal
+    clearance map ``FlankDeviations.user(s, y, k1, k2)`` [m].
+
+    The profile is the stage's :meth:`gearuq.gears.stage.Relief.profile` (linear, parabolic
+    or arc in the roll distance ``v`` from the start of the relief), so the rotor's relief
+    and ``mesh_excitation``'s relief of a stage are one formula. The pinion's tip is at the
+    end of the path of contact ``s_E``, the wheel's at its start ``s_A``; the transverse
+    relief is turned to the normal direction by ``cos(beta_b)``, as the LTCA's own reliefs.
+
+    Parameters
+    ----------
+    pair : HelicalGearPair
+        The pair (its path of contact and base helix angle).
+    shape : {"linear", "parabolic", "arc"}
+        Shape of the relief.
+    amount : float
+        Relief [um] at the tip (end of the active profile), along the line of action.
+    length : float
+        Length [mm] of the relief along the path of contact.
+    """
+
+    #: the map ignores the tooth indices, so the long-period line-load table may hold it
+    same_on_every_tooth = True
+
+    def __init__(self, pair: Any, shape: str, amount: float, length: float) -> None:
+        from gearuq.gears.stage import Relief
+
+        # the start is not used by Relief.profile (it takes the roll distance from it)
+        self.relief = Relief(shape, amount, start_roll_length=1.0)
+        self.length = float(length)
+        self.s_A, self.s_E = pair.g_f1 * 1e3, (pair.g_f1 + pair.g_alpha) * 1e3
+        self.cos_bb = math.cos(pair.beta_b)
+
+    def __call__(self, s: Any, y: Any, k1: Any, k2: Any) -> np.ndarray:
+        s_mm = np.asarray(s, dtype=float) * 1e3
+        total = np.zeros_like(s_mm)
+        for v in (s_mm - (self.s_E - self.length), (self.s_A + self.length) - s_mm):
+            total = total + np.where(v > 0.0, self.relief.profile(v, self.length), 0.0)
+        return np.broadcast_to(total * 1e-6 * self.cos_bb, np.broadcast_shapes(
+            np.shape(s), np.shape(y), np.shape(k1), np.shape(k2)))
+
+
 def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
                       pitch_model: str = "germ", pitch_harmonics: int | None = None,
-                      law: tuple[str, float] = ("untruncated_iso", 0.05)) -> Any:
+                      law: tuple[str, float] = ("untruncated_iso", 0.05),
+                      tip_shape: str = "parabolic") -> Any:
     """Flank deviations of one sample: pitch deviations (germ or seeded) and tip relief.
+
+    ``tip_shape``: the shape of the shared tip relief ``tip_relief_amount`` /
+    ``tip_relief_length``; ``"parabolic"`` is the LTCA's own relief (Yuan, Liu and Liu
+    Eq. 12), ``"linear"`` and ``"arc"`` travel as a :class:`SharedTipRelief` map.
 
     ``pitch_model="germ"``: each gear's cumulative deviations are the smooth expansion
     :func:`gearuq.gears.deviations.cumulative_pitch_from_normals` of its standard normals
@@ -130,6 +186,9 @@ def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
             amp, sigma = pitch_amplitude_sigma(pair, values, gear, law)
             fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
     amount, length = values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3
+    if tip_shape != "parabolic" and amount > 0:
+        return FlankDeviations(Fp1=fp[0], Fp2=fp[1], user=SharedTipRelief(
+            pair, tip_shape, values["tip_relief_amount"], values["tip_relief_length"]))
     tip = (amount, length) if amount > 0 else None
     return FlankDeviations(Fp1=fp[0], Fp2=fp[1], tip_relief1=tip, tip_relief2=tip)
 
@@ -165,7 +224,26 @@ _LTCA_KEYS = ("torque", "pitch_amplitude", "pitch_sigma", "iso_grade", "pitch_se
               "tip_relief_length")
 _GERM_KEYS = tuple(f"{p}{i}" for p in ("pitch_xi_p_", "pitch_xi_g_") for i in range(1, 30))
 _ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping",
-               "damping_ratio", "backlash", "drive_inertia", "load_inertia")
+               "bearing_stiffness_scale", "bearing_axial_stiffness_scale",
+               "bearing_damping_scale", "damping_ratio", "backlash", "drive_inertia",
+               "load_inertia")
+
+
+def _stage_ltca_keys(model: Any) -> tuple[str, ...]:
+    """Parameters of a stage that change its LTCA: the wheel's class, per-relief amounts."""
+    flanks = getattr(model, "flanks", None)
+    return () if flanks is None else ("iso_grade_wheel", *flanks.value_keys)
+
+
+def model_deviations(model: Any, pair: Any, values: dict[str, float],
+                     options: dict[str, Any]) -> Any:
+    """Flank deviations of one sample of ``model``: :func:`sample_deviations` with, for a
+    stage, its measured pitch deviations, reliefs, slopes and crowning."""
+    law = (options["pitch_tolerance_law"], options["process_share_beyond"])
+    dev = sample_deviations(pair, values, options["pitch_phases"], options["pitch_model"],
+                            options["pitch_harmonics"], law, options["tip_relief_shape"])
+    flanks = getattr(model, "flanks", None)
+    return dev if flanks is None else flanks.apply(dev, values)
 
 
 def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *,
@@ -196,10 +274,10 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
         k for k in values if k.startswith(("pitch_xi_p_", "pitch_xi_g_")))
     law = (options["pitch_tolerance_law"], options["process_share_beyond"])
     lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
-            options["pitch_harmonics"]) + law + tuple(values[k] for k in _LTCA_KEYS) + tuple(
-        values.get(k, 0.0) for k in germ_keys)
-    deviations = sample_deviations(pair, values, options["pitch_phases"],
-                                   options["pitch_model"], options["pitch_harmonics"], law)
+            options["pitch_harmonics"], options["tip_relief_shape"]) + law + tuple(
+        values[k] for k in _LTCA_KEYS) + tuple(values.get(k, 0.0) for k in germ_keys) + tuple(
+        values.get(k, 0.0) for k in _stage_ltca_keys(model))
+    deviations = model_deviations(model, pair, values, options)
     excitation = _cached(model, lkey, (lambda: _table_excitation(model, pair, values["torque"],
                                                                  deviations, ppc, n_pts))
                          if long_period else (lambda: MeshExcitation.from_setup(
@@ -212,7 +290,7 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
     rkey = ("rotor", H, cutoff_factor, options["moment_arm"], options["end_inertias"],
             (options["long_period_solver"], options["spectral_energy"]) if long_period
             else None) + lkey + tuple(
-        values[k] for k in _ROTOR_KEYS)
+        values.get(k, 0.0) for k in _ROTOR_KEYS)
 
     ends = options["end_inertias"] == "parameters"
 
@@ -370,14 +448,21 @@ def _fill_sample(data: dict, i: int, sol: Any, prob: Any, t: np.ndarray, outputs
             _put_spectrum(data[name], i, ch["bearing 1 acceleration y"])
 
 
-def iso_class(values: dict[str, float], options: dict[str, Any]) -> int:
-    """Accuracy class of ISO 6336-1's K_v: ``iso_grade``, or ``kv_iso_class`` when it is 0."""
-    grade = int(values["iso_grade"])
-    return grade if grade > 0 else int(options["kv_iso_class"])
+def iso_class(values: dict[str, float], options: dict[str, Any], gear: int | None = None
+              ) -> int:
+    """Accuracy class of ISO 6336-1's K_v: ``iso_grade``, or ``kv_iso_class`` when it is 0.
+
+    ``gear=None``: the pair's, the coarser of the two gears' classes (ISO 6336-1 takes the
+    larger pitch deviation of the pair); ``gear=1`` or ``2``: that gear's.
+    """
+    grades = [gear_grade(values, g) for g in ((1, 2) if gear is None else (gear,))]
+    if 0 in grades:
+        return int(options["kv_iso_class"])
+    return max(grades)
 
 
 def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str, Any],
-                speeds: np.ndarray, names: list[str], pair: Any) -> None:
+                speeds: np.ndarray, names: list[str], pair: Any, model: Any) -> None:
     """ISO 6336-1 Method B K_v over the range and the total cumulative pitch deviations of
     ``pair`` (Yuan, Liu and Liu's, or the stage's)."""
     from gearuq.gears.deviations import iso1328_pitch_tolerances
@@ -386,24 +471,23 @@ def _fill_cheap(data: dict, i: int, values: dict[str, float], options: dict[str,
     if any(n.startswith(("kv_iso", "speed_at_kv_iso")) for n in names):
         iso = pair_dynamic_factor_method_b(
             pair, values["torque"], speeds, accuracy_grade=iso_class(values, options),
-            tip_relief_um=values["tip_relief_amount"])
+            tip_relief_um=values["tip_relief_amount"] if getattr(model, "flanks", None) is None
+            else model.flanks.tip_relief_um(values))
         j = int(np.argmax(iso.kv))
         for name, value in (("kv_iso_max", iso.kv[j]), ("speed_at_kv_iso_max", speeds[j]),
                             ("kv_iso_over_speed", iso.kv)):
             if name in data:
                 data[name][i] = value
     if any(n.startswith(("pitch_total", "pitch_acceptance")) for n in names):
-        dev = sample_deviations(pair, values, options["pitch_phases"], options["pitch_model"],
-                                options["pitch_harmonics"], (options["pitch_tolerance_law"],
-                                                             options["process_share_beyond"]))
+        dev = model_deviations(model, pair, values, options)
         totals = (float(np.ptp(dev.Fp1)), float(np.ptp(dev.Fp2)))
         for name, fp in zip(("pitch_total_deviation_pinion", "pitch_total_deviation_wheel"),
                             totals, strict=True):
             if name in data:
                 data[name][i] = fp
         if "pitch_acceptance_margin" in data:
-            grade = iso_class(values, options)
-            F_pT = [iso1328_pitch_tolerances(d, pair.mn, grade)[1] for d in (pair.d1, pair.d2)]
+            F_pT = [iso1328_pitch_tolerances(d, pair.mn, iso_class(values, options, g))[1]
+                    for g, d in ((1, pair.d1), (2, pair.d2))]
             data["pitch_acceptance_margin"][i] = min(1.0 - fp / tol
                                                      for fp, tol in zip(totals, F_pT, strict=True))
 
@@ -479,7 +563,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
         for i in range(n):
             values = {k: float(v[i]) for k, v in params.items()}
             if cheap:
-                _fill_cheap(data, i, values, options, speeds, cheap, pair)
+                _fill_cheap(data, i, values, options, speeds, cheap, pair, model)
             if not (single or ranged):
                 continue
             try:

@@ -52,24 +52,29 @@ _EXCITATION_KEYS = ("torque", "tip_relief_amount", "tip_relief_length", "pitch_a
 #: alongside) stays in contact, so no sample is flagged for separation
 _UNIT = 1e-3
 _SEAT_DIAMETER = 0.110  # the rotor's gear seat: bore of the gear blanks (fillet foundation)
+#: long periods beyond this many mesh cycles take mesh_excitation's line-load table route
+_MAX_DENSE = 120
 
 
-def equivalent_mass(kind: str = "gear_bodies") -> float:
+def equivalent_mass(kind: str = "gear_bodies", stage: Any = None) -> float:
     """Mass [kg] of the normal mesh deflection of the rotor's gear pair.
 
     ``"gear_bodies"``: the two rigid gear bodies of the rotor (``gearuq.rotor.examples.
-    seed002_rotor``: 40 mm wide, bore 110 mm, polar inertia ``I`` each) turning about
-    their axes, ``m = I_p I_g / (I_p r_bg^2 + I_g r_bp^2) / cos^2(beta_b)`` with the base
-    radii ``r_b``; the ``cos^2 beta_b`` projects the transverse base-circle motion onto the
-    normal line of action.
+    seed002_rotor``: 40 mm wide, bore 110 mm, polar inertia ``I`` each; or with ``stage``
+    the bodies of :func:`gearuq.rotor.stage.stage_rotor`) turning about their axes,
+    ``m = I_p I_g / (I_p r_bg^2 + I_g r_bp^2) / cos^2(beta_b)`` with the base radii ``r_b``;
+    the ``cos^2 beta_b`` projects the transverse base-circle motion onto the normal line of
+    action.
     """
     if kind != "gear_bodies":
         raise ValueError(f"equivalent_mass={kind!r} is not one of: 'gear_bodies'")
     from gearuq.gears.geometry import seed002_pair
     from gearuq.rotor.examples import seed002_rotor
+    from gearuq.rotor.stage import stage_rotor
 
-    pair = seed002_pair()
-    rotor = seed002_rotor(1e9, pair=pair)  # the stiffness does not change the bodies
+    # the stiffness does not change the bodies
+    rotor = seed002_rotor(1e9, pair=seed002_pair()) if stage is None else stage_rotor(
+        stage, 1e9)
     mesh = rotor.meshes[0]
     by_node = {e.node: e for e in rotor.elements if type(e).__name__ == "DiskElement"}
     ip, ig = by_node[mesh.pinion_node].polar_inertia, by_node[mesh.gear_node].polar_inertia
@@ -98,22 +103,34 @@ def _grid(omega_lo: float, omega_hi: float) -> np.ndarray:
 class _InputMap:
     """LTCA of every sample through ``mesh_excitation``; the oscillator's inputs and grid."""
 
-    def __init__(self, excitation: Model, mass: float) -> None:
+    def __init__(self, excitation: Model, mass: float, n_cycles: int = 30,
+                 keys: tuple[str, ...] = _EXCITATION_KEYS, z1: int = 30) -> None:
+        self.z1 = int(z1)
         self.excitation = excitation
         self.mass = mass
+        self.n_cycles = int(n_cycles)  # mesh cycles of the long period, lcm(z1, z2)
+        self.keys = keys
+
+    @property
+    def fundamental_order(self) -> float:
+        """Pinion order of the long period's fundamental, ``z1 / lcm(z1, z2)``."""
+        return self.z1 / self.n_cycles
 
     def ltca(self, params: dict[str, np.ndarray], options: dict[str, Any]
              ) -> tuple[np.ndarray, np.ndarray]:
         """STE [m] over the long period (one row per sample) and the mean tangent stiffness
         [N/m]; NaN rows where the LTCA cannot carry the load."""
-        ppc, n_cycles = options["positions_per_cycle"], 30
+        ppc, n_cycles = options["positions_per_cycle"], self.n_cycles
         tau = np.arange(n_cycles * ppc) / ppc
         germ = [k for k in params if k.startswith(("pitch_xi_p_", "pitch_xi_g_"))]
-        ex = {k: params[k] for k in (*_EXCITATION_KEYS, *germ)}
+        ex = {k: params[k] for k in (*self.keys, *germ)}
+        # a hunting-tooth long period: the line-load table, as the rotor's excitation
+        route = {"ltca_route": "table"} if n_cycles > _MAX_DENSE else {}
         ds = self.excitation.response(ex, tau, outputs=["ste", "lpms_tangent"],
                                       positions_per_cycle=ppc, n_pts=options["n_pts"],
                                       pitch_model="germ",
-                                      pitch_harmonics=options["pitch_harmonics"], threads=1)
+                                      pitch_harmonics=options["pitch_harmonics"], threads=1,
+                                      **route)
         ste = np.asarray(ds["ste"].values, dtype=float) * 1e-6
         k_mean = np.mean(np.asarray(ds["lpms_tangent"].values, dtype=float), axis=1) * 1e6
         bad = np.asarray(ds["status"].values) != 0
@@ -124,9 +141,9 @@ class _InputMap:
         ste, k_mean = self.ltca(params, options)
         omega_n = np.sqrt(k_mean / self.mass)
         speeds = _speeds(options)
-        H = options["range_mesh_harmonics"] * 30
-        # long-period fundamental w0 = 2 pi n / 60 (one pinion revolution)
-        w0 = 2.0 * math.pi * speeds / 60.0
+        H = options["range_mesh_harmonics"] * self.n_cycles
+        # long-period fundamental w0 = 2 pi f_m / lcm(z1, z2) (one pinion revolution for 30/30)
+        w0 = 2.0 * math.pi * speeds / 60.0 * self.fundamental_order
         finite = np.isfinite(omega_n)
         wn = omega_n[finite] if finite.any() else np.array([1.0])
         lo = 0.5 * float(w0[0] / wn.max())
@@ -144,21 +161,24 @@ class _InputMap:
         return LowFidelityInputs(
             inputs, {"frequencies": grid, "method": "perturbation", "order": 1},
             carry={"ste_harmonics": np.abs(c[:, 1:H + 1]), "omega_n": omega_n,
+                   "fundamental_order": np.full(n, self.fundamental_order),
                    "mesh_stiffness": k_mean, "ste_ptp": np.ptp(ste, axis=1)})
 
 
 def rms_over_speeds(ste_harmonics: np.ndarray, omega_n: np.ndarray, amplification: Any,
-                    speeds: np.ndarray) -> np.ndarray:
+                    speeds: np.ndarray, fundamental_order: float = 1.0) -> np.ndarray:
     """RMS DTE [m] at every speed, ``(n_samples, n_speeds)``.
 
     ``ste_harmonics`` ``|STE_j|`` [m], ``j = 1..H``, of the long period; ``amplification``
     ``(i, Omega) -> |A|``, the oscillator's amplification of sample ``i`` at the frequency
     ratios ``Omega``; ``DTE_j = A(j w0 / omega_n) STE_j`` and
-    ``rms^2 = 2 sum_j |DTE_j|^2`` (Parseval, the mean removed).
+    ``rms^2 = 2 sum_j |DTE_j|^2`` (Parseval, the mean removed), with the long period's
+    fundamental ``w0 = fundamental_order 2 pi n / 60`` (``z1 / lcm(z1, z2)``: 1 for the
+    30/30 pair, whose long period is one pinion revolution, 1/79 for 27/79).
     """
     n, H = ste_harmonics.shape
     j = np.arange(1, H + 1)
-    w0 = 2.0 * math.pi * np.asarray(speeds, dtype=float) / 60.0
+    w0 = 2.0 * math.pi * np.asarray(speeds, dtype=float) / 60.0 * fundamental_order
     out = np.empty((n, w0.size))
     for i in range(n):
         ratio = j[None, :] * w0[:, None] / omega_n[i]
@@ -183,7 +203,8 @@ class _RangeOutput:
             return np.interp(ratio, grid, amp[i], left=1.0, right=amp[i, -1])
 
         rms = rms_over_speeds(ctx.carried["ste_harmonics"], ctx.carried["omega_n"],
-                              amplification, _speeds(ctx.options))
+                              amplification, _speeds(ctx.options),
+                              float(ctx.carried["fundamental_order"][0]))
         k = np.argmax(rms, axis=1)
         if self.which == "speed":
             return _speeds(ctx.options)[k]
@@ -197,7 +218,8 @@ _OPTIONS = (
            upper=20000.0),
     Option("n_speeds", 160, "equally spaced speeds of the range (both ends included)",
            kind=int, lower=2, upper=100000),
-    Option("range_mesh_harmonics", 3, "mesh harmonics kept (H = 30 x this harmonics of the "
+    Option("range_mesh_harmonics", 3, "mesh harmonics kept (H = lcm(z1, z2) x this harmonics "
+           "of the "
            "long period, as the rotor's option)", kind=int, lower=1, upper=11),
     Option("positions_per_cycle", 24, "LTCA positions per mesh cycle (the rotor's default)",
            kind=int, lower=8, upper=400),
@@ -209,7 +231,7 @@ _OPTIONS = (
 
 
 def build(rotor: Model | str = "geared_rotor", oscillator: Model | str = "mesh_oscillator",
-          excitation: Model | None = None) -> FidelityLink:
+          excitation: Model | None = None, *, stage: Any = None) -> FidelityLink:
     """The link ``geared_rotor -> mesh_oscillator`` (outputs ``dte_rms_max``,
     ``speed_at_dte_rms_max``).
 
@@ -220,38 +242,56 @@ def build(rotor: Model | str = "geared_rotor", oscillator: Model | str = "mesh_o
         mesh oscillator.
     excitation : Model, optional
         The LTCA model; default ``get_model("mesh_excitation", bore_ratio=0.110 / d_f1)``,
-        the rotor's compliance (fillet foundation on the 110 mm gear seat).
+        the rotor's compliance (fillet foundation on the 110 mm gear seat); for a rotor
+        built from a stage, ``get_model("mesh_excitation", stage=stage, bore_ratio=...)``
+        with the rotor's compliance (the stage's material and gear seat), which takes the
+        stage's per-gear classes and reliefs under the rotor's parameter names.
+    stage : GearStage, optional
+        Build the rotor from this stage (``get_model("geared_rotor", stage=stage)``); give
+        it with the rotor's name, not a built rotor (a built rotor brings its own stage).
     """
     from gearuq.gears.geometry import seed002_pair
     from gearuq.registry import get_model
 
-    high = get_model(rotor) if isinstance(rotor, str) else rotor
+    if stage is not None and not isinstance(rotor, str):
+        raise ValueError("give stage= with the rotor's name, not a built rotor (the stage "
+                         "builds it)")
+    high = (get_model(rotor, **({} if stage is None else {"stage": stage}))
+            if isinstance(rotor, str) else rotor)
     low = get_model(oscillator) if isinstance(oscillator, str) else oscillator
     stage = getattr(high, "stage", None)
-    if stage is not None and stage.pair != seed002_pair():
-        raise ValueError(f"rotor: built from the stage {stage.name!r}; this link's map is "
-                         "written for Yuan, Liu and Liu's 30/30 rotor (its bodies and long "
-                         "period), a stage's rotor is not supported yet")
+    if stage is not None and stage.pair == seed002_pair():
+        stage = None  # Yuan, Liu and Liu's file: the paper's bodies and LTCA, as before
     if getattr(low, "dimensional", False):
         raise ValueError("oscillator: the link drives the nondimensional mesh oscillator "
                          "(get_model('mesh_oscillator') without a force)")
-    if excitation is None:
+    if excitation is None and stage is None:
         excitation = get_model("mesh_excitation",
                                bore_ratio=_SEAT_DIAMETER / seed002_pair().df1)
+    elif excitation is None:  # the stage's LTCA with the rotor's compliance
+        excitation = get_model("mesh_excitation", stage=stage,
+                               bore_ratio=high.compliance.bore_ratio)
     germ = tuple(n for n in high.parameter_names if n.startswith(("pitch_xi_p_",
                                                                   "pitch_xi_g_")))
-    missing = sorted(set((*_EXCITATION_KEYS, *germ)) - set(excitation.parameter_names))
+    # a stage's per-gear inputs of the LTCA: the wheel's class, each relief's amount
+    staged = tuple(n for n in high.parameter_names
+                   if n == "iso_grade_wheel" or n.endswith("_relief_amount")
+                   and n != "tip_relief_amount")
+    keys = (*_EXCITATION_KEYS, *staged)
+    missing = sorted(set((*keys, *germ)) - set(excitation.parameter_names))
     if missing:
         raise ValueError(f"excitation: the LTCA model {excitation.name!r} lacks the rotor's "
                          f"parameter(s) {missing}")
     return FidelityLink(
-        high, low, _InputMap(excitation, equivalent_mass()),
+        high, low, _InputMap(excitation, equivalent_mass(stage=stage),
+                             30 if stage is None else stage.long_period_mesh_cycles, keys,
+                             30 if stage is None else stage.teeth[0]),
         ("damping_ratio", "alpha_0_1", "alpha_0_0", "e_1", "alpha_2_0", "alpha_3_0",
          "frequency_ratio"),
         {"linear_amplitude": LinkOutput("dte_rms_max", _RangeOutput("rms")),
          "peak_amplitude": LinkOutput("speed_at_dte_rms_max", _RangeOutput("speed"),
                                       needs=("linear_amplitude",))},
-        reads=("damping_ratio", *_EXCITATION_KEYS, *germ),
+        reads=("damping_ratio", *keys, *germ),
         neglects=NEGLECTS, options=_OPTIONS,
         description="geared rotor seen as the single-DOF mesh oscillator: the same LTCA's "
                     "STE harmonics through the oscillator's linear harmonic solution with the "
