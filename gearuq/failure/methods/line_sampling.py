@@ -60,7 +60,7 @@ from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_line_sampling", "line_mass", "important_subspace",
-           "MIN_EFFECTIVE_LINES"]
+           "line_estimate", "MIN_EFFECTIVE_LINES"]
 
 #: Fewer effective lines than this (and than half the lines), ``(sum p_i)^2 / sum p_i^2``,
 #: and the normal interval of the mean is not trusted (status 3): a few lines carry it.
@@ -348,8 +348,33 @@ def run_line_sampling(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
     return _report(ev, s, seed, confidence, basis, how, lines, probe_runs, t0)
 
 
-def _mean_se(values: np.ndarray) -> tuple[float, float]:
-    return float(values.mean()), float(values.std(ddof=1) / math.sqrt(values.size))
+def line_estimate(est: np.ndarray, low: np.ndarray, high: np.ndarray, confidence: float
+                  ) -> dict[str, float]:
+    """Pf, its standard error and interval from i.i.d. line probabilities.
+
+    Parameters
+    ----------
+    est, low, high : ndarray, shape (n_lines,)
+        Each line's failure probability and the lower and upper ends of its readings
+        (brackets and unknown cells read safe / failed; :func:`run_line_sampling`).
+    confidence : float
+        Two-sided level of the normal interval of the mean.
+
+    Returns
+    -------
+    dict
+        ``pf``, ``se``, ``pf_lower`` (the mean of ``low`` minus ``z`` times its standard
+        error, at least 0), ``pf_upper`` (of ``high``, plus), ``n_effective``
+        (``(sum est)^2 / sum est^2``).
+    """
+    z = float(stats.norm.isf(0.5 * (1.0 - float(confidence))))
+    root_n = math.sqrt(est.size)
+    se, se_low, se_high = (float(np.std(v, ddof=1)) / root_n for v in (est, low, high))
+    square = float(np.sum(est**2))
+    return {"pf": float(np.mean(est)), "se": se,
+            "pf_lower": max(float(np.mean(low)) - z * se_low, 0.0),
+            "pf_upper": float(np.mean(high)) + z * se_high,
+            "n_effective": float(np.sum(est)) ** 2 / square if square > 0 else 0.0}
 
 
 def _reasons(lines: Mapping[str, np.ndarray], pf: float, n_eff: float, s: Mapping[str, Any]
@@ -386,13 +411,9 @@ def _reasons(lines: Mapping[str, np.ndarray], pf: float, n_eff: float, s: Mappin
 def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
             basis: np.ndarray, how: Mapping[str, Any], lines: Mapping[str, np.ndarray],
             probe_runs: int, t0: float) -> xr.Dataset:
-    z = float(stats.norm.isf(0.5 * (1.0 - confidence)))
-    pf, se = _mean_se(lines["est"])
-    low, se_low = _mean_se(lines["low"])
-    high, se_high = _mean_se(lines["high"])
-    lower, upper = max(low - z * se_low, 0.0), high + z * se_high
-    total = float(np.sum(lines["est"] ** 2))
-    n_eff = float(np.sum(lines["est"]) ** 2 / total) if total > 0 else 0.0
+    e = line_estimate(lines["est"], lines["low"], lines["high"], confidence)
+    pf, se, lower, upper, n_eff = (e[key] for key in ("pf", "se", "pf_lower", "pf_upper",
+                                                      "n_effective"))
     reasons = _reasons(lines, pf, n_eff, s)
     bound = pf == 0.0
     counts = np.bincount(np.minimum(lines["n_crossings"], 3), minlength=4)
@@ -401,6 +422,11 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
         "line_pf": (("line",), lines["est"], {"units": "1", "long_name": (
             "failure probability along each line (its mean is pf; its spread shows how well "
             "the direction serves the failure set)")}),
+        "line_pf_lower": (("line",), lines["low"], {"units": "1", "long_name": (
+            "lower end of each line's probability (brackets and unknown cells read safe)")}),
+        "line_pf_upper": (("line",), lines["high"], {"units": "1", "long_name": (
+            "upper end of each line's probability (brackets, unknown cells and the mass "
+            "beyond a safe end at c_max read failed)")}),
         "line_crossings": (("line",), lines["n_crossings"].astype(np.int16), {
             "units": "1", "long_name": "changes of failure state found along each line"}),
         "n_lines_by_crossings": (("crossings",), counts.astype(np.int64), {
