@@ -705,7 +705,7 @@ GEARED_ROTOR_LINE_SETTINGS = {"direction": "gradient", "subspace_dim": 2, "n_pro
                               "n_grid": 7, "root_tol": 1e-3, "chunk_lines": 50}
 
 
-def geared_rotor_line_reference(n_batches: int = 8, lines_per_batch: int = 100,
+def geared_rotor_line_reference(n_batches: int = 2, lines_per_batch: int = 100,
                                 seed: int = 2030, store: Any = None,
                                 executor: Any = "serial", confidence: float = 0.95) -> Any:
     """An independent reference of :func:`geared_rotor_problem` by line sampling.
