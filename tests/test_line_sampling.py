@@ -188,3 +188,32 @@ def test_more_than_two_crossings_are_flagged() -> None:
 def test_bad_settings_name_the_setting(bad: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         _run(_linear, 0, **bad)
+
+
+def _cubic(**u):
+    s = _named(u) @ ALPHA
+    return 3.5 - s - 0.3 * (s - 3.5) ** 3  # decreasing, one root at 3.5: Pf = Phi(-3.5)
+
+
+def test_unrefined_crossings_say_so_and_their_brackets_stay_in_the_interval() -> None:
+    rep = _run(_cubic, 9, n_lines=20, direction=ALPHA, max_iter=1)
+    exact = stats.norm.sf(3.5)
+    assert int(rep["status"]) == 1
+    assert "not bracketed to root_tol" in gearuq.describe_status(rep)
+    assert float(rep["pf_lower"]) <= exact <= float(rep["pf_upper"])
+    assert float(rep["pf_upper"]) - float(rep["pf_lower"]) > 0.05 * exact  # the brackets
+
+
+def _nan_beyond(**u):
+    s = _named(u) @ ALPHA
+    return np.where(s > 4.5, np.nan, 3.5 - s)  # the model gives no answer deep in failure
+
+
+def test_invalid_runs_read_both_ways() -> None:
+    rep = _run(_nan_beyond, 10, n_lines=20, direction=ALPHA)
+    exact = stats.norm.sf(3.5)
+    assert int(rep["status"]) == 6 and int(rep["n_invalid"]) > 0
+    # pf reads the unknown cells (t > 4) as safe: below the truth; the upper end covers it
+    assert float(rep["pf"]) < exact <= float(rep["pf_upper"])
+    assert float(rep["pf"]) == pytest.approx(stats.norm.cdf(4.0) - stats.norm.cdf(3.5),
+                                             rel=2e-3)
