@@ -20,9 +20,10 @@ method          what it does
 ``mfis``        multi-fidelity importance sampling: a cheap model (``low_fidelity=``) explores
                 the failure domain, the expensive one runs only on draws from a defensive
                 mixture fitted there
-``line_sampling`` line sampling: the exact failure probability along lines parallel to an
-                important direction (or radial in an important subspace), both sides searched
 ==============  ===============================================================================
+
+``line_sampling``: line sampling, the exact failure probability along lines parallel to an
+important direction (or radial in an important subspace), both sides searched.
 """
 
 from __future__ import annotations
