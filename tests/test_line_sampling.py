@@ -217,3 +217,16 @@ def test_invalid_runs_read_both_ways() -> None:
     assert float(rep["pf"]) < exact <= float(rep["pf_upper"])
     assert float(rep["pf"]) == pytest.approx(stats.norm.cdf(4.0) - stats.norm.cdf(3.5),
                                              rel=2e-3)
+
+
+def test_pilot_direction_points_to_the_failure_set() -> None:
+    TALLY["runs"] = 0
+    rep = _run(_linear, 11, n_lines=100, direction="pilot")
+    cosine = float(rep["direction"].values[0] @ ALPHA)
+    assert cosine > 0.7, cosine  # the mean of the worst pilot draws leans towards alpha
+    assert int(rep["n_probe_runs"]) == 300
+    assert int(rep["n_model_runs"]) == TALLY["runs"]
+    exact = stats.norm.sf(3.5)
+    assert float(rep["pf_lower"]) <= exact <= float(rep["pf_upper"])
+    # 30 degrees off: a few lines carry the estimate, and the run says so
+    assert (int(rep["status"]) == 3) == (float(rep["n_effective_lines"]) < 30)
