@@ -230,3 +230,20 @@ def test_pilot_direction_points_to_the_failure_set() -> None:
     assert float(rep["pf_lower"]) <= exact <= float(rep["pf_upper"])
     # 30 degrees off: a few lines carry the estimate, and the run says so
     assert (int(rep["status"]) == 3) == (float(rep["n_effective_lines"]) < 30)
+
+
+def test_line_law_masses_against_closed_forms() -> None:
+    """k = 1: the normal law; k = 2: |t| Rayleigh, P(|T| > r) = exp(-r^2 / 2); far tails
+    keep their digits."""
+    from gearuq.failure.methods.line_sampling import line_mass
+
+    a = np.array([3.5, -np.inf, -1.0, -9.0, 20.0])
+    b = np.array([np.inf, -3.5, 2.0, -8.0, np.inf])
+    normal = [stats.norm.sf(3.5), stats.norm.sf(3.5), stats.norm.cdf(2) - stats.norm.cdf(-1),
+              stats.norm.cdf(-8) - stats.norm.cdf(-9), stats.norm.sf(20)]
+    assert line_mass(a, b, 1) == pytest.approx(normal, rel=1e-10)
+    radial = line_mass(np.array([5.33, -np.inf, 30.0, -2.0]),
+                       np.array([np.inf, -5.33, np.inf, 2.0]), 2)
+    expected = [0.5 * math.exp(-5.33**2 / 2)] * 2 + [0.5 * math.exp(-450.0),
+                                                     1 - math.exp(-2.0)]
+    assert radial == pytest.approx(expected, rel=1e-10)

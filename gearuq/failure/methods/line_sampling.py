@@ -121,17 +121,15 @@ def line_mass(a: np.ndarray, b: np.ndarray, k: int) -> np.ndarray:
     k : int
         Dimension of the subspace.
     """
-    def cdf(t: np.ndarray) -> np.ndarray:  # P(T <= t), symmetric about 0
-        t = np.asarray(t, dtype=float)
-        half = 0.5 * special.gammainc(0.5 * k, 0.5 * np.minimum(t * t, 1e300))
-        return np.where(t >= 0, 0.5 + half, 0.5 - half)
-
-    def sf(t: np.ndarray) -> np.ndarray:  # P(T > t) without cancellation in the far tail
-        return cdf(-np.asarray(t, dtype=float))
+    def beyond(t: np.ndarray) -> np.ndarray:  # P(T > t) for t >= 0, exact in the far tail
+        return 0.5 * special.gammaincc(0.5 * k, 0.5 * np.minimum(t * t, 1e300))
 
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    # both ends in the upper tail: difference of survival functions keeps small masses exact
-    return np.where(a >= 0, sf(a) - sf(b), cdf(b) - cdf(a))
+    # by the symmetry about 0 each case is a difference (or complement) of upper tails, so a
+    # mass of 1e-300 far out keeps its digits
+    return np.where(a >= 0, beyond(np.abs(a)) - beyond(np.abs(b)),
+                    np.where(b <= 0, beyond(np.abs(b)) - beyond(np.abs(a)),
+                             1.0 - beyond(np.abs(a)) - beyond(np.abs(b))))
 
 
 # =========================================================================== the direction
