@@ -21,6 +21,9 @@ method          what it does
                 the failure domain, the expensive one runs only on draws from a defensive
                 mixture fitted there
 ==============  ===============================================================================
+
+``line_sampling``: line sampling, the exact failure probability along lines parallel to an
+important direction (or radial in an important subspace), both sides searched.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ import xarray as xr
 
 from gearuq.execution import workers_for_run
 from gearuq.failure.evaluator import LimitStateEvaluator
-from gearuq.failure.methods import akmcs, form, importance, mc, mfis, subset
+from gearuq.failure.methods import akmcs, form, importance, line_sampling, mc, mfis, subset
 from gearuq.model import Model, Option
 from gearuq.runs import resolve_model, resolve_seed, route_keywords
 from gearuq.space import ParameterSpace
@@ -65,12 +68,14 @@ METHOD_TABLE: dict[str, MethodEntry] = {
     "akmcs": MethodEntry(akmcs.SETTINGS, akmcs.run_akmcs, "active-learning Kriging (AK-MCS)"),
     "mfis": MethodEntry(mfis.SETTINGS, mfis.run_mfis,
                         "multi-fidelity importance sampling (a cheap model explores)"),
+    "line_sampling": MethodEntry(line_sampling.SETTINGS, line_sampling.run_line_sampling,
+                                 "line sampling along an important direction, both sides"),
 }
 
 #: Method names accepted by :func:`failure_probability`.
 METHODS = tuple(METHOD_TABLE)
 
-_ALIASES = {"montecarlo": "mc", "is": "importance", "ss": "subset"}
+_ALIASES = {"montecarlo": "mc", "is": "importance", "ss": "subset", "linesampling": "line_sampling"}
 
 
 def check_method(method: Any) -> str:
@@ -137,7 +142,7 @@ def failure_probability(
         passage (``min_t g``).
     t : array_like, optional
         Output instants (required for time-dependent outputs).
-    method : {"mc", "form", "sorm", "importance", "subset", "akmcs", "mfis"}
+    method : {"mc", "form", "sorm", "importance", "subset", "akmcs", "mfis", "line_sampling"}
         See the module docstring; :func:`method_settings` lists each method's settings.
     rng : int, Generator or None
         Seed (``None``: fresh, recorded in ``attrs["seed"]``).
