@@ -66,7 +66,8 @@ _PARAMETERS = (
          f"{i // 2 + 1} (pitch_model='germ'; docs/theory/mesh_excitation.md)")
       for g in (1, 2) for i, name in enumerate(pitch_germ_names(30, g))),
     _P("tip_relief_amount", "um", 0.0, 0.0, 200.0,
-       "parabolic tip relief e_max on pinion and wheel (Yuan et al. Eq. 12); 0: unmodified"),
+       "tip relief e_max on pinion and wheel (parabolic as Yuan et al. Eq. 12, or the shape "
+       "of the option tip_relief_shape); 0: unmodified"),
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
        "tip relief length along the path of contact (LTCA optimum at 1000 N m: 11.4 mm)"),
     _P("bearing_stiffness", "N m-1", 5.0e8, 1.0e7, 1.0e11,
@@ -221,6 +222,10 @@ _OPTIONS = (
        "spectral orders (docs/theory/geared_rotor.md)", choices=("gmres", "spectral_orders")),
     _O("spectral_energy", 0.99, "with long_period_solver='spectral_orders': share of the "
        "excitation's energy held by the long-period harmonics kept", lower=1e-3, upper=1.0),
+    _O("tip_relief_shape", "parabolic", "shape of the tip relief of tip_relief_amount / "
+       "tip_relief_length on both gears: 'parabolic' (Yuan, Liu and Liu Eq. 12), 'linear' "
+       "or 'arc' (the profiles of a stage's relief, gearuq.gears.stage.Relief)",
+       choices=("parabolic", "linear", "arc")),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),

@@ -97,10 +97,58 @@ def pitch_amplitude_sigma(pair: Any, values: dict[str, float], gear: int,
     return values["pitch_amplitude"] / 1e6, values["pitch_sigma"] / 1e6
 
 
+class SharedTipRelief:
+    """One tip relief of the same shape, amount and length on pinion and wheel, as the normal
+    clearance map ``FlankDeviations.user(s, y, k1, k2)`` [m].
+
+    The profile is the stage's :meth:`gearuq.gears.stage.Relief.profile` (linear, parabolic
+    or arc in the roll distance ``v`` from the start of the relief), so the rotor's relief
+    and ``mesh_excitation``'s relief of a stage are one formula. The pinion's tip is at the
+    end of the path of contact ``s_E``, the wheel's at its start ``s_A``; the transverse
+    relief is turned to the normal direction by ``cos(beta_b)``, as the LTCA's own reliefs.
+
+    Parameters
+    ----------
+    pair : HelicalGearPair
+        The pair (its path of contact and base helix angle).
+    shape : {"linear", "parabolic", "arc"}
+        Shape of the relief.
+    amount : float
+        Relief [um] at the tip (end of the active profile), along the line of action.
+    length : float
+        Length [mm] of the relief along the path of contact.
+    """
+
+    #: the map ignores the tooth indices, so the long-period line-load table may hold it
+    same_on_every_tooth = True
+
+    def __init__(self, pair: Any, shape: str, amount: float, length: float) -> None:
+        from gearuq.gears.stage import Relief
+
+        # the start is not used by Relief.profile (it takes the roll distance from it)
+        self.relief = Relief(shape, amount, start_roll_length=1.0)
+        self.length = float(length)
+        self.s_A, self.s_E = pair.g_f1 * 1e3, (pair.g_f1 + pair.g_alpha) * 1e3
+        self.cos_bb = math.cos(pair.beta_b)
+
+    def __call__(self, s: Any, y: Any, k1: Any, k2: Any) -> np.ndarray:
+        s_mm = np.asarray(s, dtype=float) * 1e3
+        total = np.zeros_like(s_mm)
+        for v in (s_mm - (self.s_E - self.length), (self.s_A + self.length) - s_mm):
+            total = total + np.where(v > 0.0, self.relief.profile(v, self.length), 0.0)
+        return np.broadcast_to(total * 1e-6 * self.cos_bb, np.broadcast_shapes(
+            np.shape(s), np.shape(y), np.shape(k1), np.shape(k2)))
+
+
 def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
                       pitch_model: str = "germ", pitch_harmonics: int | None = None,
-                      law: tuple[str, float] = ("untruncated_iso", 0.05)) -> Any:
+                      law: tuple[str, float] = ("untruncated_iso", 0.05),
+                      tip_shape: str = "parabolic") -> Any:
     """Flank deviations of one sample: pitch deviations (germ or seeded) and tip relief.
+
+    ``tip_shape``: the shape of the shared tip relief ``tip_relief_amount`` /
+    ``tip_relief_length``; ``"parabolic"`` is the LTCA's own relief (Yuan, Liu and Liu
+    Eq. 12), ``"linear"`` and ``"arc"`` travel as a :class:`SharedTipRelief` map.
 
     ``pitch_model="germ"``: each gear's cumulative deviations are the smooth expansion
     :func:`gearuq.gears.deviations.cumulative_pitch_from_normals` of its standard normals
@@ -130,6 +178,9 @@ def sample_deviations(pair: Any, values: dict[str, float], phases: str = "seed",
             amp, sigma = pitch_amplitude_sigma(pair, values, gear, law)
             fp.append(cumulative_pitch_from_germ(phase, normals, amplitude=amp, sigma=sigma))
     amount, length = values["tip_relief_amount"] / 1e6, values["tip_relief_length"] / 1e3
+    if tip_shape != "parabolic" and amount > 0:
+        return FlankDeviations(Fp1=fp[0], Fp2=fp[1], user=SharedTipRelief(
+            pair, tip_shape, values["tip_relief_amount"], values["tip_relief_length"]))
     tip = (amount, length) if amount > 0 else None
     return FlankDeviations(Fp1=fp[0], Fp2=fp[1], tip_relief1=tip, tip_relief2=tip)
 
@@ -196,10 +247,11 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
         k for k in values if k.startswith(("pitch_xi_p_", "pitch_xi_g_")))
     law = (options["pitch_tolerance_law"], options["process_share_beyond"])
     lkey = ("ltca", ppc, n_pts, options["pitch_phases"], options["pitch_model"],
-            options["pitch_harmonics"]) + law + tuple(values[k] for k in _LTCA_KEYS) + tuple(
-        values.get(k, 0.0) for k in germ_keys)
+            options["pitch_harmonics"], options["tip_relief_shape"]) + law + tuple(
+        values[k] for k in _LTCA_KEYS) + tuple(values.get(k, 0.0) for k in germ_keys)
     deviations = sample_deviations(pair, values, options["pitch_phases"],
-                                   options["pitch_model"], options["pitch_harmonics"], law)
+                                   options["pitch_model"], options["pitch_harmonics"], law,
+                                   options["tip_relief_shape"])
     excitation = _cached(model, lkey, (lambda: _table_excitation(model, pair, values["torque"],
                                                                  deviations, ppc, n_pts))
                          if long_period else (lambda: MeshExcitation.from_setup(
