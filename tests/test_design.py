@@ -352,3 +352,51 @@ def test_location_law_leaving_the_valid_range_is_refused():
     with pytest.raises(ValueError, match="outside the model's valid range"):
         DesignProblem(model, space, [DesignVariable("d", 1.0, 20.0, target="x")],
                       Probability("g"))
+
+
+# ----------------------------------------------------------------- categorical levels
+def _spread_problem():
+    """g = 2.5 - s |x|, X ~ N(d, 1), s = 1 ('plain') or 1.3 ('wide'): least Pf at d = 0,
+    2 Phi(-2.5) = 0.0124 against 2 Phi(-2.5 / 1.3) = 0.0544."""
+    def fn(x, spread="plain"):
+        return 2.5 - {"plain": 1.0, "wide": 1.3}[spread] * np.abs(x)
+
+    model = gearuq.FunctionModel(fn, ["x"], ["g"], name="spread", options=[
+        Option("spread", "plain", "scale of |x|", choices=("plain", "wide", "unused"))])
+    space = gearuq.ParameterSpace.normal(x=(0.0, 1.0))
+    return DesignProblem(model, space, [DesignVariable("d", -2.0, 2.0, target="x")],
+                         Probability("g", name="pf"))
+
+
+def test_levels_optimised_and_compared_on_paired_runs():
+    from gearuq.design import optimize_levels
+
+    r = optimize_levels(_spread_problem(), "spread", ["wide", "plain"], strategy="reweight",
+                        n_samples=4000, rng=5, grid=21, confirm_samples=20_000,
+                        keep_confirmation_runs=True, executor="serial")
+    assert list(r["level"].values) == ["wide", "plain"]
+    for level, s in (("wide", 1.3), ("plain", 1.0)):
+        one = r.sel(level=level)
+        d = float(one["design_d"])
+        assert abs(d) < 0.25, (level, d)
+        exact = stats.norm.cdf(-2.5 / s - d) + stats.norm.sf(2.5 / s - d)
+        assert float(one["confirm_pf_lower"]) <= exact <= float(one["confirm_pf_upper"])
+    assert str(r["best_level"].values) == "plain"
+    assert int(r["level_decided"]) == 1
+    # same confirmation samples at both levels: a plain failure is almost always a wide one
+    wide = r.sel(level="wide")
+    assert float(wide["paired_only_best"]) < 0.1 * float(wide["paired_only_other"])
+    assert float(wide["paired_p_value"]) < 1e-6
+    assert "best level 'plain'" in r.attrs["level_message"]
+
+
+def test_levels_bad_input_names_the_option():
+    from gearuq.design import optimize_levels
+
+    p = _spread_problem()
+    with pytest.raises(ValueError, match="'shape' is not an option"):
+        optimize_levels(p, "shape", ["a", "b"])
+    with pytest.raises(ValueError, match="at least two levels"):
+        optimize_levels(p, "spread", ["plain"])
+    with pytest.raises(ValueError, match="not valid for option 'spread'"):
+        optimize_levels(p, "spread", ["plain", "round"])
