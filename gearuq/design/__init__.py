@@ -31,7 +31,7 @@ _LAZY = {
     "RunPool": "pool",
     "DesignProblem": "problem", "evaluate_design": "problem",
     "optimize_design": "optimize", "STRATEGIES": "optimize", "DESIGN_STATUS": "optimize",
-    "optimize_levels": "levels", "paired_failures": "levels",
+    "optimize_levels": "levels", "paired_failures": "levels", "at_level": "levels",
 }
 
 __all__ = sorted(_LAZY)

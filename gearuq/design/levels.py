@@ -26,11 +26,25 @@ from gearuq.design.optimize import optimize_design
 from gearuq.design.problem import DesignProblem
 from gearuq.engines.common import resolve_seed
 
-__all__ = ["optimize_levels", "paired_failures"]
+__all__ = ["optimize_levels", "paired_failures", "at_level"]
 
 
-def _at_level(problem: DesignProblem, option: str, level: Any) -> DesignProblem:
-    """A shallow copy of ``problem`` whose model options set ``option`` to ``level``."""
+def at_level(problem: DesignProblem, option: str, level: Any) -> DesignProblem:
+    """A shallow copy of ``problem`` whose model options set ``option`` to ``level``.
+
+    Parameters
+    ----------
+    problem : DesignProblem
+    option : str
+        A model option (not checked here: the model checks it when it runs).
+    level : object
+        Its value.
+
+    Returns
+    -------
+    DesignProblem
+        The same model, space, variables and measures; ``problem`` is left unchanged.
+    """
     out = copy.copy(problem)
     out.model_options = {**problem.model_options, option: level}
     return out
@@ -142,8 +156,8 @@ def optimize_levels(
     seed = resolve_seed(rng)
     results, fails = [], []
     for level in levels:
-        p = _at_level(problem, option, level)
-        cp = None if confirm_problem is None else _at_level(confirm_problem, option, level)
+        p = at_level(problem, option, level)
+        cp = None if confirm_problem is None else at_level(confirm_problem, option, level)
         co = None if confirm_options is None else {**confirm_options, option: level}
         r = optimize_design(p, rng=seed, confirm_problem=cp, confirm_options=co, **kwargs)
         fails.append(_failures(p, r))
