@@ -133,6 +133,66 @@ def test_result_round_trips_through_netcdf(youn_choi_reweight, tmp_path):
     assert back.attrs["message"] == youn_choi_reweight.attrs["message"]
 
 
+# ----------------------------------------------------------------- short column
+# Kuschel and Rackwitz, "Two basic problems in reliability-based structural optimization",
+# Mathematical Methods of Operations Research 46 (1997) 309-333: minimise b h subject to
+# P(g <= 0) <= 0.00621 (beta 2.5). Published optimum (FORM): (b, h) = (8.668, 25.0), f = 216.7.
+SC_PUBLISHED_D, SC_PUBLISHED_F, SC_CAP = (8.668, 25.0), 216.7, 0.00621
+
+
+def short_column_pf(b: float, h: float) -> float:
+    """Exact P(g <= 0) by an independent route: given (P, M), g <= 0 iff Y is below the
+    positive root of Y^2 - 4 M Y / (b h^2) - (P / (b h))^2; Gauss-Hermite over (P, M)."""
+    s2 = math.log(1.0 + 0.1**2)
+    mu = math.log(5.0) - s2 / 2
+    x, w = np.polynomial.hermite_e.hermegauss(80)
+    u1, u2 = np.meshgrid(x, x, indexing="ij")
+    weight = np.outer(w, w) / w.sum() ** 2
+    force = 500 + 100 * u1
+    moment = 2000 + 400 * (0.5 * u1 + math.sqrt(0.75) * u2)
+    a, c = 4 * moment / (b * h * h), (force / (b * h)) ** 2
+    root = 0.5 * (a + np.sqrt(a * a + 4 * c))
+    cdf = stats.norm.cdf((np.log(np.maximum(root, 1e-300)) - mu) / math.sqrt(s2))
+    return float(np.sum(weight * np.where(root > 0, cdf, 0.0)))
+
+
+def test_short_column_exact_oracle_beside_the_published_optimum():
+    cons = [{"type": "ineq",
+             "fun": lambda d: stats.norm.ppf(SC_CAP) - stats.norm.ppf(short_column_pf(*d))}]
+    res = optimize.minimize(lambda d: d[0] * d[1], [9.0, 24.0], method="SLSQP",
+                            bounds=[(5, 15), (15, 25)], constraints=cons,
+                            options={"ftol": 1e-12})
+    assert res.success
+    # the depth sits at its bound; FORM's error moves the width by 0.02 (exact: 8.648)
+    assert res.x[1] == pytest.approx(25.0, abs=1e-6)
+    assert res.x[0] == pytest.approx(SC_PUBLISHED_D[0], abs=0.03)
+    assert res.fun == pytest.approx(SC_PUBLISHED_F, rel=0.005)
+
+
+def test_short_column_optimum_within_tolerance():
+    """Correlated inputs and parameter-type design variables: the surrogate strategy."""
+    from gearuq.design.benchmarks import SHORT_COLUMN_PUBLISHED, short_column_problem
+
+    assert SHORT_COLUMN_PUBLISHED["d"] == SC_PUBLISHED_D
+    r = optimize_design(short_column_problem(), strategy="surrogate", n_samples=20_000, rng=0,
+                        n_designs=16, n_infill=4, conservative=False, grid=11,
+                        confirm_samples=100_000, executor="serial")
+    b, h = float(r["design_b"]), float(r["design_h"])
+    # published to four digits; the exact and FORM optima differ by 0.2 %: 0.5 % allowed
+    assert h == pytest.approx(25.0, abs=0.05)
+    assert b == pytest.approx(SC_PUBLISHED_D[0], rel=0.005)
+    assert float(r["objective"]) == pytest.approx(SC_PUBLISHED_F, rel=0.005)
+    lo, up = float(r["confirm_pf_lower"]), float(r["confirm_pf_upper"])
+    # the active constraint: the confirmation interval holds the published level and the
+    # exact probability at the chosen design
+    assert lo <= SC_CAP <= up, (lo, up)
+    assert lo <= short_column_pf(b, h) <= up, (lo, short_column_pf(b, h), up)
+    # every design of the search costs one common-random-number batch, infill included
+    n_designs = len(__import__("json").loads(r.attrs["search_history"]))
+    assert 16 <= n_designs <= 20
+    assert int(r["n_model_runs_search"]) == 20_000 * n_designs
+
+
 # ----------------------------------------------------------------- closed forms
 def _shift_problem(objective=None, constraints=(), bounds=(-2.0, 2.0), sigma=1.0):
     model = gearuq.FunctionModel(lambda x: {"y": x, "g": 3.0 - x}, ["x"], ["y", "g"],
@@ -292,3 +352,51 @@ def test_location_law_leaving_the_valid_range_is_refused():
     with pytest.raises(ValueError, match="outside the model's valid range"):
         DesignProblem(model, space, [DesignVariable("d", 1.0, 20.0, target="x")],
                       Probability("g"))
+
+
+# ----------------------------------------------------------------- categorical levels
+def _spread_problem():
+    """g = 2.5 - s |x|, X ~ N(d, 1), s = 1 ('plain') or 1.3 ('wide'): least Pf at d = 0,
+    2 Phi(-2.5) = 0.0124 against 2 Phi(-2.5 / 1.3) = 0.0544."""
+    def fn(x, spread="plain"):
+        return 2.5 - {"plain": 1.0, "wide": 1.3}[spread] * np.abs(x)
+
+    model = gearuq.FunctionModel(fn, ["x"], ["g"], name="spread", options=[
+        Option("spread", "plain", "scale of |x|", choices=("plain", "wide", "unused"))])
+    space = gearuq.ParameterSpace.normal(x=(0.0, 1.0))
+    return DesignProblem(model, space, [DesignVariable("d", -2.0, 2.0, target="x")],
+                         Probability("g", name="pf"))
+
+
+def test_levels_optimised_and_compared_on_paired_runs():
+    from gearuq.design import optimize_levels
+
+    r = optimize_levels(_spread_problem(), "spread", ["wide", "plain"], strategy="reweight",
+                        n_samples=4000, rng=5, grid=21, confirm_samples=20_000,
+                        keep_confirmation_runs=True, executor="serial")
+    assert list(r["level"].values) == ["wide", "plain"]
+    for level, s in (("wide", 1.3), ("plain", 1.0)):
+        one = r.sel(level=level)
+        d = float(one["design_d"])
+        assert abs(d) < 0.25, (level, d)
+        exact = stats.norm.cdf(-2.5 / s - d) + stats.norm.sf(2.5 / s - d)
+        assert float(one["confirm_pf_lower"]) <= exact <= float(one["confirm_pf_upper"])
+    assert str(r["best_level"].values) == "plain"
+    assert int(r["level_decided"]) == 1
+    # same confirmation samples at both levels: a plain failure is almost always a wide one
+    wide = r.sel(level="wide")
+    assert float(wide["paired_only_best"]) < 0.1 * float(wide["paired_only_other"])
+    assert float(wide["paired_p_value"]) < 1e-6
+    assert "best level 'plain'" in r.attrs["level_message"]
+
+
+def test_levels_bad_input_names_the_option():
+    from gearuq.design import optimize_levels
+
+    p = _spread_problem()
+    with pytest.raises(ValueError, match="'shape' is not an option"):
+        optimize_levels(p, "shape", ["a", "b"])
+    with pytest.raises(ValueError, match="at least two levels"):
+        optimize_levels(p, "spread", ["plain"])
+    with pytest.raises(ValueError, match="not valid for option 'spread'"):
+        optimize_levels(p, "spread", ["plain", "round"])

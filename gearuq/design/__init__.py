@@ -12,6 +12,8 @@ module              what it holds
 ``problem``         :class:`DesignProblem`, :func:`evaluate_design` (one fresh run at a design)
 ``optimize``        :func:`optimize_design`: the strategies (reweight, surrogate, crn, nested),
                     the independent confirmation and the one result Dataset
+``levels``          :func:`optimize_levels`: a categorical variable (a model option), the
+                    design optimised per level and the levels compared on paired runs
 ==================  ===========================================================================
 
 The guide is docs/design.md. Names are imported lazily (``import gearuq.design`` stays cheap).
@@ -29,6 +31,7 @@ _LAZY = {
     "RunPool": "pool",
     "DesignProblem": "problem", "evaluate_design": "problem",
     "optimize_design": "optimize", "STRATEGIES": "optimize", "DESIGN_STATUS": "optimize",
+    "optimize_levels": "levels", "paired_failures": "levels", "at_level": "levels",
 }
 
 __all__ = sorted(_LAZY)

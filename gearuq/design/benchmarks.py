@@ -8,6 +8,15 @@ constraints: minimise ``d1 + d2`` subject to ``P(g_j(X) <= 0) <= Phi(-2)``,
 ``g3 = 80 / (X1^2 + 8 X2 + 5) - 1``. Published optimum (FORM-based):
 ``d* = (3.660, 3.609)``, ``f = 7.269``, ``beta = (2.0, 2.0, 4.436)``.
 
+Kuschel and Rackwitz, "Two basic problems in reliability-based structural optimization",
+Mathematical Methods of Operations Research 46(3) (1997) 309-333, the short column: minimise
+the section ``b h`` (``5 <= b <= 15``, ``15 <= h <= 25``) subject to
+``P(g <= 0) <= 0.00621`` (``beta = 2.5``), ``g = 1 - 4 M / (b h^2 Y) - P^2 / (b h Y)^2``,
+``P ~ N(500, 100)``, ``M ~ N(2000, 400)`` correlated 0.5, ``Y`` lognormal of mean 5 and
+standard deviation 0.5; ``b`` and ``h`` are deterministic (model parameters, not shifted
+laws). Published optimum ``(b, h) = (8.668, 25.0)``, ``f = 216.7`` (as the test suite of the
+Dakota toolkit quotes it beside its own reproduction).
+
 Run ``python -m gearuq.design.benchmarks [n_samples] [seeds]`` for the table of
 docs/design.md: each strategy's optimum, its distance to the exact-probability optimum and the
 model runs it spent.
@@ -30,7 +39,8 @@ from gearuq.failure.modes import LimitState
 from gearuq.model import FunctionModel
 from gearuq.space import ParameterSpace
 
-__all__ = ["youn_choi_problem", "YOUN_CHOI_PUBLISHED", "YOUN_CHOI_EXACT", "compare_strategies"]
+__all__ = ["youn_choi_problem", "YOUN_CHOI_PUBLISHED", "YOUN_CHOI_EXACT", "compare_strategies",
+           "short_column_problem", "SHORT_COLUMN_PUBLISHED"]
 
 #: The published optimum (Youn and Choi 2004, beta_t = 2, standard deviation 0.6).
 YOUN_CHOI_PUBLISHED = {"d": (3.660, 3.609), "f": 7.269, "beta": (2.0, 2.0, 4.436)}
@@ -61,6 +71,42 @@ def youn_choi_problem(beta_target: float = 2.0, sigma: float = 0.6) -> DesignPro
 
 def _cost(d: np.ndarray) -> float:
     return float(d[0] + d[1])
+
+
+#: The published optimum of the short column (Kuschel and Rackwitz 1997, beta_t = 2.5).
+SHORT_COLUMN_PUBLISHED = {"d": (8.668, 25.0), "f": 216.7, "pf_cap": 0.00621}
+
+
+def _short_column(b: np.ndarray, h: np.ndarray, P: np.ndarray, M: np.ndarray,  # noqa: N803
+                  Y: np.ndarray) -> dict[str, np.ndarray]:  # noqa: N803
+    return {"g": 1.0 - 4.0 * M / (b * h**2 * Y) - (P / (b * h * Y)) ** 2}
+
+
+def short_column_problem(pf_cap: float = SHORT_COLUMN_PUBLISHED["pf_cap"]) -> DesignProblem:
+    """The short column of Kuschel and Rackwitz (1997): minimise ``b h`` under a cap on
+    ``P(g <= 0)``; ``b`` and ``h`` set model parameters (``role="parameter"``)."""
+    model = FunctionModel(
+        _short_column,
+        [("b", "1", 10.0, 1.0, 30.0, "section width"), ("h", "1", 20.0, 1.0, 50.0,
+                                                         "section depth"),
+         ("P", "1", 500.0, -np.inf, np.inf, "axial force"),
+         ("M", "1", 2000.0, -np.inf, np.inf, "bending moment"),
+         ("Y", "1", 5.0, 0.0, np.inf, "yield stress")],
+        ["g"], name="short_column",
+        description="Kuschel and Rackwitz (1997): short column under bending and axial load")
+    space = ParameterSpace(
+        {"P": {"dist": "normal", "mean": 500.0, "std": 100.0},
+         "M": {"dist": "normal", "mean": 2000.0, "std": 400.0},
+         "Y": {"dist": "lognormal", "mean": 5.0, "std": 0.5}},
+        correlation={("P", "M"): 0.5})
+    variables = [DesignVariable("b", 5.0, 15.0, role="parameter"),
+                 DesignVariable("h", 15.0, 25.0, role="parameter")]
+    cons = [Constraint(Probability(LimitState.output("g"), name="pf"), upper=pf_cap)]
+    return DesignProblem(model, space, variables, _area, cons)
+
+
+def _area(d: np.ndarray) -> float:
+    return float(d[0] * d[1])
 
 
 def compare_strategies(n_samples: int = 20_000, seeds: Any = (0, 1, 2),

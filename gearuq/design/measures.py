@@ -103,7 +103,23 @@ class Probability:
 
 
 @dataclass(frozen=True)
-class Quantile:
+class _OutputMeasure:
+    """A measure of one scalar output (the base of :class:`Quantile` and :class:`Moment`)."""
+
+    output: str
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """Result variables read."""
+        return (self.output,)
+
+    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
+        """The output per sample (NaN where the run is invalid)."""
+        return _scalar_output(ds, self.output)
+
+
+@dataclass(frozen=True)
+class Quantile(_OutputMeasure):
     """The ``level`` quantile of a scalar output.
 
     Parameters
@@ -118,7 +134,6 @@ class Quantile:
         Units of the output (recorded in results).
     """
 
-    output: str
     level: float
     name: str = ""
     units: str = ""
@@ -131,15 +146,6 @@ class Quantile:
             tag = f"{self.level:g}".replace(".", "")
             object.__setattr__(self, "name", f"q{tag}_{self.output}")
         _name_ok(self.name)
-
-    @property
-    def outputs(self) -> tuple[str, ...]:
-        """Result variables read."""
-        return (self.output,)
-
-    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
-        """The output per sample (NaN where the run is invalid)."""
-        return _scalar_output(ds, self.output)
 
     def estimate(self, y: np.ndarray, w: np.ndarray | None, confidence: float) -> Estimate:
         """Weighted quantile with an order-statistic interval at the effective size."""
@@ -164,7 +170,7 @@ class Quantile:
 
 
 @dataclass(frozen=True)
-class Moment:
+class Moment(_OutputMeasure):
     """The mean or standard deviation of a scalar output.
 
     Parameters
@@ -178,7 +184,6 @@ class Moment:
         Units of the output.
     """
 
-    output: str
     moment: str = "mean"
     name: str = ""
     units: str = ""
@@ -190,15 +195,6 @@ class Moment:
         if not self.name:
             object.__setattr__(self, "name", f"{self.moment}_{self.output}")
         _name_ok(self.name)
-
-    @property
-    def outputs(self) -> tuple[str, ...]:
-        """Result variables read."""
-        return (self.output,)
-
-    def sample_values(self, ds: xr.Dataset) -> np.ndarray:
-        """The output per sample (NaN where the run is invalid)."""
-        return _scalar_output(ds, self.output)
 
     def estimate(self, y: np.ndarray, w: np.ndarray | None, confidence: float) -> Estimate:
         """Self-normalised weighted moment with a normal interval at the effective size."""

@@ -49,6 +49,10 @@ class DesignProblem:
         Declared model options of every search run (the cheap fidelity).
     confidence : float
         Two-sided confidence level of every interval.
+    run_outputs : sequence of str, optional
+        Outputs computed and kept when a confirmation keeps its runs (``keep_runs``), beside
+        those the measures read; default: every output of the model (costly for a model
+        whose outputs differ in cost).
 
     Raises
     ------
@@ -70,6 +74,7 @@ class DesignProblem:
         t: Any = None,
         model_options: Mapping[str, Any] | None = None,
         confidence: float = 0.95,
+        run_outputs: Sequence[str] | None = None,
     ) -> None:
         self.model = get_model(model) if isinstance(model, str) else model
         if not isinstance(self.model, Model):
@@ -93,6 +98,13 @@ class DesignProblem:
         if not 0.0 < float(confidence) < 1.0:
             raise ValueError(f"confidence: {confidence!r} must lie in (0, 1)")
         self.confidence = float(confidence)
+        names = {o.name for o in self.model.outputs}
+        unknown = [o for o in (run_outputs or ()) if o not in names]
+        if unknown:
+            raise ValueError(f"run_outputs: {unknown} are not outputs of model "
+                             f"{self.model.name!r}; outputs: {', '.join(sorted(names))}")
+        self.run_outputs = None if run_outputs is None else list(
+            dict.fromkeys([*self.outputs, *run_outputs]))
         self._check_ranges()
 
     def _collect_measures(self) -> tuple[Any, ...]:
@@ -171,7 +183,7 @@ class DesignProblem:
             chunk_size: int | None = None, all_outputs: bool = False) -> xr.Dataset:
         """Monte Carlo at one design (same seed, same uniform draws: common random numbers)."""
         opts = self.model_options if model_options is None else dict(model_options)
-        outputs = None if all_outputs else (self.outputs or None)
+        outputs = (self.run_outputs if all_outputs else self.outputs) or None
         return monte_carlo(model_at(self.model, self.variables, design),
                            space_at(self.space, self.variables, design), self.t,
                            n_samples=n, rng=seed, outputs=outputs, executor=executor,
@@ -241,7 +253,7 @@ def evaluate_design(
             for m in problem.measures}
     out = estimates_dataset(problem, d, ests, ds, seed)
     if keep_runs:
-        for name in [*(o.name for o in problem.model.outputs), "status"]:
+        for name in [*(o.name for o in problem.model.outputs if o.name in ds), "status"]:
             out[f"run_{name}"] = ds[name].compute()
     out.attrs["model_options"] = json.dumps(
         problem.model_options if model_options is None else dict(model_options), default=repr)
