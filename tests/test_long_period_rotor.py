@@ -201,3 +201,23 @@ def test_krylov_on_every_harmonic_is_the_full_balance(problem):
     assert np.abs(sol.delta - full.delta).max() < 1e-8 * np.abs(full.delta[1:]).max()
     with pytest.raises(ValueError, match="n_mesh_harmonics=0"):
         prepare_krylov(problem.excitation, 0)
+
+
+def test_backtracking_line_search_follows_the_armijo_rule():
+    """The one line search of the three semi-smooth Newton solvers, against the rule by hand:
+    halve from the full step until the norm falls by the fraction 1e-4 lam."""
+    from gearuq.rotor.harmonic_balance import _backtrack
+
+    def residual(z):  # norm |z - 0.3|: the full step (to 1) overshoots, half a step lands
+        return None, float(abs(z[0] - 0.3))
+
+    trial, (_, norm), accepted = _backtrack(np.zeros(1), np.ones(1), 0.3, residual)
+    assert accepted and trial[0] == 0.5 and norm == pytest.approx(0.2, rel=1e-15)
+    # a norm that never falls: halved down to lam = 2^-10 < 1e-3, then refused
+    trial, (_, norm), accepted = _backtrack(np.zeros(1), np.ones(1), 1.0,
+                                            lambda z: (None, 1.0))
+    assert not accepted and trial[0] == 2.0 ** -10
+    # the Armijo fraction: a decrease smaller than 1e-4 lam of the norm is not enough
+    trial, _, accepted = _backtrack(np.zeros(1), np.ones(1), 1.0,
+                                    lambda z: (None, 1.0 - 0.5e-4 * float(z[0])))
+    assert accepted and trial[0] == 2.0 ** -10

@@ -40,6 +40,7 @@ from gearuq.rotor.harmonic_balance import (
     STATUS_NOT_CONVERGED,
     STATUS_SINGULAR,
     PeriodicSolution,
+    _backtrack,
     _contact_force,
 )
 from gearuq.rotor.reduction import ModalModel
@@ -323,15 +324,10 @@ def solve_periodic_orders(
         except (sla.LinAlgError, ValueError):
             status = STATUS_SINGULAR
             break
-        lam = 1.0
-        for _ in range(12):  # backtracking on the residual norm
-            trial = x + lam * step
-            trial[0] = trial[0].real
-            R_t, res_t, slope_t, r_t = _residual(trial, prep, h, model.mesh_static, backlash)
-            if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
-                break
-            lam *= 0.5
-        if res_t >= res and lam < 1e-3:
+        # x_0 and step_0 are real (_solve_real), so every trial's mean stays real
+        trial, (R_t, res_t, slope_t, r_t), accepted = _backtrack(
+            x, step, res, lambda z: _residual(z, prep, h, model.mesh_static, backlash))
+        if not accepted:
             status = STATUS_NOT_CONVERGED
             break
         x, R, res, slope, r = trial, R_t, res_t, slope_t, r_t
@@ -632,14 +628,8 @@ def solve_periodic_krylov(
                 status = STATUS_NOT_CONVERGED
                 break
             step = to_complex(step)
-            lam = 1.0
-            for _ in range(12):  # backtracking on the residual norm
-                trial = x + lam * step
-                R_t, res_t, F_t, r_t = residual(trial)
-                if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
-                    break
-                lam *= 0.5
-            if res_t >= res and lam < 1e-3:
+            trial, (R_t, res_t, F_t, r_t), accepted = _backtrack(x, step, res, residual)
+            if not accepted:
                 status = STATUS_NOT_CONVERGED
                 break
             x, R, res, F, r = trial, R_t, res_t, F_t, r_t
