@@ -221,6 +221,9 @@ _OPTIONS = (
        "spectral orders (docs/theory/geared_rotor.md)", choices=("gmres", "spectral_orders")),
     _O("spectral_energy", 0.99, "with long_period_solver='spectral_orders': share of the "
        "excitation's energy held by the long-period harmonics kept", lower=1e-3, upper=1.0),
+    _O("gmres_tol", 1e-6, "with long_period_solver='gmres': relative residual tolerance of "
+       "each GMRES solve (1e-6: outputs within 1e-5 of the converged balance, "
+       "docs/theory/geared_rotor.md)", lower=1e-14, upper=0.1),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),
