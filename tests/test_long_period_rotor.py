@@ -199,6 +199,9 @@ def test_krylov_on_every_harmonic_is_the_full_balance(problem):
     full = _full(problem, 3500.0)
     sol = solve_periodic_krylov(*args, channels=["dte"])
     assert sol.status == 0 and sol.branch == "contact_loss" == full.branch
+    # the Newton steps' preconditioner holds the contact indicator's mesh-cycle average:
+    # 4122 GMRES iterations with the full-contact blocks, 311 with it
+    assert sol.iterations < 1000
     assert abs(sol.contact_loss_fraction - full.contact_loss_fraction) < 1e-12
     assert np.abs(sol.delta - full.delta).max() < 1e-8 * np.abs(full.delta[1:]).max()
     with pytest.raises(ValueError, match="n_mesh_harmonics=0"):

@@ -482,7 +482,6 @@ def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int,
     mesh_stiffness = dk[::L][:2 * int(n) + 1].copy()
     m = np.arange(-int(n), int(n) + 1)
     j = np.arange(L)[:, None] + m[None, :] * L  # class r: r + m L
-    d = m[:, None] - m[None, :]
     return KrylovExcitation(
         n_harmonics=H, n_cycles=L, n_time=n_time,
         k_grid=_band_limited(four["stiffness"], limit, n_time),
@@ -491,12 +490,22 @@ def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int,
         mesh_stiffness=mesh_stiffness,
         mean_stiffness=float(np.real(four["stiffness"][0])),
         class_index=np.where((j >= -H) & (j <= H), j + H, -1),
-        class_coupling=np.where(d >= 0, mesh_stiffness[np.abs(d)],
-                                np.conj(mesh_stiffness[np.abs(d)])))
+        class_coupling=_class_toeplitz(mesh_stiffness))
 
 
-def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray) -> np.ndarray:
+def _class_toeplitz(c: np.ndarray) -> np.ndarray:
+    """``T[a, b] = c_{a - b}`` (``c_{-k} = conj(c_k)``) from the one-sided ``c_0..c_{2n}``."""
+    n = (c.size - 1) // 2
+    d = np.arange(-n, n + 1)[:, None] - np.arange(-n, n + 1)[None, :]
+    return np.where(d >= 0, c[np.abs(d)], np.conj(c[np.abs(d)]))
+
+
+def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray,
+                  coupling: np.ndarray | None = None) -> np.ndarray:
     """Inverse blocks ``(L, M, M)`` of ``I + diag(h) T[dk_mesh]`` per residue class ``j mod L``.
+
+    ``coupling``: the Toeplitz ``T`` of another mesh-periodic weight (default
+    ``prep.class_coupling``, the stiffness fluctuation's).
 
     Two-sided index ``j = -H..H``; class ``r`` holds ``r + m L``, ``m = -n..n``
     (``prep.class_index``, -1 padding, whose rows and columns are those of the identity).
@@ -511,7 +520,8 @@ def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray) -> np.ndarray:
     half = L // 2 + 1
     valid = idx[:half] >= 0
     hv = np.where(valid, h_two[np.maximum(idx[:half], 0)], 0.0)
-    B = np.eye(M)[None] + hv[:, :, None] * prep.class_coupling[None]
+    T = prep.class_coupling if coupling is None else coupling
+    B = np.eye(M)[None] + hv[:, :, None] * T[None]
     B = np.where(valid[:, :, None] & valid[:, None, :], B, np.eye(M)[None])
     inv = np.zeros((L, M, M), dtype=complex)
     inv[0] = np.linalg.inv(B[0])
@@ -617,14 +627,14 @@ def solve_periodic_krylov(
         return LinearOperator((n_real, n_real), matvec=apply, dtype=float)
 
     h_two = np.concatenate([np.conj(h[:0:-1]), h])
-    inv = _class_blocks(prep, h_two)
+    blocks = [_class_blocks(prep, h_two)]  # replaced per Newton step (contact indicator)
     idx = prep.class_index
     valid = idx >= 0
 
     def precondition(v):
         x = to_complex(v)
         two = np.concatenate([np.conj(x[:0:-1]), x])
-        z = (inv @ np.where(valid, two[np.maximum(idx, 0)], 0.0)[:, :, None])[:, :, 0]
+        z = (blocks[0] @ np.where(valid, two[np.maximum(idx, 0)], 0.0)[:, :, None])[:, :, 0]
         out = np.zeros(2 * H + 1, dtype=complex)
         out[idx[valid]] = z[valid]
         one = out[H:]
@@ -666,7 +676,14 @@ def solve_periodic_krylov(
                 status = STATUS_NOT_CONVERGED
                 break
             n_newton += 1
-            step, ok = solve(np.where(F > 0.0, prep.k_grid, 0.0) - kbar, -to_real(R))
+            weight = np.where(F > 0.0, prep.k_grid, 0.0) - kbar
+            # preconditioner: the weight's mesh-periodic part (its harmonics at m L, mean
+            # included), i.e. the contact indicator averaged over the mesh cycles; with the
+            # full-contact blocks GMRES took thousands of iterations at 31 % contact loss
+            M = prep.class_coupling.shape[0]
+            blocks[0] = _class_blocks(prep, h_two, _class_toeplitz(
+                _fft.rfft(weight)[::prep.n_cycles][:M] / N))
+            step, ok = solve(weight, -to_real(R))
             if not ok:
                 status = STATUS_NOT_CONVERGED
                 break
