@@ -9,7 +9,9 @@ harmonic ``0..H`` by preconditioned GMRES (:func:`gearuq.rotor.sideband_balance.
 solve_periodic_krylov`, the default: the balance itself, no truncation beyond ``H``), or on the
 long-period harmonics that hold ``spectral_energy`` of the excitation (:func:`~gearuq.rotor.
 sideband_balance.solve_periodic_orders`). What each costs and loses: docs/theory/
-geared_rotor.md, "Hunting-tooth stages in the plugin".
+geared_rotor.md, "Hunting-tooth stages in the plugin" and "Speed of the long-period route"
+(GMRES to ``gmres_tol``, started from the previous speed of a sweep; K_v from the force
+series' maximum polished by Newton's method).
 """
 
 from __future__ import annotations
