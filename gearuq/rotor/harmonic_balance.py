@@ -25,6 +25,7 @@ mesh-force harmonics: ``y_j = y_static [j = 0] - g_y(j w0) r_j``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -399,6 +400,42 @@ def _residual(x, smoothing, model, prep, h, backlash):
     return R, float(np.abs(R).max() / max(np.abs(x).max(), 1e-300)), slope
 
 
+def _backtrack(x: np.ndarray, step: np.ndarray, norm: float,
+               residual: Callable[[np.ndarray], tuple]) -> tuple[np.ndarray, tuple, bool]:
+    """Backtracking line search of the semi-smooth Newton solvers on the residual norm.
+
+    Halves ``lam`` from 1 (at most 12 trials) until ``x + lam step`` lowers the norm by the
+    Armijo fraction ``1e-4 lam`` or ``lam`` falls below 1e-3; the step is refused when the
+    last trial does not lower the norm at all.
+
+    Parameters
+    ----------
+    x, step : ndarray
+        Current iterate and Newton step.
+    norm : float
+        Residual norm at ``x``.
+    residual : callable
+        ``residual(trial)`` returns a tuple whose second item is the residual norm.
+
+    Returns
+    -------
+    trial : ndarray
+        The last point tried.
+    evaluation : tuple
+        ``residual(trial)``.
+    accepted : bool
+        False when the search failed (``x`` should be kept and the solve flagged).
+    """
+    lam = 1.0
+    for _ in range(12):
+        trial = x + lam * step
+        evaluation = residual(trial)
+        if evaluation[1] < norm * (1.0 - 1e-4 * lam) or lam < 1e-3:
+            break
+        lam *= 0.5
+    return trial, evaluation, not (evaluation[1] >= norm and lam < 1e-3)
+
+
 def _newton(x, smoothing, max_iter, tol, model, prep, h, backlash):
     """Semi-smooth Newton with backtracking on the residual norm.
 
@@ -417,14 +454,9 @@ def _newton(x, smoothing, max_iter, tol, model, prep, h, backlash):
             step = _solve_real(h[H:], _real_blocks(dk, H), -R[H:])
         except (sla.LinAlgError, ValueError):
             return x, False, res, it
-        lam = 1.0
-        for _ in range(12):
-            trial = x + lam * step
-            R_t, res_t, slope_t = _residual(trial, smoothing, model, prep, h, backlash)
-            if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
-                break
-            lam *= 0.5
-        if res_t >= res and lam < 1e-3:
+        trial, (R_t, res_t, slope_t), accepted = _backtrack(
+            x, step, res, lambda z: _residual(z, smoothing, model, prep, h, backlash))
+        if not accepted:
             return x, False, res, it + 1
         x, R, res, slope = trial, R_t, res_t, slope_t
     return x, res <= tol, res, max_iter

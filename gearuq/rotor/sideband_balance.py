@@ -32,6 +32,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft as _fft
 import scipy.linalg as sla
 
 from gearuq.rotor.excitation import MeshExcitation
@@ -40,6 +41,7 @@ from gearuq.rotor.harmonic_balance import (
     STATUS_NOT_CONVERGED,
     STATUS_SINGULAR,
     PeriodicSolution,
+    _backtrack,
     _contact_force,
 )
 from gearuq.rotor.reduction import ModalModel
@@ -323,15 +325,10 @@ def solve_periodic_orders(
         except (sla.LinAlgError, ValueError):
             status = STATUS_SINGULAR
             break
-        lam = 1.0
-        for _ in range(12):  # backtracking on the residual norm
-            trial = x + lam * step
-            trial[0] = trial[0].real
-            R_t, res_t, slope_t, r_t = _residual(trial, prep, h, model.mesh_static, backlash)
-            if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
-                break
-            lam *= 0.5
-        if res_t >= res and lam < 1e-3:
+        # x_0 and step_0 are real (_solve_real), so every trial's mean stays real
+        trial, (R_t, res_t, slope_t, r_t), accepted = _backtrack(
+            x, step, res, lambda z: _residual(z, prep, h, model.mesh_static, backlash))
+        if not accepted:
             status = STATUS_NOT_CONVERGED
             break
         x, R, res, slope, r = trial, R_t, res_t, slope_t, r_t
@@ -426,6 +423,11 @@ class KrylovExcitation:
         every mesh cycle, the preconditioner's part.
     mean_stiffness : float
         ``k_bar`` [N/m].
+    class_index : ndarray of int, (L, 2 n_mesh_harmonics + 1)
+        Two-sided index ``j + H`` of the members ``j = r + m L`` of each residue class
+        ``r``, -1 where ``|j| > H`` (the preconditioner's layout, fixed over speeds).
+    class_coupling : ndarray, complex (2 n_mesh_harmonics + 1,) * 2
+        ``dk_{(a - b) L}``: the mesh-order stiffness coupling within a class.
     """
 
     n_harmonics: int
@@ -436,9 +438,12 @@ class KrylovExcitation:
     stiffness_error: np.ndarray
     mesh_stiffness: np.ndarray
     mean_stiffness: float
+    class_index: np.ndarray
+    class_coupling: np.ndarray
 
 
-def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int) -> KrylovExcitation:
+def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int,
+                   n_time: int | None = None) -> KrylovExcitation:
     """Fourier data of ``excitation`` for :func:`solve_periodic_krylov`.
 
     Parameters
@@ -447,6 +452,11 @@ def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int) -> KrylovE
         Mesh stiffness and error over the long period.
     n_mesh_harmonics : int
         Mesh orders kept, >= 1 (``H = n_mesh_harmonics x lcm``).
+    n_time : int, optional
+        Instants per long period of the FFT products and of the contact law (> 4 H). Default
+        the smallest ``2^a 3^b 5^c`` above ``4 H``. In full contact the solution does not
+        depend on it; with contact loss the grid is the law's discretisation, and the dense
+        balance's (the next power of two) gives the dense balance's solution.
     """
     n = n_mesh_harmonics
     if isinstance(n, bool) or int(n) != n or n < 1:
@@ -459,38 +469,67 @@ def prepare_krylov(excitation: MeshExcitation, n_mesh_harmonics: int) -> KrylovE
         raise ValueError(f"n_mesh_harmonics={n} needs {H} harmonics; the excitation resolves "
                          f"{top} ({excitation.tau.size} positions per long period)")
     limit = min(2 * H, top)
-    n_time = 1 << int(math.ceil(math.log2(4 * H + 2)))
+    # products alias nowhere into 0..H for n_time > 4 H; a 2^a 3^b 5^c length, not the next
+    # power of two (27/79, H = 6399: 25 600 instants instead of 32 768)
+    if n_time is None:
+        n_time = _fft.next_fast_len(4 * H + 2, real=True)
+    elif isinstance(n_time, bool) or int(n_time) != n_time or n_time < 4 * H + 2:
+        raise ValueError(f"n_time={n_time!r} is outside its valid range: integers >= "
+                         f"{4 * H + 2} (4 H + 2)")
+    n_time = int(n_time)
     dk = np.zeros(2 * H + 1, dtype=complex)
     dk[1:limit + 1] = four["stiffness"][1:limit + 1]
+    mesh_stiffness = dk[::L][:2 * int(n) + 1].copy()
+    m = np.arange(-int(n), int(n) + 1)
+    j = np.arange(L)[:, None] + m[None, :] * L  # class r: r + m L
     return KrylovExcitation(
         n_harmonics=H, n_cycles=L, n_time=n_time,
         k_grid=_band_limited(four["stiffness"], limit, n_time),
         ke_grid=_band_limited(four["stiffness_error"], limit, n_time),
         stiffness_error=four["stiffness_error"][:H + 1].copy(),
-        mesh_stiffness=dk[::L][:2 * int(n) + 1].copy(),
-        mean_stiffness=float(np.real(four["stiffness"][0])))
+        mesh_stiffness=mesh_stiffness,
+        mean_stiffness=float(np.real(four["stiffness"][0])),
+        class_index=np.where((j >= -H) & (j <= H), j + H, -1),
+        class_coupling=_class_toeplitz(mesh_stiffness))
 
 
-def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray):
-    """Inverse blocks of ``I + diag(h) T[dk_mesh]`` per residue class ``j mod L``.
+def _class_toeplitz(c: np.ndarray) -> np.ndarray:
+    """``T[a, b] = c_{a - b}`` (``c_{-k} = conj(c_k)``) from the one-sided ``c_0..c_{2n}``."""
+    n = (c.size - 1) // 2
+    d = np.arange(-n, n + 1)[:, None] - np.arange(-n, n + 1)[None, :]
+    return np.where(d >= 0, c[np.abs(d)], np.conj(c[np.abs(d)]))
 
-    Two-sided index ``j = -H..H``; class ``r`` holds ``r + m L``. Returns the member
-    indices (``(L, M)``, -1 padding) and the inverted blocks ``(L, M, M)``.
+
+def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray,
+                  coupling: np.ndarray | None = None) -> np.ndarray:
+    """Inverse blocks ``(L, M, M)`` of ``I + diag(h) T[dk_mesh]`` per residue class ``j mod L``.
+
+    ``coupling``: the Toeplitz ``T`` of another mesh-periodic weight (default
+    ``prep.class_coupling``, the stiffness fluctuation's).
+
+    Two-sided index ``j = -H..H``; class ``r`` holds ``r + m L``, ``m = -n..n``
+    (``prep.class_index``, -1 padding, whose rows and columns are those of the identity).
+    Only classes ``0..L // 2`` are inverted: class ``L - r`` holds the negatives of class
+    ``r``'s members ``m = -n..n-1`` in reverse order (``m = n`` is padding for ``r > 0``), and
+    ``h_{-j} = conj(h_j)``, ``dk_{-k} = conj(dk_k)`` for a real signal, so its block is the
+    conjugate of class ``r``'s reversed; classes ``r > 0`` are inverted on their ``2 n``
+    members only. A third of the cost of inverting every padded block.
     """
-    H, L = prep.n_harmonics, prep.n_cycles
-    n = H // L
-    M = 2 * n + 1
-    m = np.arange(-n, n + 1)
-    j = np.arange(L)[:, None] + m[None, :] * L  # class r: r + mL
-    valid = (j >= -H) & (j <= H)
-    idx = np.where(valid, j + H, -1)
-    d = m[:, None] - m[None, :]
-    dk = prep.mesh_stiffness
-    T = np.where(d >= 0, dk[np.abs(d)], np.conj(dk[np.abs(d)]))
-    hv = np.where(valid, h_two[np.maximum(idx, 0)], 0.0)
+    idx = prep.class_index
+    L, M = idx.shape
+    half = L // 2 + 1
+    valid = idx[:half] >= 0
+    hv = np.where(valid, h_two[np.maximum(idx[:half], 0)], 0.0)
+    T = prep.class_coupling if coupling is None else coupling
     B = np.eye(M)[None] + hv[:, :, None] * T[None]
     B = np.where(valid[:, :, None] & valid[:, None, :], B, np.eye(M)[None])
-    return idx, np.linalg.inv(B)
+    inv = np.zeros((L, M, M), dtype=complex)
+    inv[0] = np.linalg.inv(B[0])
+    m2 = M - 1  # members of a class r > 0
+    inv[1:half, :m2, :m2] = np.linalg.inv(B[1:, :m2, :m2])
+    inv[1:, m2, m2] = 1.0
+    inv[half:, :m2, :m2] = np.conj(inv[L - np.arange(half, L), m2 - 1::-1, m2 - 1::-1])
+    return inv
 
 
 def solve_periodic_krylov(
@@ -506,6 +545,7 @@ def solve_periodic_krylov(
     max_newton: int = 40,
     receptance: dict[str, np.ndarray] | None = None,
     channels: list[str] | None = None,
+    initial: np.ndarray | None = None,
 ) -> PeriodicSolution:
     """Steady state on every harmonic ``0..H`` of the long period, by preconditioned GMRES.
 
@@ -540,6 +580,10 @@ def solve_periodic_krylov(
         :meth:`ModalModel.receptances` at ``j w0``, ``j = 0..H``.
     channels : list of str, optional
         Outputs to compute (default all of the model's channels).
+    initial : ndarray, complex (H + 1,), optional
+        Start of GMRES for the full-contact solve (e.g. the neighbouring speed's ``delta``);
+        the tolerance stays relative to the right-hand side, so a close start saves
+        iterations without changing what is converged to.
 
     Returns
     -------
@@ -561,6 +605,9 @@ def solve_periodic_krylov(
     h = receptance["mesh"]
     kbar = prep.mean_stiffness
     n_real = 2 * H + 1
+    if initial is not None and np.shape(initial) != (H + 1,):
+        raise ValueError(f"initial has shape {np.shape(initial)}, outside the valid shape "
+                         f"({H + 1},): one-sided harmonics 0..H")
 
     def to_complex(v):  # real [Re x_0..x_H, Im x_1..x_H] -> one-sided complex
         x = v[:H + 1].astype(complex)
@@ -573,20 +620,21 @@ def solve_periodic_krylov(
     def operator(weight):  # v -> v + h (weight v)_j, weight(t) on the grid
         def apply(v):
             x = to_complex(v)
-            p = np.fft.rfft(np.fft.irfft(x * N, n=N) * weight)[:H + 1] / N
+            p = _fft.rfft(_fft.irfft(x * N, n=N) * weight)[:H + 1] / N
             y = x + h * p
             y[0] = y[0].real
             return to_real(y)
         return LinearOperator((n_real, n_real), matvec=apply, dtype=float)
 
     h_two = np.concatenate([np.conj(h[:0:-1]), h])
-    idx, inv = _class_blocks(prep, h_two)
+    blocks = [_class_blocks(prep, h_two)]  # replaced per Newton step (contact indicator)
+    idx = prep.class_index
     valid = idx >= 0
 
     def precondition(v):
         x = to_complex(v)
         two = np.concatenate([np.conj(x[:0:-1]), x])
-        z = np.einsum("rab,rb->ra", inv, np.where(valid, two[np.maximum(idx, 0)], 0.0))
+        z = (blocks[0] @ np.where(valid, two[np.maximum(idx, 0)], 0.0)[:, :, None])[:, :, 0]
         out = np.zeros(2 * H + 1, dtype=complex)
         out[idx[valid]] = z[valid]
         one = out[H:]
@@ -596,25 +644,26 @@ def solve_periodic_krylov(
     Minv = LinearOperator((n_real, n_real), matvec=precondition, dtype=float)
     count = [0]
 
-    def solve(weight, b):
+    def solve(weight, b, x0=None):
         def callback(_):
             count[0] += 1
-        v, info = gmres(operator(weight), b, M=Minv, rtol=tol, atol=0.0, restart=50,
+        v, info = gmres(operator(weight), b, x0=x0, M=Minv, rtol=tol, atol=0.0, restart=50,
                         maxiter=max_iter, callback=callback, callback_type="pr_norm")
         return v, info == 0
 
     def residual(x):
-        delta_t = np.fft.irfft(x * N, n=N)
+        delta_t = _fft.irfft(x * N, n=N)
         F = prep.k_grid * delta_t - prep.ke_grid
         force = np.maximum(F, 0.0)
-        r = np.fft.rfft(force - kbar * delta_t)[:H + 1] / N
+        r = _fft.rfft(force - kbar * delta_t)[:H + 1] / N
         R = x + h * r
         R[0] -= model.mesh_static
         return R, float(np.abs(R).max() / max(np.abs(x).max(), 1e-300)), F, r
 
     rhs = h * prep.stiffness_error
     rhs[0] += model.mesh_static
-    v, ok = solve(prep.k_grid - kbar, to_real(rhs))
+    v, ok = solve(prep.k_grid - kbar, to_real(rhs),
+                  None if initial is None else to_real(np.asarray(initial, dtype=complex)))
     x = to_complex(v)
     R, res, F, r = residual(x)
     status = STATUS_CONVERGED if ok else STATUS_NOT_CONVERGED
@@ -627,26 +676,27 @@ def solve_periodic_krylov(
                 status = STATUS_NOT_CONVERGED
                 break
             n_newton += 1
-            step, ok = solve(np.where(F > 0.0, prep.k_grid, 0.0) - kbar, -to_real(R))
+            weight = np.where(F > 0.0, prep.k_grid, 0.0) - kbar
+            # preconditioner: the weight's mesh-periodic part (its harmonics at m L, mean
+            # included), i.e. the contact indicator averaged over the mesh cycles; with the
+            # full-contact blocks GMRES took thousands of iterations at 31 % contact loss
+            M = prep.class_coupling.shape[0]
+            blocks[0] = _class_blocks(prep, h_two, _class_toeplitz(
+                _fft.rfft(weight)[::prep.n_cycles][:M] / N))
+            step, ok = solve(weight, -to_real(R))
             if not ok:
                 status = STATUS_NOT_CONVERGED
                 break
             step = to_complex(step)
-            lam = 1.0
-            for _ in range(12):  # backtracking on the residual norm
-                trial = x + lam * step
-                R_t, res_t, F_t, r_t = residual(trial)
-                if res_t < res * (1.0 - 1e-4 * lam) or lam < 1e-3:
-                    break
-                lam *= 0.5
-            if res_t >= res and lam < 1e-3:
+            trial, (R_t, res_t, F_t, r_t), accepted = _backtrack(x, step, res, residual)
+            if not accepted:
                 status = STATUS_NOT_CONVERGED
                 break
             x, R, res, F, r = trial, R_t, res_t, F_t, r_t
     force = np.maximum(F, 0.0) if status != STATUS_CONTACT_LOSS else F
     n_sep = float(np.mean(F <= 0.0))
     sol = PeriodicSolution(
-        period=period, delta=x, force=np.fft.rfft(force)[:H + 1] / N, remainder=r,
+        period=period, delta=x, force=_fft.rfft(force)[:H + 1] / N, remainder=r,
         status=status, iterations=count[0], residual=res, contact_loss_fraction=n_sep,
         back_contact_fraction=0.0, min_force=float(force.min()),
         branch="contact_loss" if n_sep > 0 else "full_contact", start="linear")

@@ -227,6 +227,9 @@ _OPTIONS = (
        "tip_relief_length on both gears: 'parabolic' (Yuan, Liu and Liu Eq. 12), 'linear' "
        "or 'arc' (the profiles of a stage's relief, gearuq.gears.stage.Relief)",
        choices=("parabolic", "linear", "arc")),
+    _O("gmres_tol", 1e-6, "with long_period_solver='gmres': relative residual tolerance of "
+       "each GMRES solve (1e-6: outputs within 1e-5 of the converged balance, "
+       "docs/theory/geared_rotor.md)", lower=1e-14, upper=0.1),
     _O("verify", False, "check contact-loss solutions by time integration (stability)"),
     _O("tol", 1e-9, "harmonic-balance tolerance (max |residual| / max |delta|)", lower=1e-14,
        upper=1e-3),

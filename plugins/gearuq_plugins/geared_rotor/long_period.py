@@ -9,13 +9,16 @@ harmonic ``0..H`` by preconditioned GMRES (:func:`gearuq.rotor.sideband_balance.
 solve_periodic_krylov`, the default: the balance itself, no truncation beyond ``H``), or on the
 long-period harmonics that hold ``spectral_energy`` of the excitation (:func:`~gearuq.rotor.
 sideband_balance.solve_periodic_orders`). What each costs and loses: docs/theory/
-geared_rotor.md, "Hunting-tooth stages in the plugin".
+geared_rotor.md, "Hunting-tooth stages in the plugin" and "Speed of the long-period route"
+(GMRES to ``gmres_tol``, started from the previous speed of a sweep; K_v from the force
+series' maximum polished by Newton's method).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from contextlib import nullcontext
 from typing import Any
 
 import numpy as np
@@ -36,8 +39,55 @@ MAX_DENSE_FALLBACK_ORDERS = 2048
 #: spectral orders only, with their truncation error (docs/theory/geared_rotor.md).
 STATUS_BACK_FLANK_TRUNCATED = 4
 
+#: GMRES relative tolerance of the long-period route (its error: docs/theory/geared_rotor.md).
+GMRES_TOL = 1e-6
+
+#: Local maxima of the sampled mesh force polished by Newton's method for K_v.
+PEAK_CANDIDATES = 4
+
+#: Newton steps of that polish (quadratic convergence from within one sample spacing).
+NEWTON_STEPS = 4
+
 #: Steady-state solvers of the long-period route.
 LONG_PERIOD_SOLVERS = ("gmres", "spectral_orders")
+
+
+def _series_maximum(harmonics: np.ndarray, orders: np.ndarray, period: float) -> float:
+    """Maximum of ``c_0 + 2 Re sum_j c_j exp(2 pi i j t / period)`` over ``orders`` (``J[0] = 0``).
+
+    Sampled at ``next_fast_len(4 max J)`` instants (>= 4 per period of the highest order),
+    then the ``PEAK_CANDIDATES`` largest local maxima of the samples refined by Newton's
+    method on the derivative (steps within one sample spacing). Never below the sampled
+    maximum.
+    """
+    import scipy.fft
+
+    n = scipy.fft.next_fast_len(max(4 * int(orders[-1]), 8), real=True)
+    c = np.zeros(n // 2 + 1, dtype=complex)
+    c[orders] = harmonics
+    f = scipy.fft.irfft(c * n, n=n)
+    top = float(f.max())
+    peaks = np.flatnonzero((f >= np.roll(f, 1)) & (f >= np.roll(f, -1)))
+    peaks = peaks[np.argsort(f[peaks])[::-1][:PEAK_CANDIDATES]]
+    dt = period / n
+    t = peaks * dt
+    w = 2.0 * np.pi / period * orders[1:]
+
+    def phases(t: np.ndarray) -> np.ndarray:
+        # exp(i w_1 t j) for j = 1..max J by products (rounding grows as j eps: 1e-12),
+        # a tenth of the cost of one exp per order
+        z = np.exp(2j * np.pi / period * t)
+        return np.cumprod(np.broadcast_to(z[:, None], (t.size, int(orders[-1]))),
+                          axis=1)[:, orders[1:] - 1]
+
+    for _ in range(NEWTON_STEPS):
+        e = harmonics[1:] * phases(t)
+        d1 = 2.0 * np.real(1j * (e @ w))     # f'(t) = 2 Re sum i w c e
+        d2 = -2.0 * np.real(e @ (w * w))     # f''(t) = -2 Re sum w^2 c e
+        step = np.where(d2 < 0.0, -d1 / np.where(d2 < 0.0, d2, -1.0), 0.0)
+        t = t + np.clip(step, -dt, dt)
+    values = np.real(harmonics[0]) + 2.0 * np.real(phases(t) @ harmonics[1:])
+    return max(top, float(values.max(initial=-np.inf)))
 
 
 class LongPeriodProblem(GearedRotorProblem):
@@ -61,16 +111,22 @@ class LongPeriodProblem(GearedRotorProblem):
     spectral_energy : float
         With ``solver="spectral_orders"``: share of the excitation's energy the kept orders
         hold, in (0, 1].
+    gmres_tol : float
+        With ``solver="gmres"``: GMRES relative residual tolerance of each linear solve, in
+        (0, 0.1] (its error on the outputs: docs/theory/geared_rotor.md).
     """
 
     def __init__(self, rotor_factory: Callable[[float], Any], excitation: MeshExcitation,
                  pinion_teeth: int, *, mesh_harmonics: int, solver: str = "gmres",
                  spectral_energy: float = 0.99, damping_ratio: float = 0.05,
-                 cutoff_factor: float = 1.0, backlash: float = math.inf) -> None:
+                 cutoff_factor: float = 1.0, backlash: float = math.inf,
+                 gmres_tol: float = GMRES_TOL) -> None:
         from gearuq.rotor.sideband_balance import prepare_krylov, prepare_orders, spectral_orders
 
         if solver not in LONG_PERIOD_SOLVERS:
             raise ValueError(f"solver={solver!r} is outside its valid set {LONG_PERIOD_SOLVERS}")
+        if not 0.0 < gmres_tol <= 0.1:
+            raise ValueError(f"gmres_tol={gmres_tol!r} is outside its valid range (0, 0.1]")
 
         # the dense preparation is built for one harmonic only (unused: no dense solve here)
         super().__init__(rotor_factory, excitation, pinion_teeth, damping_ratio=damping_ratio,
@@ -81,6 +137,10 @@ class LongPeriodProblem(GearedRotorProblem):
         self._H = self.mesh_harmonics * L
         self.mesh_order_index = np.arange(1, self.mesh_harmonics + 1) * L
         self.solver = solver
+        self.gmres_tol = float(gmres_tol)
+        self._blas_limited = False  # inside dynamics_over_speeds, BLAS is limited once
+        self._previous: np.ndarray | None = None  # last GMRES delta: the next solve's start
+        self._continued = False  # GMRES starts from _previous (inside dynamics_over_speeds)
         if solver == "gmres":
             self.krylov = prepare_krylov(excitation, self.mesh_harmonics)
             self.kept = np.arange(self._H + 1)
@@ -117,13 +177,13 @@ class LongPeriodProblem(GearedRotorProblem):
                              f"integers 1..{self.mesh_harmonics}")
         J = self.kept
         T, omega = self.period(float(speed_rpm)), 2.0 * math.pi * float(speed_rpm) / 60.0
-        names = ["dte", acceleration_channel]
-        with single_threaded_blas():
+        at = np.searchsorted(J, self.mesh_order_index[:M])
+        with nullcontext() if self._blas_limited else single_threaded_blas():
             model = self.reduced(float(speed_rpm))
+            names = ["dte", acceleration_channel]
             rec = model.receptances(omega, 2.0 * np.pi / T * J, names)
             sol = self._solve(model, T, omega, rec, names, tol, initial)
         dte, acc = sol.channels["dte"], sol.channels[acceleration_channel]
-        at = np.searchsorted(J, self.mesh_order_index[:M])
         band = J >= self.excitation.n_cycles // 2
         values = {
             "kv": self.peak_mesh_force(sol) / self.excitation.normal_force,
@@ -136,18 +196,34 @@ class LongPeriodProblem(GearedRotorProblem):
         }
         return values, sol
 
+    def dynamics_over_speeds(self, speeds_rpm: Any, **kw: Any) -> Any:
+        """As :meth:`GearedRotorProblem.dynamics_over_speeds`, BLAS limited once for all.
+
+        With ``continuation`` (default True), each GMRES solve starts from the previous
+        steady state of this call (grid in order, then the peak refinement), so a call's
+        results depend on its arguments alone, to the GMRES tolerance.
+        """
+        with single_threaded_blas():
+            self._blas_limited = True
+            self._continued = bool(kw.get("continuation", True))
+            try:
+                return super().dynamics_over_speeds(speeds_rpm, **kw)
+            finally:
+                self._blas_limited = self._continued = False
+                self._previous = None
+
     def peak_mesh_force(self, sol: PeriodicSolution) -> float:
         """Largest mesh force [N] from its harmonics on the kept orders.
 
-        As :meth:`GearedRotorProblem.peak_mesh_force`: synthesised from the harmonics the
-        balance holds (here the kept orders) with >= 64 instants per period of the highest
-        (the sampled maximum within 0.12 % of that harmonic's amplitude of the true one), so
-        that ``K_v = 1`` quasi-statically up to the orders left out.
+        As :meth:`GearedRotorProblem.peak_mesh_force`, the maximum of the force synthesised
+        from the harmonics the balance holds (here the kept orders), so that ``K_v = 1``
+        quasi-statically up to the orders left out: sampled at >= 4 instants per period of
+        the highest harmonic, then the ``PEAK_CANDIDATES`` largest local maxima of the
+        samples polished by Newton's method on the series' derivative (the maximum of the
+        series to rounding, where 64 instants per period of the highest harmonic were 36x
+        the cost and 0.12 % of that harmonic's amplitude short).
         """
-        n = 1 << math.ceil(math.log2(64 * int(self.kept[-1])))
-        c = np.zeros(n // 2 + 1, dtype=complex)
-        c[self.kept] = sol.force
-        return float(np.max(np.fft.irfft(c * n, n=n)))
+        return _series_maximum(sol.force, self.kept, 2.0 * math.pi)
 
     def _solve(self, model: Any, T: float, omega: float, rec: dict, names: list[str],
                tol: float, initial: np.ndarray | None) -> PeriodicSolution:
@@ -159,7 +235,10 @@ class LongPeriodProblem(GearedRotorProblem):
 
         if self.solver == "gmres":
             sol = solve_periodic_krylov(model, self.krylov, T, omega, newton_tol=tol,
-                                        receptance=rec, channels=names)
+                                        tol=self.gmres_tol, receptance=rec, channels=names,
+                                        initial=self._previous if self._continued else None)
+            # the next speed starts GMRES here (a nearby speed: fewer iterations)
+            self._previous = sol.delta if sol.status == 0 else None
             N = self.krylov.n_time
             if math.isinf(self.backlash) or np.min(np.fft.irfft(
                     sol.delta * N, n=N)) > -self.backlash:

@@ -288,7 +288,8 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
                                                      options["cutoff_factor"]))
     H = harmonics * excitation.n_cycles
     rkey = ("rotor", H, cutoff_factor, options["moment_arm"], options["end_inertias"],
-            (options["long_period_solver"], options["spectral_energy"]) if long_period
+            (options["long_period_solver"], options["spectral_energy"],
+             options["gmres_tol"]) if long_period
             else None) + lkey + tuple(
         values.get(k, 0.0) for k in _ROTOR_KEYS)
 
@@ -302,7 +303,7 @@ def problem_for(model: Any, values: dict[str, float], options: dict[str, Any], *
             return LongPeriodProblem(
                 StageRotorFactory(stage, values, options["moment_arm"], ends), excitation,
                 pair.z1, mesh_harmonics=harmonics, solver=options["long_period_solver"],
-                spectral_energy=options["spectral_energy"],
+                spectral_energy=options["spectral_energy"], gmres_tol=options["gmres_tol"],
                 damping_ratio=values["damping_ratio"], cutoff_factor=cutoff_factor,
                 backlash=values["backlash"] * 1e-6)
         if stage is not None:  # the stage's FE rotor (gearuq.rotor.stage)
