@@ -2,19 +2,35 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol
 
 import chaospy as cp
 import numpy as np
 
-if TYPE_CHECKING:
-    from gearuq.space.parameter_space import ParameterSpace
-
-__all__ = ["to_chaospy", "to_salib", "from_salib"]
+__all__ = ["to_chaospy", "to_salib", "from_salib", "SpaceLike"]
 
 
-def to_chaospy(space: ParameterSpace) -> cp.Distribution:
+class SpaceLike(Protocol):
+    """What the adapters read of a parameter space (:class:`gearuq.ParameterSpace` is one):
+    typed by its shape, so that this module needs no import of the space it serves."""
+
+    @property
+    def names(self) -> Sequence[str]: ...
+
+    @property
+    def dim(self) -> int: ...
+
+    @property
+    def independent(self) -> bool: ...
+
+    @property
+    def correlation(self) -> Any: ...
+
+    def marginal(self, name: str) -> Any: ...
+
+
+def to_chaospy(space: SpaceLike) -> cp.Distribution:
     """Joint chaospy distribution.
 
     Returns ``chaospy.J(*marginals)`` for independent parameters and
@@ -30,7 +46,7 @@ def to_chaospy(space: ParameterSpace) -> cp.Distribution:
     return cp.Nataf(joint, space.correlation)
 
 
-def to_salib(space: ParameterSpace, unsupported: str = "raise") -> dict[str, Any]:
+def to_salib(space: SpaceLike, unsupported: str = "raise") -> dict[str, Any]:
     """SALib problem dict (``num_vars``, ``names``, ``bounds``, ``dists``).
 
     Conventions (SALib 1.6 ``_nonuniform_scale_samples``): ``unif`` [lower, upper],
@@ -106,7 +122,7 @@ def to_salib(space: ParameterSpace, unsupported: str = "raise") -> dict[str, Any
     return problem
 
 
-def from_salib(space: ParameterSpace, x: Any, problem: Mapping[str, Any] | None = None
+def from_salib(space: SpaceLike, x: Any, problem: Mapping[str, Any] | None = None
                ) -> dict[str, np.ndarray]:
     """Turn a SALib sample matrix ``(N, dim)`` into a parameter dict.
 
