@@ -13,6 +13,11 @@ pick the same data file, and the index then names a file holding the other signa
 (numba issue 10128). Each save here holds an exclusive lock on a file beside the index, so
 concurrent saves happen one after the other; loads need no lock (a half-saved entry is a cache
 miss, which compiles).
+
+The mesh oscillator's kernels take the longest to compile (about 40 s of CPU from an empty
+cache); its test files are one xdist group (``--dist loadgroup`` in pyproject's addopts), so
+one worker compiles them while the other runs other tests, instead of both compiling the same
+kernels at once.
 """
 
 from __future__ import annotations
@@ -67,3 +72,15 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
     worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
     with open(log, "a", encoding="utf-8") as f:
         f.write(f"{used:.3f}\t{worker}\t{item.nodeid}\n")
+
+
+#: Test files (name prefixes) run on one worker each under ``-n``: they share kernels that are
+#: slow to compile.
+COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator"}
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        for prefix, group in COMPILE_GROUPS.items():
+            if item.path.name.startswith(prefix):
+                item.add_marker(pytest.mark.xdist_group(group))
