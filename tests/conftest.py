@@ -17,7 +17,10 @@ miss, which compiles).
 The mesh oscillator's kernels take the longest to compile (about 40 s of CPU from an empty
 cache); its test files are one xdist group (``--dist loadgroup`` in pyproject's addopts), so
 one worker compiles them while the other runs other tests, instead of both compiling the same
-kernels at once.
+kernels at once. For the same reason each worker starts by making the first call of its share
+of the models (:data:`WARM_UP_CPU`, split greedily by compile cost), so that from an empty
+cache the two workers compile different kernels side by side; with a filled cache this loads
+them (about a second).
 """
 
 from __future__ import annotations
@@ -84,3 +87,41 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         for prefix, group in COMPILE_GROUPS.items():
             if item.path.name.startswith(prefix):
                 item.add_marker(pytest.mark.xdist_group(group))
+
+
+#: CPU seconds of each model's first call from an empty numba cache (``gearuq bench startup``,
+#: docs/benchmarks.md): the weights of the warm-up split between workers.
+WARM_UP_CPU = {"mesh_oscillator": 40.8, "geared_rotor": 15.3, "helical_pair": 14.2,
+               "mesh_excitation": 13.4, "linear_oscillator": 2.0}
+
+
+def warm_up_share(worker: int, n_workers: int) -> list[str]:
+    """The models worker ``worker`` of ``n_workers`` warms up: greedy longest-first split."""
+    loads = [0.0] * n_workers
+    shares: list[list[str]] = [[] for _ in range(n_workers)]
+    for name, cost in sorted(WARM_UP_CPU.items(), key=lambda kv: -kv[1]):
+        k = loads.index(min(loads))
+        loads[k] += cost
+        shares[k].append(name)
+    return shares[worker]
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    n_workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if not worker.startswith("gw") or n_workers < 2:
+        return
+    import sys
+
+    import numpy as np
+
+    import gearuq
+    from gearuq.bench.core import MODEL_FIRST_CALLS
+
+    for name in warm_up_share(int(worker[2:]), n_workers):
+        spec = MODEL_FIRST_CALLS[name]
+        t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
+        try:
+            gearuq.get_model(name).response({}, t, outputs=spec["outputs"])
+        except Exception as err:  # the model's own tests report it; the warm-up only times
+            print(f"conftest warm-up of {name} failed: {err!r}", file=sys.stderr)
