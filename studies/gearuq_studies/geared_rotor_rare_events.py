@@ -64,7 +64,8 @@ dynamic question (K_v and the mesh orders, on gears that pass inspection) is the
 
 Run: ``gearuq study geared_rotor_rare_events [--quick] [--out DIR]``. ``--quick`` answers
 smaller questions (Pf ~ 1e-1 against 60 crude Monte Carlo runs, and ~ 1e-2; about 330 rotor
-runs, a few minutes on 2 cores) and says so. The full study ran end to end in 77 minutes on
+runs) one fidelity step down (the rotor at 40 speeds and 2 mesh harmonics, its cheap model at
+20 and 1) and says so. The full study ran end to end in 77 minutes on
 a 2-core machine shared with another job (about 45 on a quiet one, by the per-run costs),
 most of it the two checks, crude Monte Carlo and subset simulation on the rotor; the answer
 at Pf ~ 1e-6 alone took 11 minutes there and 7.2 on the quiet machine (docs/benchmarks.md).
