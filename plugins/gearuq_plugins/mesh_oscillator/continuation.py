@@ -406,7 +406,7 @@ def trace_curve(c, order, mode, om_lo, om_hi, from_high, sa, tr, tans):
         return 0, TRACE_START_FAILED, 0
     if (tans[0, 2] < 0.0) != from_high:
         tans[0] *= -1.0
-    n = 1
+    n = np.int64(1)  # typed, not the literal 1: one signature of _store (see the top)
     h = H_START
     while True:
         t = tans[n - 1]
