@@ -64,6 +64,7 @@ def test_studies_are_listed_and_run_through_the_registry():
         get_study("nope")
 
 
+@pytest.mark.e2e  # ~28 s CPU: scipy's DOP853 reference and four compiled integrator variants
 def test_integrator_benchmark_accuracy():
     """Event location beats stepping across kinks at equal rtol; the reference agrees with
     scipy's DOP853 (accuracy only: timings belong to `-m bench`)."""

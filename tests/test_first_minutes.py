@@ -439,3 +439,43 @@ def test_info_prints_a_reports_status_in_words(tmp_path, capsys):
     out = capsys.readouterr().out
     assert (f"status 4: {STATUS_TEXT[4]} (no failure in 300 runs: pf is an upper bound)"
             in out)
+
+
+# ------------------------------------------------------ the suite on two processes (conftest)
+def test_warm_up_split_gives_every_model_to_one_worker_and_balances_the_compile():
+    """Greedy longest-first over the cold compile costs: every model warmed up by exactly one
+    worker, and with two workers the heavier share is at most the lighter one plus the
+    largest single model (the greedy bound), here 42.8 against 42.9 s."""
+    import conftest
+
+    costs = conftest.WARM_UP_CPU
+    for n_workers in (2, 3, 5):
+        shares = [conftest.warm_up_share(k, n_workers) for k in range(n_workers)]
+        flat = sorted(name for share in shares for name in share)
+        assert flat == sorted(costs), shares
+        loads = [sum(costs[m] for m in share) for share in shares]
+        assert max(loads) - min(loads) <= max(costs.values()) + 1e-12, loads
+    two = [sum(costs[m] for m in conftest.warm_up_share(k, 2)) for k in range(2)]
+    assert sorted(two) == pytest.approx([40.8 + 2.0, 15.3 + 14.2 + 13.4])
+
+
+def test_numba_cache_saves_wait_for_each_other(tmp_path):
+    """A save into numba's cache blocks while another holder has the index's lock (two
+    workers adding signatures of one function), and completes once it is released."""
+    import fcntl
+    import threading
+
+    from numba.core import caching
+
+    assert getattr(caching.IndexDataCacheFile.save, "serialised", False)
+    cache = caching.IndexDataCacheFile(str(tmp_path), "kernel-demo", "0")
+    with open(cache._index_path + ".lock", "a") as holder:
+        fcntl.flock(holder, fcntl.LOCK_EX)
+        saver = threading.Thread(target=cache.save, args=(("sig", "magic"), b"code"))
+        saver.start()
+        saver.join(0.3)
+        assert saver.is_alive() and not (tmp_path / "kernel-demo.nbi").exists()
+        fcntl.flock(holder, fcntl.LOCK_UN)
+    saver.join(10.0)
+    assert not saver.is_alive()
+    assert cache.load(("sig", "magic")) == b"code"

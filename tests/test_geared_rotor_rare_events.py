@@ -85,11 +85,16 @@ def test_study_mfis_settings_are_valid_and_the_full_study_tilts_the_fitted_quadr
     monkeypatch.setattr(study, "failure_probability", capture)
     assert study.mfis(62.0, 3, quick) == "report"
     assert seen.pop("method") == "mfis" and seen.pop("rng") == 3
+    # the quick run is one fidelity step down: the study's cheap rotor plays the rotor
+    model_options = seen.pop("model_options", None)
     settings = validate_settings("mfis", seen)
     if quick:
         assert settings["biasing"] == "gaussian"
+        assert model_options == study.LOW_FIDELITY_OPTIONS == {"n_speeds": 40,
+                                                                "range_mesh_harmonics": 2}
+        assert settings["low_fidelity_options"] == {"n_speeds": 20, "range_mesh_harmonics": 1}
     else:
-        assert settings["biasing"] == "quadratic"
+        assert settings["biasing"] == "quadratic" and model_options is None
         assert settings["response_offset"] == pytest.approx(62e-6)
         assert settings["n_fit"] >= (60 + 1) * (60 + 2) // 2  # the form's coefficients
 

@@ -74,6 +74,7 @@ def _shell_problem(d: int, lf_factor: float):
     return hf, lf, space
 
 
+@pytest.mark.e2e  # 20 seeds x 3 cases of a full MFIS run each: coverage, not a unit check
 @pytest.mark.parametrize(("d", "lf_factor"), [(20, 0.95), (60, 0.95), (60, 1.05)])
 def test_shell_intervals_hold_over_twenty_seeds(d, lf_factor):
     """``P(|u|^2 >= chi2_d^-1(1 - 1e-6)) = 1e-6`` exactly; the cheap model's shell is 5 %

@@ -64,7 +64,8 @@ dynamic question (K_v and the mesh orders, on gears that pass inspection) is the
 
 Run: ``gearuq study geared_rotor_rare_events [--quick] [--out DIR]``. ``--quick`` answers
 smaller questions (Pf ~ 1e-1 against 60 crude Monte Carlo runs, and ~ 1e-2; about 330 rotor
-runs, a few minutes on 2 cores) and says so. The full study ran end to end in 77 minutes on
+runs) one fidelity step down (the rotor at 40 speeds and 2 mesh harmonics, its cheap model at
+20 and 1) and says so. The full study ran end to end in 77 minutes on
 a 2-core machine shared with another job (about 45 on a quiet one, by the per-run costs),
 most of it the two checks, crude Monte Carlo and subset simulation on the rotor; the answer
 at Pf ~ 1e-6 alone took 11 minutes there and 7.2 on the quiet machine (docs/benchmarks.md).
@@ -91,6 +92,7 @@ from gearuq.failure.intervals import clopper_pearson_interval
 from gearuq.failure.modes import LimitState
 from gearuq.failure.report import describe_status
 from gearuq.testing.reliability_problems import (
+    GEARED_ROTOR_LOW_FIDELITY_OPTIONS,
     GEARED_ROTOR_OPTIONS,
     geared_rotor_mfis_settings,
     geared_rotor_model,
@@ -106,6 +108,11 @@ LEVELS_UM = {"1e-2": 34.0, "1e-3": 45.0, "1e-6": 62.0}
 QUICK_LEVELS_UM = {"1e-1": 25.0, "1e-2": 34.0}
 #: Options of the cheap model (the same rotor, coarser over speed).
 LOW_FIDELITY_OPTIONS = GEARED_ROTOR_OPTIONS
+#: The quick run's rotor, one fidelity step down everywhere (a run about a quarter of the
+#: study's): the study's cheap model (40 speeds, 2 mesh harmonics) plays the rotor, and the
+#: benchmark case's cheap model (20 speeds, 1 harmonic) the cheap one.
+QUICK_MODEL_OPTIONS = GEARED_ROTOR_OPTIONS
+QUICK_LOW_FIDELITY_OPTIONS = GEARED_ROTOR_LOW_FIDELITY_OPTIONS
 OUTPUTS = ["dte_rms_max", "speed_at_dte_rms_max"]
 
 
@@ -131,11 +138,13 @@ DEFAULT_EXECUTION: dict[str, Any] = {"executor": "processes", "chunk_size": 100}
 
 
 def crude_monte_carlo(n: int, seed: int, store: Path | None,
-                      execution: dict[str, Any] | None = None) -> dict[str, np.ndarray]:
-    """``n`` rotor runs (through ``store`` when given: a rerun reuses its chunks)."""
+                      execution: dict[str, Any] | None = None,
+                      model_options: dict[str, Any] | None = None) -> dict[str, np.ndarray]:
+    """``n`` rotor runs (through ``store`` when given: a rerun reuses its chunks) with the
+    rotor's ``model_options`` (default: its own)."""
     ds = gearuq.monte_carlo(study_model(), study_space(), None, n_samples=n, rng=seed,
                             outputs=OUTPUTS, store=store, progress=False,
-                            **(execution or {}))
+                            model_options=model_options, **(execution or {}))
     return {"y": ds["dte_rms_max"].values * 1e6, "speed": ds["speed_at_dte_rms_max"].values,
             "ok": ds["status"].values == 0, "wall": float(ds.attrs.get("wall_time", math.nan))}
 
@@ -163,7 +172,8 @@ def mfis(x_um: float, seed: int, quick: bool, execution: dict[str, Any] | None =
     normal by ``exp(t y^2)`` puts the rotor's draws on the shell with weights bounded there.
     A Gaussian mixture fitted to subset simulation's last level covered that shell badly (one
     draw carried 31 % of the estimate at 62 um). The quick run keeps the mixture: a few hundred
-    cheap runs cannot fit the 1891 coefficients of the form.
+    cheap runs cannot fit the 1891 coefficients of the form, and it runs one fidelity step
+    down (:data:`QUICK_MODEL_OPTIONS`, :data:`QUICK_LOW_FIDELITY_OPTIONS`).
 
     Measured at 62 um (four random seeds, each 1000 rotor and 2400 cheap runs): the form fits
     the cheap model with R^2 = 1.0000; Pf 3.37e-7, 2.96e-7, 3.01e-7 and 2.19e-7, CoV
@@ -178,17 +188,19 @@ def mfis(x_um: float, seed: int, quick: bool, execution: dict[str, Any] | None =
     common = {"method": "mfis", "rng": seed, "low_fidelity": model,
               "low_fidelity_options": LOW_FIDELITY_OPTIONS, **(execution or {})}
     if quick:
-        return failure_probability(model, study_space(), limit_state(x_um), **common,
-                                   n_per_level=150, n_samples=60, max_samples=60,
-                                   target_cov=0.2)
+        return failure_probability(model, study_space(), limit_state(x_um), **{
+            **common, "low_fidelity_options": QUICK_LOW_FIDELITY_OPTIONS},
+            model_options=QUICK_MODEL_OPTIONS, n_per_level=150, n_samples=60,
+            max_samples=60, target_cov=0.2)
     return failure_probability(model, study_space(), limit_state(x_um), **{
         **common, **geared_rotor_mfis_settings(x_um * 1e-6, LOW_FIDELITY_OPTIONS)})
 
 
 def subset(x_um: float, seed: int, quick: bool, execution: dict[str, Any] | None = None) -> Any:
-    """Subset simulation on the rotor itself."""
+    """Subset simulation on the rotor itself (quick: at :data:`QUICK_MODEL_OPTIONS`)."""
     return failure_probability(study_model(), study_space(), limit_state(x_um),
                                method="subset", rng=seed, n_per_level=80 if quick else 400,
+                               model_options=QUICK_MODEL_OPTIONS if quick else None,
                                **(execution or {}))
 
 
@@ -331,7 +343,8 @@ def figures(out: Path, mc: dict[str, np.ndarray], rows: list[dict[str, Any]],
     left_out=(
         "the questions the study answers (Pf ~ 1e-2, 1e-3 and 1e-6): this run asks Pf ~ 1e-1 "
         "and 1e-2 instead, with 60 crude Monte Carlo runs as the check, and no grouped Sobol'"
-        " indices"))
+        " indices; the rotor at 40 speeds and 2 mesh harmonics (the study's: 160 and 3), its "
+        "cheap model at 20 and 1"))
 def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False,
         seed: int = 2020, executor: Any = DEFAULT_EXECUTION["executor"],
         chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"]) -> int:
@@ -363,6 +376,9 @@ def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False
     *moderates, rare = levels.values()
     t0 = time.perf_counter()
     execution = {"executor": executor, "chunk_size": chunk_size}
+    # one cheap rotor run here first: from an empty numba cache it compiles the rotor's kernels
+    # once, and the worker processes load them instead of each compiling them at the same time
+    study_model().response({}, None, outputs=["dte_rms_max"], **QUICK_LOW_FIDELITY_OPTIONS)
     rows, reps = [], {}
     for x_um in (*moderates, rare):
         for method in ("mfis", "subset"):
@@ -387,7 +403,8 @@ def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False
     # the check last: its store may already hold the runs (a rerun, or a run started apart)
     n_mc = 60 if quick else 4000
     print(f"crude Monte Carlo, {n_mc} rotor runs (store {out / 'mc_store'}) ...", flush=True)
-    mc = crude_monte_carlo(n_mc, seed, out / "mc_store", execution)
+    mc = crude_monte_carlo(n_mc, seed, out / "mc_store", execution,
+                           QUICK_MODEL_OPTIONS if quick else None)
     checks = [{"X_um": x, **exceedance(mc, x)} for x in moderates]
     paths = figures(out, mc, rows, walk_levels, sobol)
     info = {"levels_um": levels, "quick": quick, "execution": execution, "seed": seed,

@@ -63,6 +63,10 @@ _CORNER_STEP = 1e-4
 _CORNER_MARGIN = 2e-2
 #: Largest traced amplitude, in units of the amplitude scale (the linear peak).
 _A_MAX = 50.0
+# Constant arguments of kernel-to-kernel calls are passed as np.int64(...) / np.bool_(...):
+# numba compiles a callee once per distinct literal constant it is called with (60 and 40, True
+# and False: a second copy of the callee and of everything it calls), and a typed value is one
+# signature for all. The values, and so the results, are the same.
 #: Continuation step sizes in scaled arclength.
 H_START = 0.01
 H_MIN = 1e-7
@@ -388,7 +392,7 @@ def trace_curve(c, order, mode, om_lo, om_hi, from_high, sa, tr, tans):
     if abs(forcing_phasor(c, om_start)) == 0.0:
         return 0, TRACE_UNFORCED, 0
     a_lin, g_lin = linear_solution(c, om_start)
-    a0, g0, ok = newton_fixed_omega(a_lin, g_lin, om_start, c, order, mode, 60)
+    a0, g0, ok = newton_fixed_omega(a_lin, g_lin, om_start, c, order, mode, np.int64(60))
     if not ok:
         return 0, TRACE_START_FAILED, 0
     y = np.array([a0 / sa, g0 / math.pi, om_start / sw])
@@ -397,12 +401,12 @@ def trace_curve(c, order, mode, om_lo, om_hi, from_high, sa, tr, tans):
     p0 = np.empty(3)
     p1 = np.empty(3)
     t_new = np.empty(3)
-    _store(tr, 0, y, c, order, mode, sa, sw, mode)
+    _store(tr, np.int64(0), y, c, order, mode, sa, sw, mode)
     if not _tangent(jacs[0], sa, sw, tans[0]):
         return 0, TRACE_START_FAILED, 0
     if (tans[0, 2] < 0.0) != from_high:
         tans[0] *= -1.0
-    n = 1
+    n = np.int64(1)  # typed, not the literal 1: one signature of _store (see the top)
     h = H_START
     while True:
         t = tans[n - 1]
@@ -437,10 +441,12 @@ def trace_curve(c, order, mode, om_lo, om_hi, from_high, sa, tr, tans):
             return n, TRACE_STEP_UNDERFLOW, 0
         for k in range(3):
             pred[k] = y[k] + h * t[k]
-        its = _correct(pred, t, jacs[n - 1], c, order, mode, sa, sw, y_new, 12, False)
+        its = _correct(pred, t, jacs[n - 1], c, order, mode, sa, sw, y_new, np.int64(12),
+                       np.bool_(False))
         grow = 1.5 if its <= 4 else (1.2 if its <= 6 else (0.6 if its >= 9 else 1.0))
         if its < 0:  # the chord failed: full Newton before giving up the step size
-            its = _correct(pred, t, jacs[n - 1], c, order, mode, sa, sw, y_new, 12, True)
+            its = _correct(pred, t, jacs[n - 1], c, order, mode, sa, sw, y_new, np.int64(12),
+                           np.bool_(True))
             grow = 1.3 if its <= 4 else 1.0
         accepted = False
         if its >= 0:
@@ -544,7 +550,7 @@ def solve_on_grid(c, order, mode, tr, tans, n_pts, brk, grid, sa, sw, sol):
             near = j if frac < 0.5 else j + 1
             a, gam, ok = _chord_fixed_omega(a, gam, om, c, order, mode, jacs[near], 8)
             if not ok:
-                a, gam, ok = newton_fixed_omega(a, gam, om, c, order, mode, 40)
+                a, gam, ok = newton_fixed_omega(a, gam, om, c, order, mode, np.int64(40))
             if a < 0.0:
                 a = -a
                 gam += math.pi
@@ -635,7 +641,7 @@ def onset_points(c, order, mode, tr, n_pts, brk, out):
             frac = (om - pts[j, 2]) / dw if dw != 0.0 else 0.0
             ag = pts[j, 0] + frac * (pts[j + 1, 0] - pts[j, 0])
             gg = pts[j, 1] + frac * (pts[j + 1, 1] - pts[j, 1])
-            a, gam, ok = newton_fixed_omega(ag, gg, om, c, order, flow, 40)
+            a, gam, ok = newton_fixed_omega(ag, gg, om, c, order, flow, np.int64(40))
             _g(a, gam, om, c, order, flow, s, g)
             fm = s[S_MARGIN]
             if abs(fm) < 1e-12 or abs(w1 - w0) < 1e-13:
@@ -676,13 +682,15 @@ def _trace_window(c, order, mode, om_lo, om_hi, sa, max_pts):
     tr = (np.empty((max_pts, 3)), np.empty((max_pts, N_SEP)), np.empty((max_pts, 2, 3)),
           np.zeros(max_pts, np.int64))
     tans = np.empty((max_pts, 3))
-    n_a, status, side = trace_curve(c, order, mode, om_lo, om_hi, False, sa, tr, tans)
+    n_a, status, side = trace_curve(c, order, mode, om_lo, om_hi, np.bool_(False), sa, tr,
+                                     tans)
     if status == TRACE_UNFORCED or (status == TRACE_OK and side == 1):
         return tr, tans, n_a, -1, status
     trb = (np.empty((max_pts, 3)), np.empty((max_pts, N_SEP)), np.empty((max_pts, 2, 3)),
            np.zeros(max_pts, np.int64))
     tansb = np.empty((max_pts, 3))
-    n_b, status_b, side_b = trace_curve(c, order, mode, om_lo, om_hi, True, sa, trb, tansb)
+    n_b, status_b, side_b = trace_curve(c, order, mode, om_lo, om_hi, np.bool_(True), sa, trb,
+                                         tansb)
     n_b = min(n_b, max_pts - n_a)
     for k in range(n_b):  # append the second piece reversed
         src = n_b - 1 - k

@@ -1,0 +1,127 @@
+"""Suite-wide test hooks.
+
+``GEARUQ_TEST_CPU_LOG=FILE`` appends one line per test to ``FILE``: the test id, its outcome and
+the CPU seconds it used (set-up, call and tear-down; this process and the children it waited
+for). On a shared machine wall time says little; these CPU seconds are what
+``--durations`` cannot give, and what the suite's time budget is planned with
+(docs/benchmarks.md, "test suite").
+
+The suite runs on several processes (pytest-xdist, README command 2) that share numba's
+on-disk cache. numba writes each file atomically, but a new entry is a read-modify-write of the
+function's index: two workers saving different signatures of one function at once can both
+pick the same data file, and the index then names a file holding the other signature's code
+(numba issue 10128). Each save here holds an exclusive lock on a file beside the index, so
+concurrent saves happen one after the other; loads need no lock (a half-saved entry is a cache
+miss, which compiles).
+
+The mesh oscillator's kernels take the longest to compile (about 40 s of CPU from an empty
+cache); its test files are one xdist group (``--dist loadgroup`` in pyproject's addopts), so
+one worker compiles them while the other runs other tests, instead of both compiling the same
+kernels at once. For the same reason each worker starts by making the first call of its share
+of the models (:data:`WARM_UP_CPU`, split greedily by compile cost), so that from an empty
+cache the two workers compile different kernels side by side; with a filled cache this loads
+them (about a second).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+
+import pytest
+
+
+def _serialise_numba_cache_saves() -> None:
+    try:
+        import fcntl
+
+        from numba.core import caching
+    except ImportError:  # no fcntl (Windows) or no numba: nothing to share
+        return
+    save = caching.IndexDataCacheFile.save
+    if getattr(save, "serialised", False):
+        return
+
+    def locked_save(self: caching.IndexDataCacheFile, key: object, data: object) -> None:
+        os.makedirs(self._cache_path, exist_ok=True)
+        with open(self._index_path + ".lock", "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            try:
+                save(self, key, data)
+            finally:
+                fcntl.flock(lock, fcntl.LOCK_UN)
+
+    locked_save.serialised = True  # type: ignore[attr-defined]
+    caching.IndexDataCacheFile.save = locked_save  # type: ignore[method-assign]
+
+
+_serialise_numba_cache_saves()
+
+
+def _cpu_seconds() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    log = os.environ.get("GEARUQ_TEST_CPU_LOG")
+    if not log:
+        yield
+        return
+    start = _cpu_seconds()
+    yield
+    used = _cpu_seconds() - start
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    with open(log, "a", encoding="utf-8") as f:
+        f.write(f"{used:.3f}\t{worker}\t{item.nodeid}\n")
+
+
+#: Test files (name prefixes) run on one worker each under ``-n``: they share kernels that are
+#: slow to compile.
+COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator"}
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        for prefix, group in COMPILE_GROUPS.items():
+            if item.path.name.startswith(prefix):
+                item.add_marker(pytest.mark.xdist_group(group))
+
+
+#: CPU seconds of each model's first call from an empty numba cache (``gearuq bench startup``,
+#: docs/benchmarks.md): the weights of the warm-up split between workers.
+WARM_UP_CPU = {"mesh_oscillator": 40.8, "geared_rotor": 15.3, "helical_pair": 14.2,
+               "mesh_excitation": 13.4, "linear_oscillator": 2.0}
+
+
+def warm_up_share(worker: int, n_workers: int) -> list[str]:
+    """The models worker ``worker`` of ``n_workers`` warms up: greedy longest-first split."""
+    loads = [0.0] * n_workers
+    shares: list[list[str]] = [[] for _ in range(n_workers)]
+    for name, cost in sorted(WARM_UP_CPU.items(), key=lambda kv: -kv[1]):
+        k = loads.index(min(loads))
+        loads[k] += cost
+        shares[k].append(name)
+    return shares[worker]
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    n_workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if not worker.startswith("gw") or n_workers < 2:
+        return
+    import sys
+
+    import numpy as np
+
+    import gearuq
+    from gearuq.bench.core import MODEL_FIRST_CALLS
+
+    for name in warm_up_share(int(worker[2:]), n_workers):
+        spec = MODEL_FIRST_CALLS[name]
+        t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
+        try:
+            gearuq.get_model(name).response({}, t, outputs=spec["outputs"])
+        except Exception as err:  # the model's own tests report it; the warm-up only times
+            print(f"conftest warm-up of {name} failed: {err!r}", file=sys.stderr)
