@@ -13,10 +13,12 @@ from gearuq.testing import reliability_problems as rp
 from gearuq.testing.problems import standard_normal_space
 
 
-def test_offset_within_15_percent_with_at_most_5000_runs():
+def test_offset_within_15_percent_with_at_most_6500_runs():
     rep = failure_probability(rp.offset_model(), rp.offset_space(), "g", method="importance",
                               rng=4, executor="serial")
-    assert int(rep["n_model_runs"]) <= 5000
+    # about 2x the runs of a component narrowed to the failing samples (sd 0.28), whose
+    # reported CoV leaves out the rare large weights (tests/test_importance_weight_tail.py)
+    assert int(rep["n_model_runs"]) <= 6500
     assert float(rep["pf"]) == pytest.approx(rp.OFFSET_PF, rel=0.15)
     assert float(rep["pf_lower"]) <= rp.OFFSET_PF <= float(rep["pf_upper"])
     assert float(rep["cov_pf"]) <= 0.05 and int(rep["status"]) == 0

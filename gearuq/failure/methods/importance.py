@@ -63,7 +63,8 @@ from gearuq.model import Option
 __all__ = ["SETTINGS", "run_importance", "mixture_log_weights", "Mixture", "pareto_shape",
            "weighted_estimate", "sample_until", "weight_status", "weight_diagnostics",
            "PARETO_LIMIT", "draw_batch", "plan_size", "SAFETY", "MIN_PILOT_FAILURES",
-           "OPTIMISTIC_PILOT", "N_PROBE_STARTS", "no_design_point_text", "PILOT_BATCH"]
+           "OPTIMISTIC_PILOT", "ADAPTED_MIN_STD", "N_PROBE_STARTS", "no_design_point_text",
+           "PILOT_BATCH"]
 
 
 SETTINGS = (
@@ -97,6 +98,19 @@ PILOT_BATCH = 2**20
 
 #: FORM starts tried before the full multi-start search; if none converges, the method stops.
 N_PROBE_STARTS = 3
+
+#: Smallest standard deviation, in any direction, of a mixture component after a
+#: cross-entropy step. The failing samples of a half-space beyond ``beta`` spread only
+#: ~0.3 along its normal (a truncated normal), and a component that narrow has weights
+#: ``phi / q`` that grow without bound behind its mean, along the normal outwards (only the
+#: defensive share caps them, at ``1 / defensive``). Such rare large weights are mostly
+#: unseen, so a run's sample CoV understates the estimator's: on the two-mode problem
+#: (:func:`gearuq.testing.reliability_problems.unit_modes_model`) the reported CoV was 0.032
+#: against a true 0.050 (exact quadrature of ``int_F phi^2 / h``), the status-0 intervals held
+#: in 16 of 19 seeds, all three misses low. Never narrower than the standard normal, the
+#: weights stay bounded where the failure set is unbounded and the sample CoV matches the
+#: true one (0.063 reported, 0.061 measured over 300 repeats of one density).
+ADAPTED_MIN_STD = 1.0
 
 #: Failing pilot draws needed to judge the variance; with fewer the whole budget is used.
 MIN_PILOT_FAILURES = 10
@@ -158,15 +172,25 @@ class Mixture:
         """``log(phi_d(u) / h(u))``."""
         return -0.5 * np.sum(u * u, axis=1) - special.logsumexp(self.component_log_pdf(u), axis=1)
 
-    def adapted(self, u: np.ndarray, omega: np.ndarray) -> Mixture:
+    def adapted(self, u: np.ndarray, omega: np.ndarray, min_std: float = 0.05) -> Mixture:
         """One cross-entropy step from samples ``u`` with weights ``omega = 1_F w``.
 
         Each component's mean and covariance become the ``omega``-and-responsibility weighted
         moments of the failing samples; the covariance only when their effective number is at
         least ``10 d`` (in 100 dimensions a covariance from a few hundred samples made the
         density worse than the unit one), shrunk towards the identity by ``d + 1``
-        pseudo-samples and its eigenvalues kept in ``[0.05^2, 3^2]``. A component without
+        pseudo-samples and its eigenvalues kept in ``[min_std^2, 3^2]``. A component without
         failing samples is kept as it was.
+
+        Parameters
+        ----------
+        u : ndarray (n, d)
+            Draws of this mixture.
+        omega : ndarray (n,)
+            ``1_F w`` of each draw.
+        min_std : float
+            Smallest standard deviation of an adapted component in any direction
+            (:data:`ADAPTED_MIN_STD` for importance sampling).
         """
         d = u.shape[1]
         lp = self.component_log_pdf(u)
@@ -187,7 +211,7 @@ class Mixture:
             lam = (d + 1.0) / (ess + d + 1.0)
             s = (1 - lam) * s + lam * np.eye(d)
             val, vec = np.linalg.eigh(0.5 * (s + s.T))
-            covs[j] = (vec * np.clip(val, 0.05**2, 9.0)) @ vec.T
+            covs[j] = (vec * np.clip(val, min_std**2, 9.0)) @ vec.T
         return Mixture(means, covs, shares / shares.sum(), self.defensive)
 
 
@@ -255,7 +279,7 @@ def run_importance(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, con
         fail = ok & (res["g"] <= 0.0)
         if fail.sum() >= 2:
             omega = np.where(fail, np.exp(mix.log_weights(u)), 0.0)
-            mix = mix.adapted(u, omega)
+            mix = mix.adapted(u, omega, ADAPTED_MIN_STD)
     adapt_runs = ev.n_runs - form_runs
     est = sample_until(ev, mix, s, confidence, np.random.SeedSequence([seed, 11]), "importance")
     return _report(ev, fs, seed, confidence, est, found, starts, mix,
