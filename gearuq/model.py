@@ -8,6 +8,7 @@ variables over ``sample``, units in ``attrs["units"]`` and a per-sample ``status
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -76,6 +77,13 @@ class Parameter:
     def range_text(self) -> str:
         """Return the valid range as ``[lower, upper] units``."""
         return f"[{self.lower:g}, {self.upper:g}] {self.units}"
+
+    def with_nominal(self, value: float) -> Parameter:
+        """This parameter with nominal ``value``, its range widened to hold it (a stage or a
+        configuration sets nominal values the default range may not reach)."""
+        v = float(value)
+        return dataclasses.replace(self, nominal=v, lower=min(self.lower, v),
+                                   upper=max(self.upper, v))
 
 
 @dataclass(frozen=True)

@@ -188,13 +188,7 @@ def stage_parameters(stage: Any, parameters: tuple[Parameter, ...]) -> tuple[Par
                         f"{'cosine' if i % 2 == 0 else 'sine'} coefficient "
                         f"of tooth-index harmonic {i // 2 + 1} (z = {z})")))
     out.extend(_added_parameters(stage))
-    final = []
-    for p in out:
-        if p.name in values:
-            v = values[p.name]
-            p = replace(p, nominal=v, lower=min(p.lower, v), upper=max(p.upper, v))
-        final.append(p)
-    return tuple(final)
+    return tuple(p.with_nominal(values[p.name]) if p.name in values else p for p in out)
 
 
 class StageFlanks:

@@ -267,15 +267,8 @@ def _from_stage(stage: Any) -> tuple[Any, dict[str, float], dict[str, float],
 def _with_nominal(parameters: tuple[Parameter, ...],
                   nominal: dict[str, float]) -> tuple[Parameter, ...]:
     """``parameters`` with the given nominal values, the range widened to hold them."""
-    from dataclasses import replace
-
-    out = []
-    for p in parameters:
-        if p.name in nominal:
-            v = nominal[p.name]
-            p = replace(p, nominal=v, lower=min(p.lower, v), upper=max(p.upper, v))
-        out.append(p)
-    return tuple(out)
+    return tuple(p.with_nominal(nominal[p.name]) if p.name in nominal else p
+                 for p in parameters)
 
 
 def _parameters(pair: Any) -> tuple[Parameter, ...]:
