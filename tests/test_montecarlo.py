@@ -34,7 +34,8 @@ REPO = Path(gearuq.__file__).resolve().parents[1]
 # what a run cost (a resumed run evaluates only the missing chunks) differs from run to run;
 # the results themselves may not
 VOLATILE = ("created", "executor", "executor_reason", "chunk_size", "n_chunks", "store",
-            "reused_chunks", "n_evaluations", "n_reused_samples")
+            "reused_chunks", "n_evaluations", "n_reused_samples", "cpu_seconds",
+            "worker_cpu_seconds")
 
 
 # ------------------------------------------------------------------------------- models
