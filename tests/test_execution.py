@@ -377,6 +377,7 @@ def _slow_chunk(x1, x2):
     return x1 - x2
 
 
+@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
 def test_executor_is_chosen_from_a_timed_first_chunk():
     cheap = gearuq.FunctionModel(lambda x1, x2: x1 * x2, ["x1", "x2"], ["y"], name="cheap")
     ds = monte_carlo(cheap, SPACE, n_samples=20_000, rng=1, progress=False)

@@ -26,6 +26,7 @@ def _quiet():
         yield
 
 
+@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
 def test_conformance(model):
     ds = check_model(model, np.linspace(0.0, 0.02, 9), options=COARSE)
     assert set(ds["order_label"].values[[30, 29, 31, 60]]) == {

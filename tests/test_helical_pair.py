@@ -248,6 +248,7 @@ def test_compiled_kernel_equals_numpy_twin(model):
                                        rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
 def test_frozen_sides_and_retake_agree_with_tight_reference(model, method):
     """Both event treatments converge to the same trajectory on a contact-loss case."""
@@ -415,6 +416,7 @@ def test_gated_mesh_equals_default_without_damping_or_contact_loss(model):
     np.testing.assert_allclose(b["p5"], a["p5"], rtol=1e-12)
 
 
+@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
 def test_gated_mesh_at_the_seed_point(model):
     """3600 rpm, 2600 N m: the default lets ~10 kN of damping force act across the open gap
     (35 % of the static load) and pulls in contact; the gated mesh does neither, and both

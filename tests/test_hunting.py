@@ -351,6 +351,7 @@ def test_gmres_falls_back_to_back_flank_contact(rotor_13_17):
     assert got["kv"] > 3.0
 
 
+@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
 def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatch):
     """Too many harmonics for a dense fallback: spectral orders, and a status that says so."""
     from gearuq_plugins.geared_rotor import long_period
