@@ -204,7 +204,7 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
     ax.axhline(x, color="tab:blue", ls="--", lw=1, label=f"X = {x:.3g}")
     for s, _ in modes:
         ax.axvline(s, color="tab:green", lw=0.6, alpha=0.6)
-    ax.set(xlabel="pinion speed [rpm]", ylabel="K_v", title="Dynamic factor over the speed "
+    ax.set(xlabel="pinion speed [rpm]", ylabel="K_v [1]", title="Dynamic factor over the speed "
            "range (green: mesh frequency = natural frequency)")
     ax.legend(fontsize=7, loc="upper left")
     if mark:
@@ -222,9 +222,10 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
     for s, e in modes:
         ax.axvline(s, color="tab:green", lw=0.8, alpha=0.7)
         ax.axvline(s / 2.0, color="tab:green", lw=0.8, alpha=0.5, ls=":")
-        ax.text(s, ax.get_ylim()[1], f"{e:.0%}", fontsize=6, ha="center", va="bottom",
-                color="tab:green")
-    ax.set(xlabel="speed of the K_v peak [rpm]", ylabel="kv_max",
+        # inside the axes, at their top: clear of the title whatever the data's range
+        ax.annotate(f"{e:.0%}", (s, 0.98), xycoords=("data", "axes fraction"), fontsize=6,
+                    ha="center", va="top", color="tab:green")
+    ax.set(xlabel="speed of the K_v peak [rpm]", ylabel="kv_max [1]",
            title="Where the peaks sit (green: f_m, dotted: 2 f_m = a natural frequency; "
            "share of mesh strain energy)")
     ax.legend(fontsize=7)
