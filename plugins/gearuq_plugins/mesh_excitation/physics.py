@@ -223,17 +223,25 @@ def _one_sample(prep: dict[str, Any], pair: Any, values: dict[str, float],
         out[name] = order_amplitudes(summ[series] * unit, prep["bins"])
     status = 0 if (sol.status.max() == 0 and ref.status.max() == 0) else STATUS_LTCA_NOT_CONVERGED
     if prep["extra"] is not None:
-        extra = prep["extra"]
-        sol_t = ltca_solve(extra, P, extra.clearance(dev))
-        summ_t = mesh_summaries(extra, sol_t)
-        if sol_t.status.max() != 0:
+        series_t, converged = _off_grid_series(prep["extra"], P, dev)
+        out.update(series_t)
+        if not converged:
             status = STATUS_LTCA_NOT_CONVERGED
-        for name, unit in _TIME_UNITS.items():
-            out[name] = summ_t[name] * unit
     else:
         for name, unit in _TIME_UNITS.items():
             out[name] = summ[name][prep["grid_index"]] * unit
     return out, status
+
+
+def _off_grid_series(extra: Any, force: float, dev: Any) -> tuple[dict[str, np.ndarray], bool]:
+    """Time outputs at the instants off the cycle grid: the full LTCA at those alone (both
+    routes); and whether it converged."""
+    from gearuq.gears.ltca import ltca_solve, mesh_summaries
+
+    sol = ltca_solve(extra, force, extra.clearance(dev))
+    summ = mesh_summaries(extra, sol)
+    return ({name: summ[name] * unit for name, unit in _TIME_UNITS.items()},
+            bool(sol.status.max() == 0))
 
 
 def table_torque(torque: float) -> float:
@@ -294,18 +302,15 @@ def _one_sample_table(model: Any, prep: dict[str, Any], values: dict[str, float]
     status = 0 if worst == 0 else (STATUS_TABLE_OUT_OF_RANGE if worst == 2
                                    else STATUS_LTCA_NOT_CONVERGED)
     if prep["extra"] is not None:  # instants off the grid: the full LTCA at those alone
-        from gearuq.gears.ltca import ltca_solve, mesh_summaries, normal_force_from_torque
+        from gearuq.gears.ltca import normal_force_from_torque
 
-        extra = prep["extra"]
         full_dev = replace(dev, user=prep["stage_relief"](values)) \
             if prep["stage_relief"] is not None else dev
-        sol_t = ltca_solve(extra, normal_force_from_torque(pair, values["torque"]),
-                           extra.clearance(full_dev))
-        summ_t = mesh_summaries(extra, sol_t)
-        if sol_t.status.max() != 0:
+        series_t, converged = _off_grid_series(
+            prep["extra"], normal_force_from_torque(pair, values["torque"]), full_dev)
+        out.update(series_t)
+        if not converged:
             status = STATUS_LTCA_NOT_CONVERGED
-        for name, unit in _TIME_UNITS.items():
-            out[name] = summ_t[name] * unit
     else:
         for name in _TIME_UNITS:
             out[name] = series[name][prep["grid_index"]]
