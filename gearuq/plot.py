@@ -641,7 +641,8 @@ def plot_work_precision(
 # --------------------------------------------------------------------------------------------
 # output
 # --------------------------------------------------------------------------------------------
-def save_figure(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
+def save_figure(fig: Any, path: str | Path, *, dpi: int = 120,
+                bbox_inches: str | None = None) -> Path:
     """Save a figure as PNG (parent directories created) and close it.
 
     Parameters
@@ -652,6 +653,9 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
         Output file (``.png`` is appended when there is no suffix).
     dpi : int
         Resolution.
+    bbox_inches : str, optional
+        ``"tight"`` crops the saved image to what is drawn (a long title, a legend outside
+        the axes); as matplotlib's ``savefig``.
 
     Returns
     -------
@@ -676,7 +680,7 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 120) -> Path:
                  fontsize=max(9.0, min(22.0, 2.2 * fig.get_figwidth())), color="crimson",
                  alpha=0.35, zorder=1000, wrap=True)
         fig._gearuq_quick_mark = True
-    fig.savefig(out, dpi=dpi)
+    fig.savefig(out, dpi=dpi, bbox_inches=bbox_inches)
     plt = sys.modules.get("matplotlib.pyplot")
     if plt is not None:
         plt.close(fig)

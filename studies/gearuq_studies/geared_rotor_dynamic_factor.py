@@ -183,13 +183,12 @@ def mesh_mode_speeds(grade: int) -> list[tuple[float, float]]:
 
 
 def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
-            sobol: dict[str, Any] | None, quick: bool, grade: int) -> list[Path]:
+            sobol: dict[str, Any] | None, grade: int) -> list[Path]:
     """K_v against speed with bands and ISO; the Campbell-like map; the Sobol' bars."""
     import matplotlib.pyplot as plt
 
     ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
     n = int(ok.sum())
-    mark = f"quick: {ds.sizes['sample']} runs, not a result" if quick else None
     speeds = ds["range_speed"].values
     kv = ds["kv_over_speed"].values[ok]
     iso = ds["kv_iso_over_speed"].values[ok]
@@ -207,12 +206,8 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
     ax.set(xlabel="pinion speed [rpm]", ylabel="K_v [1]", title="Dynamic factor over the speed "
            "range (green: mesh frequency = natural frequency)")
     ax.legend(fontsize=7, loc="upper left")
-    if mark:
-        ax.text(0.5, 0.5, mark, transform=ax.transAxes, ha="center", fontsize=16,
-                color="red", alpha=0.5, rotation=20)
     paths.append(out / "kv_over_speed.png")
-    fig.savefig(paths[-1], dpi=130, bbox_inches="tight")
-    plt.close(fig)
+    plot.save_figure(fig, paths[-1], dpi=130, bbox_inches="tight")  # stamps a quick run
 
     fig, ax = plt.subplots(figsize=(7.0, 4.6))
     at, top = ds["speed_at_kv_max"].values[ok], ds["kv_max"].values[ok]
@@ -229,12 +224,8 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
            title="Where the peaks sit (green: f_m, dotted: 2 f_m = a natural frequency; "
            "share of mesh strain energy)")
     ax.legend(fontsize=7)
-    if mark:
-        ax.text(0.5, 0.5, mark, transform=ax.transAxes, ha="center", fontsize=16,
-                color="red", alpha=0.5, rotation=20)
     paths.append(out / "campbell_map.png")
-    fig.savefig(paths[-1], dpi=130, bbox_inches="tight")
-    plt.close(fig)
+    plot.save_figure(fig, paths[-1], dpi=130, bbox_inches="tight")  # stamps a quick run
 
     if sobol is not None:
         fig, ax = plt.subplots(figsize=(6.0, 3.6))
@@ -245,12 +236,8 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
         ax.set(ylabel="Sobol' index of kv_max", title=f"What drives K_v ({sobol['runs']} "
                "rotor runs)")
         ax.legend(fontsize=7)
-        if mark:
-            ax.text(0.5, 0.5, mark, transform=ax.transAxes, ha="center", fontsize=14,
-                    color="red", alpha=0.5, rotation=20)
         paths.append(out / "sobol_kv.png")
-        fig.savefig(paths[-1], dpi=130, bbox_inches="tight")
-        plt.close(fig)
+        plot.save_figure(fig, paths[-1], dpi=130, bbox_inches="tight")  # stamps a quick run
     return paths
 
 
@@ -324,7 +311,7 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
             t3, c3 = clock()
             stages["sobol"] = (t3 - t2, c3 - c2)
     modes = mesh_mode_speeds(grade)
-    paths = figures(out, ds, x, modes, sobol, quick, grade)
+    paths = figures(out, ds, x, modes, sobol, grade)
     kv_iso = ds["kv_iso_max"].values[ok]
     info = {"quick": quick, "grade": grade, "seed": seed, "X": x, "crude_mc": count,
             "subset": ss, "sobol": sobol, "mesh_mode_speeds": modes,
