@@ -420,11 +420,17 @@ def _reliability_html(report: xr.Dataset, sobol: xr.Dataset, cfg: dict[str, Any]
 
 
 # ---------------------------------------------------------------------- writing
-def _write_csv(table: xr.Dataset | xr.DataArray, path: Path) -> Path:
-    """One CSV table, plain column names (the one place CSVs are written; not
-    ``gearuq.export_csv``, whose output differs: a folder per group of dimensions, units in
-    the headers, see docs/stage.md)."""
+def _write_csv(table: xr.Dataset, path: Path) -> Path:
+    """One CSV table with ``name [units]`` headers, as :func:`gearuq.export_csv` writes them
+    (the one place the stage tables are written; not ``export_csv`` itself, whose layout
+    differs: a folder per group of dimensions, see docs/stage.md)."""
+    from gearuq.io import _csv_header
+
     frame = table.to_dataframe()
+    frame = frame.rename(columns={c: _csv_header(str(c), table[c].attrs) for c in frame.columns})
+    frame.index = frame.index.set_names(
+        [_csv_header(str(n), table[n].attrs if n in table.coords else {})
+         for n in frame.index.names])
     frame.to_csv(path)
     return path
 
