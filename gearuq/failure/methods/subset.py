@@ -32,6 +32,15 @@ delta_i^2`` (``cov_pf``; the fully correlated bound ``sum delta_i`` is ``cov_pf_
 interval is lognormal with the larger of the two, ``pf exp(-+ z s)``, ``s^2 = ln(1 +
 delta^2)``.
 
+A walk whose last level's failing samples descend from fewer than
+:data:`SECOND_WALK_LINEAGES` of its level-1 chains cannot measure its own scatter (the
+lineage bootstrap then rests on a handful of lineages), and a walk trapped in one part of the
+failure domain cannot see the part it never visited. With ``second_walk="auto"`` (default)
+such a walk is checked by a second, independent one: the report gives their mean and the hull
+of their intervals, and status 1 unless both pass the lineage check and agree within their
+reported spreads (:func:`second_walk_reason`). A walk with enough lineages is reported alone,
+bit for bit as before.
+
 For a time-dependent limit state the engine sees ``min_t g(t)``: the limit state of the running
 maximum of the response over the output instants, i.e. first passage.
 
