@@ -525,12 +525,8 @@ def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confi
     kind = (f"hull of two independent walks' intervals (each lognormal with the larger of the "
             f"Au-Beck and the lineage-bootstrap spread) about their mean; second walk because "
             f"{why}")
-    return failure_report(ev, "subset", pf=pf, pf_lower=lower, pf_upper=upper, cov=cov,
-                          interval_kind=kind, confidence=confidence, settings=s, seed=seed,
-                          wall_time=time.perf_counter() - t0, status=status, message=message,
-                          reasons=reasons, grid_gap=ev.grid_gap_fraction * pf
-                          if ev.time_dependent else math.nan,
-                          pf_is_upper_bound=bound, extra=extra)
+    return _finish(ev, s, seed, confidence, t0, (pf, lower, upper, cov), kind,
+                   (status, message, reasons), bound, extra)
 
 
 def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
@@ -557,6 +553,18 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
                         f"failed while exploring: with them pf would be {pf_failed:.4g}; pf "
                         f"counts only the valid failing samples of the last level "
                         f"({valid_share:.0%}); the interval covers both readings"))
+    return _finish(ev, s, seed, confidence, t0, (pf, lower, upper, cov), kind,
+                   (status, message, reasons), bound, extra)
+
+
+def _finish(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
+            t0: float, estimate: tuple[float, float, float, float], kind: str,
+            outcome: tuple[int, str, list[tuple[int, str]]], bound: bool,
+            extra: dict[str, tuple]) -> xr.Dataset:
+    """The report of one walk or a pair: ``estimate`` is ``(pf, lower, upper, cov)``,
+    ``outcome`` ``(status, message, reasons)``."""
+    pf, lower, upper, cov = estimate
+    status, message, reasons = outcome
     return failure_report(ev, "subset", pf=pf, pf_lower=lower, pf_upper=upper, cov=cov,
                           interval_kind=kind, confidence=confidence, settings=s, seed=seed,
                           wall_time=time.perf_counter() - t0, status=status, message=message,
