@@ -88,8 +88,9 @@ def test_a_walk_the_rule_leaves_alone_is_reported_bit_for_bit(seed: int) -> None
 def test_two_walks_on_a_deep_healthy_problem_hold_and_cost_two_walks() -> None:
     """``g = 4.5 - x1`` (Pf 3.4e-6, six levels): the failures of a walk descend from 2-6
     level-1 chains, so the default runs two walks. Their mean is unbiased, the hull of their
-    intervals holds the exact value, and the cost is that of the two walks."""
-    held, flagged, cost_ratio = 0, 0, []
+    intervals holds the exact value, the cost is that of the two walks and the reported
+    (Au-Beck) CoV that of their mean."""
+    held, flagged, cost_ratio, cov_ratio = 0, 0, [], []
     for seed in range(4):
         rep = _subset(offset_model(), offset_space(), "g", seed)
         one = _subset(offset_model(), offset_space(), "g", seed, second_walk="never")
@@ -99,12 +100,15 @@ def test_two_walks_on_a_deep_healthy_problem_hold_and_cost_two_walks() -> None:
         assert float(rep["pf_lower"]) == rep["replicate_pf_lower"].values.min()
         assert float(rep["pf_upper"]) == rep["replicate_pf_upper"].values.max()
         cost_ratio.append(int(rep["n_model_runs"]) / int(one["n_model_runs"]))
+        cov_ratio.append(float(rep["cov_pf"]) / float(one["cov_pf"]))
         if int(rep["status"]) == 0:
             held += float(rep["pf_lower"]) <= OFFSET_PF <= float(rep["pf_upper"])
         else:
             flagged += 1
     assert held + flagged == 4 and flagged <= 1
     assert 1.6 < np.mean(cost_ratio) < 2.4  # the levels of the two walks may differ by one
+    # the Au-Beck CoV of a mean of two walks: about 1/sqrt(2) of one walk's
+    assert 0.5 < np.mean(cov_ratio) < 0.95, cov_ratio
 
 
 def test_a_walk_that_missed_a_mode_is_caught_by_the_second() -> None:

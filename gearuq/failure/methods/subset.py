@@ -503,8 +503,8 @@ def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confi
         reasons.append((6, f"{ev.n_invalid} model runs were invalid; each walk counts only "
                         "the valid failing samples of its last level; the interval covers the "
                         "reading that counts them as failed"))
-    c_k = [math.sqrt(math.expm1((math.log(u / lo) / (2 * z)) ** 2)) if lo > 0 else math.inf
-           for lo, u in zip(lows, ups, strict=True)]
+    # the Au-Beck CoV of the mean of the two, as a single walk reports its own
+    c_k = [_level_covs(w.levels)[0] for w in walks]
     cov = (math.hypot(pfs[0] * c_k[0], pfs[1] * c_k[1]) / (pfs[0] + pfs[1])
            if not bound else math.nan)
     extra = _walk_variables(walks[0].levels, spreads[0], of="first walk")
