@@ -85,7 +85,7 @@ def test_a_walk_the_rule_leaves_alone_is_reported_bit_for_bit(seed: int) -> None
     assert float(default["pf_lower"]) <= resistance_load_pf() <= float(default["pf_upper"])
 
 
-def test_two_walks_on_a_deep_healthy_problem_hold_and_cost_two_walks() -> None:
+def test_two_walks_on_a_deep_healthy_problem_hold_and_cost_two_walks(tmp_path) -> None:
     """``g = 4.5 - x1`` (Pf 3.4e-6, six levels): the failures of a walk descend from 2-6
     level-1 chains, so the default runs two walks. Their mean is unbiased, the hull of their
     intervals holds the exact value, the cost is that of the two walks and the reported
@@ -106,6 +106,10 @@ def test_two_walks_on_a_deep_healthy_problem_hold_and_cost_two_walks() -> None:
         else:
             flagged += 1
     assert held + flagged == 4 and flagged <= 1
+    gearuq.save(rep, tmp_path / "pair.nc")  # the pair's report round-trips like any other
+    back = gearuq.load(tmp_path / "pair.nc")
+    np.testing.assert_array_equal(back["replicate_pf"].values, rep["replicate_pf"].values)
+    assert back.attrs["interval_kind"] == rep.attrs["interval_kind"]
     assert 1.6 < np.mean(cost_ratio) < 2.4  # the levels of the two walks may differ by one
     # the Au-Beck CoV of a mean of two walks: about 1/sqrt(2) of one walk's
     assert 0.5 < np.mean(cov_ratio) < 0.95, cov_ratio
