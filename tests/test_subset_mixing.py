@@ -49,7 +49,8 @@ def _disjoint_pairs(reps) -> int:
 
 def test_ridge_runs_that_did_not_mix_say_so_and_status0_intervals_hold() -> None:
     truth = _ridge_truth()
-    reps = _runs(ridge_model(), SPACE6, range(6))
+    # one walk each: the lineage check alone (the default's second walk: test_subset_second_walk)
+    reps = _runs(ridge_model(), SPACE6, range(6), second_walk="never")
     ok = [r for r in reps if int(r["status"]) == 0]
     flagged = [r for r in reps if int(r["status"]) != 0]
     assert all(float(r["pf_lower"]) <= truth <= float(r["pf_upper"]) for r in ok)

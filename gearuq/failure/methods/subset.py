@@ -32,6 +32,15 @@ delta_i^2`` (``cov_pf``; the fully correlated bound ``sum delta_i`` is ``cov_pf_
 interval is lognormal with the larger of the two, ``pf exp(-+ z s)``, ``s^2 = ln(1 +
 delta^2)``.
 
+A walk whose last level's failing samples descend from fewer than
+:data:`SECOND_WALK_LINEAGES` of its level-1 chains cannot measure its own scatter (the
+lineage bootstrap then rests on a handful of lineages), and a walk trapped in one part of the
+failure domain cannot see the part it never visited. With ``second_walk="auto"`` (default)
+such a walk is checked by a second, independent one: the report gives their mean and the hull
+of their intervals, and status 1 unless both pass the lineage check and agree within their
+reported spreads (:func:`second_walk_reason`). A walk with enough lineages is reported alone,
+bit for bit as before.
+
 For a time-dependent limit state the engine sees ``min_t g(t)``: the limit state of the running
 maximum of the response over the output instants, i.e. first passage.
 
@@ -57,7 +66,8 @@ from gearuq.failure.report import failure_report
 from gearuq.model import Option
 
 __all__ = ["SETTINGS", "run_subset", "simulate", "Walk", "chain_correlation_factor",
-           "level_cov", "lineage_spread", "mixing_reason", "MIXING_ZERO_SHARE"]
+           "level_cov", "lineage_spread", "mixing_reason", "MIXING_ZERO_SHARE",
+           "SECOND_WALK_LINEAGES", "second_walk_reason"]
 
 
 def _check_p0(value: Any) -> float:
@@ -78,6 +88,10 @@ SETTINGS = (
     Option("proposal_std", 1.0, "width of the component-wise normal proposal of 'mma'",
            lower=1e-3, upper=10.0),
     Option("max_levels", 25, "largest number of conditional levels", lower=1),
+    Option("second_walk", "auto", "a second, independent walk checks the first: 'auto' "
+           "when the first walk's failures descend from fewer than SECOND_WALK_LINEAGES of "
+           "its level-1 chains (its own spread is then not measurable), 'always' or 'never'",
+           choices=("auto", "always", "never")),
     Option("replicates", 1, "independent runs pooled: the mean of their estimates with a "
            "log-t interval from their scatter (measured, not modelled by the Au-Beck CoV)",
            lower=1, upper=1000),
@@ -210,12 +224,23 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
         return _run_replicates(ev, s, seed, confidence, t0)
     walk = simulate(ev, s, seed)
     if walk.levels is None:
-        return failure_report(ev, "subset", pf=math.nan, interval_kind="none",
-                              confidence=confidence, settings=s, seed=seed,
-                              wall_time=time.perf_counter() - t0, status=2,
-                              message=walk.message)
-    return _report(ev, s, seed, confidence, walk.levels, walk.status, walk.message, t0,
-                   walk.lineage)
+        return _no_valid_level0(ev, s, seed, confidence, t0, walk.message)
+    why = second_walk_reason(walk.lineage, s["second_walk"], seed)
+    if not why:
+        return _report(ev, s, seed, confidence, walk.levels, walk.status, walk.message, t0,
+                       walk.lineage)
+    second_seed = _replicate_seed(seed, 1)
+    second = simulate(ev, s, second_seed, tag="subset/rep1")
+    if second.levels is None:
+        return _no_valid_level0(ev, s, seed, confidence, t0, f"second walk: {second.message}")
+    return _report_pair(ev, s, seed, confidence, t0, (walk, second), (seed, second_seed), why)
+
+
+def _no_valid_level0(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
+                     confidence: float, t0: float, message: str) -> xr.Dataset:
+    return failure_report(ev, "subset", pf=math.nan, interval_kind="none",
+                          confidence=confidence, settings=s, seed=seed,
+                          wall_time=time.perf_counter() - t0, status=2, message=message)
 
 
 @dataclass
@@ -392,16 +417,172 @@ def mixing_reason(spread: Mapping[str, float]) -> list[tuple[int, str]]:
              "interval); pool independent runs (replicates=K) or use another method")]
 
 
+#: A walk whose last level's failing samples descend from fewer level-1 chains than this
+#: (effective number, ``lineage_n_eff``) runs a second, independent walk (``second_walk=
+#: "auto"``). The lineage bootstrap measures the walk's spread from the lineages that carry its
+#: failures; a standard deviation from ``k`` independent units is understated by more than a
+#: factor 2 with probability ``P(chi2_{k-1} < (k-1)/4)``, at most 5 % from ``k = 7`` on
+#: (0.054 at 6, 0.034 at 7): below it, one walk cannot measure its own scatter (docs).
+SECOND_WALK_LINEAGES = 7
+
+
+def second_walk_reason(lineage: list[tuple[np.ndarray, np.ndarray]], mode: str = "auto",
+                       seed: int = 0) -> str:
+    """Why a second, independent walk must check this one (empty: no need).
+
+    Parameters
+    ----------
+    lineage : list of (root, below)
+        The first walk's lineages (:attr:`Walk.lineage`).
+    mode : {"auto", "always", "never"}
+        The ``second_walk`` setting.
+    seed : int
+        The first walk's seed (its lineage bootstrap).
+    """
+    if mode == "never" or (mode == "auto" and not lineage):
+        return ""
+    if mode == "always":
+        return "second_walk='always'"
+    n_eff = lineage_spread(lineage, seed=seed)["n_eff"]
+    if n_eff >= SECOND_WALK_LINEAGES:
+        return ""
+    return (f"the first walk's failures descend from about {n_eff:.1f} of its level-1 chains "
+            f"(fewer than {SECOND_WALK_LINEAGES}), too few to measure its own scatter")
+
+
+def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
+                 t0: float, walks: tuple[Walk, Walk], seeds: tuple[int, int], why: str
+                 ) -> xr.Dataset:
+    """Two independent walks: their mean, the hull of their intervals, status 1 unless both
+    pass the lineage check and agree within their reported spreads.
+
+    The hull holds pf whenever either walk's interval does, so its confidence is at least
+    each walk's. Agreement: ``|ln pf_1 - ln pf_2| <= z sqrt(s_1^2 + s_2^2)`` with ``s_k`` the
+    log half-width of walk ``k``'s interval over ``z`` (the two-sample test at the report's
+    confidence); a walk without a failure agrees when its upper bound reaches the other's
+    lower end.
+    """
+    z = stats.norm.isf((1 - confidence) / 2)
+    names = ("first walk", "second walk")
+    pfs, lows, ups, spreads, reasons = [], [], [], [], []
+    for name, walk, walk_seed in zip(names, walks, seeds, strict=True):
+        spread = lineage_spread(walk.lineage, seed=walk_seed)
+        pf_k, low_k, up_k = _walk_interval(walk.levels, spread, confidence)
+        share = walk.levels[-1]["valid_share"]  # invalid runs: the interval covers both
+        pfs.append(pf_k * share)
+        lows.append(low_k * share)
+        ups.append(up_k)
+        spreads.append(spread)
+        if walk.status:
+            reasons.append((walk.status, f"{name}: {walk.message}"))
+        if pf_k > 0:
+            reasons.extend((code, f"{name}: {text}") for code, text in mixing_reason(spread))
+    pf = 0.5 * (pfs[0] + pfs[1])
+    lower, upper = min(lows), max(ups)
+    if pfs[0] > 0 and pfs[1] > 0:
+        s_k = [math.log(u / lo) / (2 * z) for lo, u in zip(lows, ups, strict=True)]
+        gap, allowed = abs(math.log(pfs[0] / pfs[1])), z * math.hypot(*s_k)
+        disagree = gap > allowed
+        words = (f"|ln pf_1 - ln pf_2| = {gap:.2f} exceeds z sqrt(s_1^2 + s_2^2) = "
+                 f"{allowed:.2f}")
+    else:
+        disagree = lows[0] > ups[1] or lows[1] > ups[0]
+        words = "one walk saw no failure and its upper bound lies below the other's interval"
+    if disagree:
+        reasons.append((1, f"two independent walks disagree beyond their reported spreads: "
+                        f"{pfs[0]:.3g} [{lows[0]:.3g}, {ups[0]:.3g}] and {pfs[1]:.3g} "
+                        f"[{lows[1]:.3g}, {ups[1]:.3g}] ({words}): the chains did not explore "
+                        "the failure domain alike and neither interval can be vouched for; "
+                        "pool independent runs (replicates=K) or use another method"))
+    bound = pf <= 0
+    status, message = 0, ""
+    if bound:
+        pf, status = upper, 4
+        message = "neither walk observed a failure: pf is the larger of their upper bounds"
+    if ev.n_invalid and not bound:
+        reasons.append((6, f"{ev.n_invalid} model runs were invalid; each walk counts only "
+                        "the valid failing samples of its last level; the interval covers the "
+                        "reading that counts them as failed"))
+    # the Au-Beck CoV of the mean of the two, as a single walk reports its own
+    c_k = [_level_covs(w.levels)[0] for w in walks]
+    cov = (math.hypot(pfs[0] * c_k[0], pfs[1] * c_k[1]) / (pfs[0] + pfs[1])
+           if not bound else math.nan)
+    extra = _walk_variables(walks[0].levels, spreads[0], of="first walk")
+    rep = ("replicate",)
+    extra.update({
+        "replicate_pf": (rep, np.array(pfs), {"units": "1", "long_name":
+                         "estimate of each independent walk"}),
+        "replicate_pf_lower": (rep, np.array(lows), {"units": "1", "long_name":
+                               "each walk's own lower end"}),
+        "replicate_pf_upper": (rep, np.array(ups), {"units": "1", "long_name":
+                               "each walk's own upper end"}),
+        "replicate_levels": (rep, np.array([len(w.levels) for w in walks]), {
+            "units": "1", "long_name": "levels of each walk"}),
+        "replicate_lineage_n_eff": (rep, np.array([sp["n_eff"] for sp in spreads]), {
+            "units": "1", "long_name": "effective number of level-1 chains each walk's "
+            "failures descend from"}),
+    })
+    kind = (f"hull of two independent walks' intervals (each lognormal with the larger of the "
+            f"Au-Beck and the lineage-bootstrap spread) about their mean; second walk because "
+            f"{why}")
+    return _finish(ev, s, seed, confidence, t0, (pf, lower, upper, cov), kind,
+                   (status, message, reasons), bound, extra)
+
+
 def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
             levels: list[dict[str, Any]], status: int, message: str, t0: float,
             lineage: list[tuple[np.ndarray, np.ndarray]] | None = None) -> xr.Dataset:
-    p = np.array([lv["p"] for lv in levels])
-    pf = float(np.prod(p))
-    covs = np.array([lv["cov"] for lv in levels])
-    cov, cov_upper = _level_covs(levels)
-    z = stats.norm.isf((1 - confidence) / 2)
+    cov, _ = _level_covs(levels)
     bound = False
     spread = lineage_spread(lineage or [], seed=seed)
+    pf, lower, upper = _walk_interval(levels, spread, confidence)
+    if pf <= 0:  # no sample of the last level failed: bound from the product of the others
+        pf, bound, status = upper, True, 4
+        message = message or "no sample of the last level failed: pf is an upper bound"
+    extra = _walk_variables(levels, spread)
+    kind = ("lognormal with the larger of the Au-Beck CoV (chain correlation included; the "
+            "larger of the uncorrelated-level and fully-correlated-level values) and the "
+            "scatter of ln pf measured by resampling the chains started at level 1")
+    reasons = list(mixing_reason(spread)) if pf > 0 else []
+    valid_share = levels[-1]["valid_share"]
+    n_inv = ev.n_invalid
+    if n_inv and pf > 0:
+        pf_failed = pf
+        pf, lower = pf * valid_share, lower * valid_share
+        reasons.append((6, f"{n_inv} model runs were invalid; subset simulation read them as "
+                        f"failed while exploring: with them pf would be {pf_failed:.4g}; pf "
+                        f"counts only the valid failing samples of the last level "
+                        f"({valid_share:.0%}); the interval covers both readings"))
+    return _finish(ev, s, seed, confidence, t0, (pf, lower, upper, cov), kind,
+                   (status, message, reasons), bound, extra)
+
+
+def _finish(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
+            t0: float, estimate: tuple[float, float, float, float], kind: str,
+            outcome: tuple[int, str, list[tuple[int, str]]], bound: bool,
+            extra: dict[str, tuple]) -> xr.Dataset:
+    """The report of one walk or a pair: ``estimate`` is ``(pf, lower, upper, cov)``,
+    ``outcome`` ``(status, message, reasons)``."""
+    pf, lower, upper, cov = estimate
+    status, message, reasons = outcome
+    return failure_report(ev, "subset", pf=pf, pf_lower=lower, pf_upper=upper, cov=cov,
+                          interval_kind=kind, confidence=confidence, settings=s, seed=seed,
+                          wall_time=time.perf_counter() - t0, status=status, message=message,
+                          reasons=reasons, grid_gap=ev.grid_gap_fraction * pf
+                          if ev.time_dependent else math.nan,
+                          pf_is_upper_bound=bound, extra=extra)
+
+
+def _walk_interval(levels: list[dict[str, Any]], spread: Mapping[str, float],
+                   confidence: float) -> tuple[float, float, float]:
+    """One walk's ``(pf, lower, upper)``: lognormal with the larger of the Au-Beck spread and
+    the measured one (level 0's own and the lineage bootstrap's); ``pf = 0`` when no sample
+    of the last level failed, with ``upper`` the product of the other levels times the Wilson
+    bound of the last."""
+    p = np.array([lv["p"] for lv in levels])
+    pf = float(np.prod(p))
+    cov, cov_upper = _level_covs(levels)
+    z = stats.norm.isf((1 - confidence) / 2)
     # measured: level 0 (independent draws) and the lineage bootstrap of the deeper levels
     s_measured = math.sqrt(math.log1p(levels[0]["cov"] ** 2) + spread["s"] ** 2)
     if pf > 0:
@@ -409,14 +590,20 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
         if math.isfinite(s_measured) and s_measured > math.sqrt(math.log1p(
                 max(cov, cov_upper) ** 2)):
             lower, upper = pf * math.exp(-z * s_measured), pf * math.exp(z * s_measured)
-    else:  # no sample of the last level failed: bound from the product of the others
-        from gearuq.failure.intervals import wilson_interval
+        return pf, lower, upper
+    from gearuq.failure.intervals import wilson_interval
 
-        lower = 0.0
-        upper = float(np.prod(p[:-1]) * wilson_interval(0, levels[-1]["n"], confidence)[1])
-        pf, bound, status = upper, True, 4
-        message = message or "no sample of the last level failed: pf is an upper bound"
+    upper = float(np.prod(p[:-1]) * wilson_interval(0, levels[-1]["n"], confidence)[1])
+    return 0.0, 0.0, upper
+
+
+def _walk_variables(levels: list[dict[str, Any]], spread: Mapping[str, float],
+                    of: str = "") -> dict[str, tuple]:
+    """The report's per-level and lineage variables of one walk (``of``: which walk)."""
     dims = ("level",)
+    p = np.array([lv["p"] for lv in levels])
+    covs = np.array([lv["cov"] for lv in levels])
+    _, cov_upper = _level_covs(levels)
     extra = {
         "level_threshold": (dims, np.array([lv["threshold"] for lv in levels]), {
             "units": "1", "long_name": "intermediate threshold b_i of the limit state"}),
@@ -440,25 +627,10 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
             "effective number of level-1 chains the last level's failing samples descend "
             "from")}),
     }
-    kind = ("lognormal with the larger of the Au-Beck CoV (chain correlation included; the "
-            "larger of the uncorrelated-level and fully-correlated-level values) and the "
-            "scatter of ln pf measured by resampling the chains started at level 1")
-    reasons = list(mixing_reason(spread)) if pf > 0 else []
-    valid_share = levels[-1]["valid_share"]
-    n_inv = ev.n_invalid
-    if n_inv and pf > 0:
-        pf_failed = pf
-        pf, lower = pf * valid_share, lower * valid_share
-        reasons.append((6, f"{n_inv} model runs were invalid; subset simulation read them as "
-                        f"failed while exploring: with them pf would be {pf_failed:.4g}; pf "
-                        f"counts only the valid failing samples of the last level "
-                        f"({valid_share:.0%}); the interval covers both readings"))
-    return failure_report(ev, "subset", pf=pf, pf_lower=lower, pf_upper=upper, cov=cov,
-                          interval_kind=kind, confidence=confidence, settings=s, seed=seed,
-                          wall_time=time.perf_counter() - t0, status=status, message=message,
-                          reasons=reasons, grid_gap=ev.grid_gap_fraction * pf
-                          if ev.time_dependent else math.nan,
-                          pf_is_upper_bound=bound, extra=extra)
+    if of:
+        for var in extra.values():
+            var[2]["long_name"] += f" ({of})"
+    return extra
 
 
 def _level_covs(levels: list[dict[str, Any]]) -> tuple[float, float]:
