@@ -400,3 +400,30 @@ def test_levels_bad_input_names_the_option():
         optimize_levels(p, "spread", ["plain"])
     with pytest.raises(ValueError, match="not valid for option 'spread'"):
         optimize_levels(p, "spread", ["plain", "round"])
+
+
+def test_landscape_of_three_variables_is_the_slice_through_the_choice():
+    """Pf(d) = P(|X| > 3), X ~ N(d, I_3): a non-central chi-square tail, least at d = 0. The
+    landscape spans the first two variables with the third held at its chosen value, and
+    its band holds the exact slice."""
+    model = gearuq.FunctionModel(lambda a, b, c: 3.0 - np.sqrt(a * a + b * b + c * c),
+                                 ["a", "b", "c"], ["g"], name="ball")
+    space = gearuq.ParameterSpace.normal(a=(0.0, 1.0), b=(0.0, 1.0), c=(0.0, 1.0))
+    names = ("d1", "d2", "d3")
+    p = DesignProblem(model, space, [DesignVariable(n, -1.5, 1.5, target=t)
+                                     for n, t in zip(names, "abc", strict=True)],
+                      Probability("g", name="pf"))
+    r = optimize_design(p, strategy="reweight", n_samples=20_000, rng=3, grid=7,
+                        confirm_samples=20_000, executor="serial")
+    d = np.array([float(r[f"design_{n}"]) for n in names])
+    assert np.abs(d).max() < 0.25
+    held = __import__("json").loads(r.attrs["landscape_held"])
+    assert held == {"d3": pytest.approx(d[2])}
+    assert r["landscape_pf"].dims == ("grid_d1", "grid_d2")
+    g1, g2 = np.meshgrid(r["grid_d1"].values, r["grid_d2"].values, indexing="ij")
+    exact = stats.ncx2.sf(9.0, 3, g1**2 + g2**2 + d[2] ** 2)
+    inside = (r["landscape_pf_lower"].values <= exact) & (exact <= r["landscape_pf_upper"].values)
+    assert inside.mean() >= 0.8, inside
+    # the slice is not flat: the corners of the box fail several times as often as the centre
+    assert exact[0, 0] > 3 * exact[3, 3] and float(r["landscape_pf"][0, 0]) > 2 * float(
+        r["landscape_pf"][3, 3])

@@ -213,7 +213,8 @@ def _search_reweight(problem: DesignProblem, s: Mapping[str, Any], seed: int,
         pool.add(d, ds, problem.values_of(ds), bseed, why)
     h = pool.mixture_pdf()
     land = _landscape(problem, s["grid"],
-                      lambda d: pool.estimate_all(problem.measures, d, problem.confidence, h))
+                      lambda d: pool.estimate_all(problem.measures, d, problem.confidence, h),
+                      at=sc.design(u))
     return {"design": sc.design(u), "search": sc.at(u), "n_runs": pool.n_runs,
             "n_naive": n_naive, "history": history, "landscape": land, "reasons": reasons,
             "batches": [{"design": None if b.design is None else b.design.tolist(),
@@ -270,7 +271,7 @@ def _search_surrogate(problem: DesignProblem, s: Mapping[str, Any], seed: int,
         units.append(u)
         ests.append(_crn_estimate(problem, u, n, seed, run_kw))
         infill += 1
-    land = _landscape(problem, s["grid"], est)
+    land = _landscape(problem, s["grid"], est, at=sc.design(u))
     history = [{"design": (problem.lower + uu * (problem.upper - problem.lower)).tolist(),
                 "infill": i >= s["n_designs"], **{m: e[m].value for m in e}}
                for i, (uu, e) in enumerate(zip(units, ests, strict=True))]
@@ -335,16 +336,17 @@ def _surrogate_targets(m: Any, ests: list[Estimate], n: int, floor: float, z: fl
     return y, np.maximum((half / z) ** 2, 1e-12 * max(float(np.var(y)), 1e-300))
 
 
-def _landscape(problem: DesignProblem, per_dim: int, est: Estimator) -> dict[str, Any]:
-    """Every measure on a grid over the design box (at most 2 variables)."""
-    if len(problem.variables) > 2:
-        return {}
-    axes = [np.linspace(v.bounds[0], v.bounds[1], per_dim) for v in problem.variables]
+def _landscape(problem: DesignProblem, per_dim: int, est: Estimator,
+               at: np.ndarray) -> dict[str, Any]:
+    """Every measure on a grid over the first two design variables, any others held at the
+    chosen design ``at`` (a slice through it: a grid over three or more would cost
+    ``per_dim`` to that power)."""
+    axes = [np.linspace(v.bounds[0], v.bounds[1], per_dim) for v in problem.variables[:2]]
     shape = tuple(a.size for a in axes)
     out = {m.name: np.full((3, *shape), np.nan) for m in problem.measures}
     out["ess"] = np.full(shape, np.nan)
     for idx in np.ndindex(*shape):
-        d = np.array([axes[j][i] for j, i in enumerate(idx)])
+        d = np.array([axes[j][i] for j, i in enumerate(idx)] + list(at[len(axes):]), dtype=float)
         e = est(d)
         for m in problem.measures:
             out[m.name][(slice(None), *idx)] = (e[m.name].value, e[m.name].lower,
@@ -438,7 +440,8 @@ def optimize_design(
         ``design_<var>`` (the choice), ``search_<measure>`` (the search's estimate there),
         ``confirm_<measure>`` with ``_lower`` / ``_upper`` (fresh seed, ``confirm_options``),
         ``objective``, ``landscape_<measure>`` (with ``_lower`` / ``_upper``) over
-        ``grid_<var>`` for one or two variables, ``history_*`` of the search,
+        ``grid_<var>`` of the first two variables (any others held at the chosen design:
+        ``attrs["landscape_held"]``), ``history_*`` of the search,
         ``n_model_runs_search``, ``n_model_runs_confirm``, ``n_model_runs_naive`` (the runs a
         nested loop would have spent on the same designs at the same sample size) and
         ``status`` with ``attrs["message"]`` and ``attrs["status_reasons"]``.
@@ -533,8 +536,8 @@ def _result(problem: DesignProblem, strategy: str, s: Mapping[str, Any], seed: i
                                          "long_name": "objective at the chosen design"})
     land = found["landscape"]
     if land:
-        dims = tuple(f"grid_{v.name}" for v in problem.variables)
-        for v, axis in zip(problem.variables, land["axes"], strict=True):
+        dims = tuple(f"grid_{v.name}" for v in problem.variables[:2])
+        for v, axis in zip(problem.variables[:2], land["axes"], strict=True):
             coords[f"grid_{v.name}"] = (f"grid_{v.name}", axis, {"units": v.units})
         for m in problem.measures:
             for i, suffix in enumerate(("", "_lower", "_upper")):
@@ -577,6 +580,8 @@ def _result(problem: DesignProblem, strategy: str, s: Mapping[str, Any], seed: i
         "batches": json.dumps(found["batches"]),
         "search_history": json.dumps(hist, default=float),
         "confirm_seed": -1 if confirm is None else int(confirm.attrs["seed"]),
+        "landscape_held": json.dumps({v.name: float(x) for v, x in
+                                      zip(problem.variables[2:], d[2:], strict=True)}),
         "message": "; ".join(r for _, r in reasons) or "ok: " + _ok_text(problem),
         "status_reasons": json.dumps([r for _, r in reasons]),
         "wall_time": wall,
