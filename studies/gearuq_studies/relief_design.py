@@ -288,7 +288,8 @@ def landscape_figure(res: xr.Dataset, det: np.ndarray, det_shape: str, brute: xr
                              f"{float(brute['brute_pf_upper'][i, j]):.2f}]",
                              (bb, aa), color="w", fontsize=7, ha="center",
                              bbox={"facecolor": "k", "alpha": 0.4, "pad": 1})
-    axes[0].legend(loc="lower right", fontsize=7)
+    # on the width panel: on the Pf panel it would hide the brute force's corner estimates
+    axes[1].legend(loc="lower right", fontsize=7)
     return fig
 
 
