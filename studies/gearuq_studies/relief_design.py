@@ -259,9 +259,11 @@ def stage_check(problem: DesignProblem, chosen: list[float], n: int, seed: int,
 
 
 def landscape_figure(res: xr.Dataset, det: np.ndarray, det_shape: str, brute: xr.Dataset,
-                     tag: str) -> Figure:
+                     tag: str, history: list[dict[str, Any]] | None = None) -> Figure:
     """Pf given acceptance over amount x length at the chosen shape (the surrogate's mean,
-    its interval width) with the brute force's estimates written on it."""
+    its interval width) with the brute force's estimates written on it and, on the width
+    panel, the designs the search ran (``history``: their Pf and crowning), the data behind
+    the surrogate's slice."""
     fig = Figure(figsize=(11, 4.4))
     axes = fig.subplots(1, 2)
     a, b = res["grid_amount"].values, res["grid_length"].values
@@ -288,6 +290,12 @@ def landscape_figure(res: xr.Dataset, det: np.ndarray, det_shape: str, brute: xr
                              f"{float(brute['brute_pf_upper'][i, j]):.2f}]",
                              (bb, aa), color="w", fontsize=7, ha="center",
                              bbox={"facecolor": "k", "alpha": 0.4, "pad": 1})
+    for k, h in enumerate(history or []):
+        amount, length, crowning = h["design"]
+        axes[1].plot(length, amount, "o", mfc="none", mec="w", ms=7,
+                     label="search designs: Pf, crowning [um]" if k == 0 else None)
+        axes[1].annotate(f"{given_pass(h['pf']):.2f}, {crowning:.0f}", (length, amount),
+                         color="w", fontsize=6, xytext=(4, 3), textcoords="offset points")
     # on the width panel: on the Pf panel it would hide the brute force's corner estimates
     axes[1].legend(loc="lower right", fontsize=7)
     return fig
@@ -468,7 +476,8 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
         combine_attrs="drop_conflicts"), out / "deterministic.nc")
     gearuq.save(xr.merge([brute, near]), out / "brute.nc")
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    save_figure(landscape_figure(res, det, det_shape, brute, tag), out / "pf_landscape.png")
+    save_figure(landscape_figure(res, det, det_shape, brute, tag, search_history(levels, shape)),
+                out / "pf_landscape.png")
     labels = (f"chosen: {shape} {chosen[0]:.1f} um / {chosen[1]:.1f} mm, crown "
               f"{chosen[2]:.1f} um",
               f"deterministic optimum: {det_shape} {det[0]:.1f} um / {det[1]:.1f} mm, crown "
@@ -480,6 +489,12 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
     print(f"total: {wall:.0f} s wall, {cpu:.0f} s CPU; {n_total} rotor runs against "
           f"{n_runs['naive_nested_loop']} for a nested loop's search alone")
     return max(status[0], int(res["status"]))
+
+
+def search_history(levels: xr.Dataset, shape: str) -> list[dict[str, Any]]:
+    """The designs the search ran at ``shape`` and their estimates (joint probability)."""
+    per_level = json.loads(levels.attrs["search_history_per_level"])
+    return json.loads(per_level[list(levels["level"].values).index(shape)])
 
 
 def _pf_given_pass(ds: xr.Dataset, name: str) -> dict[str, Any]:
