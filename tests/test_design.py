@@ -400,3 +400,64 @@ def test_levels_bad_input_names_the_option():
         optimize_levels(p, "spread", ["plain"])
     with pytest.raises(ValueError, match="not valid for option 'spread'"):
         optimize_levels(p, "spread", ["plain", "round"])
+
+
+def test_landscape_of_three_variables_is_the_slice_through_the_choice():
+    """Pf(d) = P(|X| > 3), X ~ N(d, I_3): a non-central chi-square tail, least at d = 0. The
+    landscape spans the first two variables with the third held at its chosen value, and
+    its band holds the exact slice."""
+    model = gearuq.FunctionModel(lambda a, b, c: 3.0 - np.sqrt(a * a + b * b + c * c),
+                                 ["a", "b", "c"], ["g"], name="ball")
+    space = gearuq.ParameterSpace.normal(a=(0.0, 1.0), b=(0.0, 1.0), c=(0.0, 1.0))
+    names = ("d1", "d2", "d3")
+    p = DesignProblem(model, space, [DesignVariable(n, -1.5, 1.5, target=t)
+                                     for n, t in zip(names, "abc", strict=True)],
+                      Probability("g", name="pf"))
+    r = optimize_design(p, strategy="reweight", n_samples=20_000, rng=3, grid=7,
+                        confirm_samples=20_000, executor="serial")
+    d = np.array([float(r[f"design_{n}"]) for n in names])
+    assert np.abs(d).max() < 0.25
+    held = __import__("json").loads(r.attrs["landscape_held"])
+    assert held == {"d3": pytest.approx(d[2])}
+    assert r["landscape_pf"].dims == ("grid_d1", "grid_d2")
+    g1, g2 = np.meshgrid(r["grid_d1"].values, r["grid_d2"].values, indexing="ij")
+    exact = stats.ncx2.sf(9.0, 3, g1**2 + g2**2 + d[2] ** 2)
+    inside = (r["landscape_pf_lower"].values <= exact) & (exact <= r["landscape_pf_upper"].values)
+    assert inside.mean() >= 0.8, inside
+    # the slice is not flat: the corners of the box fail several times as often as the centre
+    assert exact[0, 0] > 3 * exact[3, 3] and float(r["landscape_pf"][0, 0]) > 2 * float(
+        r["landscape_pf"][3, 3])
+
+
+def _narrow_well_problem():
+    """mean(y) with y = -exp(-((x - 0.73) / 0.05)^2), X ~ N(d, 0.01) on d in [-2, 2]: one
+    well 0.1 wide in a flat box, which a few Latin-hypercube designs miss."""
+    model = gearuq.FunctionModel(lambda x: -np.exp(-((x - 0.73) / 0.05) ** 2), ["x"], ["y"],
+                                 name="narrow_well")
+    space = gearuq.ParameterSpace.normal(x=(0.0, 0.01))
+    return DesignProblem(model, space, [DesignVariable("d", -2.0, 2.0, target="x")],
+                         Moment("y", name="mean_y"))
+
+
+def test_supplied_start_design_is_kept_when_it_is_the_optimum():
+    """A start design at the optimum (as the deterministic optimum seeds an RBDO search): the
+    search runs it and ends there; without it the same search misses the well."""
+    p = _narrow_well_problem()
+    kw = {"strategy": "surrogate", "n_samples": 200, "rng": 3, "n_designs": 4, "n_infill": 2,
+          "grid": 11, "confirm_samples": 2000, "executor": "serial"}
+    blind = optimize_design(p, **kw)
+    seeded = optimize_design(p, start_designs=[[0.73]], **kw)
+    assert abs(float(blind["design_d"]) - 0.73) > 0.1  # the test can fail without the option
+    assert abs(float(seeded["design_d"]) - 0.73) < 0.02
+    # the optimum's mean: E[-exp(-(X - 0.73)^2 / 0.05^2)] at d = 0.73, closed form
+    # -(1 + 2 (0.01 / 0.05)^2)^(-1/2)
+    exact = -(1.0 + 2.0 * (0.01 / 0.05) ** 2) ** -0.5
+    assert float(seeded["confirm_mean_y"]) == pytest.approx(exact, abs=0.01)
+    assert float(seeded["confirm_mean_y"]) < float(blind["confirm_mean_y"]) - 0.5
+    history = __import__("json").loads(seeded.attrs["search_history"])
+    assert history[0]["start"] and history[0]["design"] == pytest.approx([0.73])
+    assert int(seeded["n_model_runs_search"]) == 200 * len(history)
+    with pytest.raises(ValueError, match="start_designs: row 0 has d=3.0 outside"):
+        optimize_design(p, start_designs=[[3.0]], **kw)
+    with pytest.raises(ValueError, match=r"start_designs: shape \(1, 2\) must be \(m, 1\)"):
+        optimize_design(p, start_designs=[[0.0, 1.0]], **kw)

@@ -18,15 +18,20 @@ def test_relief_space_moves_the_tolerance_band_with_the_design():
     from gearuq_studies import relief_design as study
 
     problem = study.design_problem(study.SEARCH_OPTIONS)
-    sp = space_at(problem.space, problem.variables, [10.0, 6.0])
+    sp = space_at(problem.space, problem.variables, [10.0, 6.0, 8.0])
     amount, length = sp.marginal("tip_relief_amount"), sp.marginal("tip_relief_length")
+    crowning = sp.marginal("lead_crowning")
     assert (amount.params["lower"], amount.params["upper"]) == pytest.approx(
         (10.0 - study.AMOUNT_TOL, 10.0 + study.AMOUNT_TOL))
     assert (length.params["lower"], length.params["upper"]) == pytest.approx(
         (6.0 - study.LENGTH_TOL, 6.0 + study.LENGTH_TOL))
+    assert (crowning.params["lower"], crowning.params["upper"]) == pytest.approx(
+        (8.0 - study.CROWNING_TOL, 8.0 + study.CROWNING_TOL))
+    # the box keeps every drawn crowning within the rotor's range (no hollow crown)
+    assert study.CROWNING_BOUNDS[0] - study.CROWNING_TOL >= 0.0
     # the load spread and the 58 pitch normals do not move with the design
     assert sp.marginal("torque").mean() == pytest.approx(1000.0)
-    assert len(sp.names) == 2 + 1 + 58
+    assert len(sp.names) == 3 + 1 + 58
     # the inspected law is the search's and the confirmation's
     assert problem.model_options["pitch_tolerance_law"] == "capable_process"
     assert study.CONFIRM_OPTIONS["pitch_tolerance_law"] == "capable_process"

@@ -28,7 +28,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -129,16 +129,31 @@ def _grid(problem: DesignProblem, per_dim: int) -> list[np.ndarray]:
     return [np.linspace(0.0, 1.0, per_dim) for _ in range(k)]
 
 
-def _grid_start(sc: _Scaled, axes: list[np.ndarray]) -> np.ndarray:
-    """The best grid point that meets every constraint (else the least violating)."""
+def _rank(sc: _Scaled, u: np.ndarray) -> tuple[float, float]:
+    """Constraint violation first, then the objective: the smaller, the better the design."""
+    viol = float(np.sum(np.maximum(-sc.margins(u), 0.0))) if sc.p.constraints else 0.0
+    return viol, sc.objective(u)
+
+
+def _grid_start(sc: _Scaled, axes: list[np.ndarray],
+                extra: Sequence[np.ndarray] = ()) -> np.ndarray:
+    """The best grid point or ``extra`` design (the supplied start designs) that meets every
+    constraint (else the least violating)."""
     pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
     best, best_key = pts[0], (math.inf, math.inf)
-    for u in pts:
-        viol = float(np.sum(np.maximum(-sc.margins(u), 0.0))) if sc.p.constraints else 0.0
-        key = (viol, sc.objective(u))
+    for u in [*pts, *extra]:
+        key = _rank(sc, u)
         if key < best_key:
             best, best_key = u, key
     return best
+
+
+def _keep_best(sc: _Scaled, u: np.ndarray, starts: Sequence[np.ndarray]) -> np.ndarray:
+    """The optimiser's end point unless a supplied start design ranks better on the same
+    estimates: the search never ends worse than a design it was given (the classic RBDO
+    guarantee when the deterministic optimum is among them)."""
+    best = min([u, *starts], key=lambda v: _rank(sc, v))
+    return np.asarray(best, dtype=float)
 
 
 def _slsqp(sc: _Scaled, u0: np.ndarray, conservative: bool = False
@@ -178,10 +193,10 @@ def _search_reweight(problem: DesignProblem, s: Mapping[str, Any], seed: int,
             return pool.estimate_all(problem.measures, d, problem.confidence, h)
 
         sc = _Scaled(problem, est, 0.1 / pool.n_runs, u)
-        u0 = _grid_start(sc, _grid(problem, s["grid"]))
+        u0 = _grid_start(sc, _grid(problem, s["grid"]), s["starts"])
         n_grid = len(sc.cache)
         res = _slsqp(sc, u0)
-        u = np.clip(res.x, 0, 1)
+        u = _keep_best(sc, np.clip(res.x, 0, 1), s["starts"])
         # the designs SLSQP asked for (the start grid is this strategy's own extra)
         n_naive += (len(sc.cache) - n_grid + 1) * n
         d = sc.design(u)
@@ -213,7 +228,8 @@ def _search_reweight(problem: DesignProblem, s: Mapping[str, Any], seed: int,
         pool.add(d, ds, problem.values_of(ds), bseed, why)
     h = pool.mixture_pdf()
     land = _landscape(problem, s["grid"],
-                      lambda d: pool.estimate_all(problem.measures, d, problem.confidence, h))
+                      lambda d: pool.estimate_all(problem.measures, d, problem.confidence, h),
+                      at=sc.design(u))
     return {"design": sc.design(u), "search": sc.at(u), "n_runs": pool.n_runs,
             "n_naive": n_naive, "history": history, "landscape": land, "reasons": reasons,
             "batches": [{"design": None if b.design is None else b.design.tolist(),
@@ -235,7 +251,8 @@ def _search_loop(problem: DesignProblem, s: Mapping[str, Any], seed: int, run_kw
                 for m in problem.measures}
 
     u0 = (np.asarray(s["x0"], float) - problem.lower) / (problem.upper - problem.lower) \
-        if s["x0"] is not None else 0.5 * np.ones(len(problem.variables))
+        if s["x0"] is not None else s["starts"][0] if s["starts"] \
+        else 0.5 * np.ones(len(problem.variables))
     sc = _Scaled(problem, est, 0.5 / n, u0)
     res = _cobyla(sc, u0, s["max_evaluations"])
     u = np.clip(res.x, 0, 1)
@@ -252,27 +269,35 @@ def _search_surrogate(problem: DesignProblem, s: Mapping[str, Any], seed: int,
     """Latin hypercube of designs, then ``n_infill`` designs at the surrogate's optimum."""
     n, k = s["n_samples"], len(problem.variables)
     floor = 0.5 / n
-    units = list(qmc.LatinHypercube(d=k, seed=seed).random(s["n_designs"]))
+    # the supplied start designs first (run with the same common random numbers)
+    units = [*s["starts"], *qmc.LatinHypercube(d=k, seed=seed).random(s["n_designs"])]
     ests = [_crn_estimate(problem, u, n, seed, run_kw) for u in units]
+    n_first = len(units)
     n_naive, infill = 0, 0
     while True:
         est = _fit_surrogate(problem, np.array(units), ests, n, floor, seed)
         sc = _Scaled(problem, est, floor, 0.5 * np.ones(k))
-        u0 = _grid_start(sc, _grid(problem, s["grid"]))
+        u0 = _grid_start(sc, _grid(problem, s["grid"]), s["starts"])
         n_grid = len(sc.cache)
         res = _slsqp(sc, u0, conservative=s["conservative"])
-        u = np.clip(res.x, 0, 1)
+        u = _keep_best(sc, np.clip(res.x, 0, 1), s["starts"])
         n_naive += (len(sc.cache) - n_grid + 1) * n
-        near = min(float(np.max(np.abs(u - v))) for v in units)
+        dist = [float(np.max(np.abs(u - v))) for v in units]
+        near = min(dist)
+        if near < s["xtol"] and s["starts"]:
+            # within xtol of a design already run: that design, whose estimate is a run's and
+            # not the surrogate's, is the choice (so a supplied start design is kept exactly)
+            u = np.asarray(units[int(np.argmin(dist))], dtype=float)
         if infill >= s["n_infill"] or near < s["xtol"]:
             break
         # the surrogate's optimum is where its error matters most: run it there
         units.append(u)
         ests.append(_crn_estimate(problem, u, n, seed, run_kw))
         infill += 1
-    land = _landscape(problem, s["grid"], est)
+    land = _landscape(problem, s["grid"], est, at=sc.design(u))
     history = [{"design": (problem.lower + uu * (problem.upper - problem.lower)).tolist(),
-                "infill": i >= s["n_designs"], **{m: e[m].value for m in e}}
+                "infill": i >= n_first, "start": i < len(s["starts"]),
+                **{m: e[m].value for m in e}}
                for i, (uu, e) in enumerate(zip(units, ests, strict=True))]
     return {"design": sc.design(u), "search": sc.at(u), "n_runs": len(units) * n,
             "n_naive": n_naive, "history": history, "landscape": land,
@@ -335,16 +360,17 @@ def _surrogate_targets(m: Any, ests: list[Estimate], n: int, floor: float, z: fl
     return y, np.maximum((half / z) ** 2, 1e-12 * max(float(np.var(y)), 1e-300))
 
 
-def _landscape(problem: DesignProblem, per_dim: int, est: Estimator) -> dict[str, Any]:
-    """Every measure on a grid over the design box (at most 2 variables)."""
-    if len(problem.variables) > 2:
-        return {}
-    axes = [np.linspace(v.bounds[0], v.bounds[1], per_dim) for v in problem.variables]
+def _landscape(problem: DesignProblem, per_dim: int, est: Estimator,
+               at: np.ndarray) -> dict[str, Any]:
+    """Every measure on a grid over the first two design variables, any others held at the
+    chosen design ``at`` (a slice through it: a grid over three or more would cost
+    ``per_dim`` to that power)."""
+    axes = [np.linspace(v.bounds[0], v.bounds[1], per_dim) for v in problem.variables[:2]]
     shape = tuple(a.size for a in axes)
     out = {m.name: np.full((3, *shape), np.nan) for m in problem.measures}
     out["ess"] = np.full(shape, np.nan)
     for idx in np.ndindex(*shape):
-        d = np.array([axes[j][i] for j, i in enumerate(idx)])
+        d = np.array([axes[j][i] for j, i in enumerate(idx)] + list(at[len(axes):]), dtype=float)
         e = est(d)
         for m in problem.measures:
             out[m.name][(slice(None), *idx)] = (e[m.name].value, e[m.name].lower,
@@ -369,6 +395,7 @@ def optimize_design(
     confirm_samples: int | None = None,
     confirm_options: Mapping[str, Any] | None = None,
     x0: Any = None,
+    start_designs: Any = None,
     max_batches: int = 6,
     min_ess: float | None = None,
     min_failures: float = 20.0,
@@ -401,7 +428,17 @@ def optimize_design(
     confirm_options : mapping, optional
         Model options of the confirmation (the expensive fidelity; default: the problem's).
     x0 : array_like, optional
-        Start of ``crn`` / ``nested`` (default: the centre of the box).
+        Start of ``crn`` / ``nested`` (default: the first of ``start_designs``, else the
+        centre of the box).
+    start_designs : array_like, optional
+        Designs known beforehand (one per row, in the variables' units; e.g. the
+        deterministic optimum), so that the search cannot end worse than them on its own
+        estimates: ``surrogate`` runs them first (common random numbers) beside its Latin
+        hypercube; ``surrogate`` and ``reweight`` start SLSQP from the best of them and the
+        start grid, and keep the best of them if it ranks above SLSQP's end point
+        (``surrogate`` then also takes a design already run, with its run's estimate, for an
+        optimum within ``xtol`` of it);
+        ``crn`` / ``nested`` start COBYLA at the first.
     max_batches : int
         ``reweight``: most batches (the first spread over the box).
     min_ess : float, optional
@@ -438,7 +475,8 @@ def optimize_design(
         ``design_<var>`` (the choice), ``search_<measure>`` (the search's estimate there),
         ``confirm_<measure>`` with ``_lower`` / ``_upper`` (fresh seed, ``confirm_options``),
         ``objective``, ``landscape_<measure>`` (with ``_lower`` / ``_upper``) over
-        ``grid_<var>`` for one or two variables, ``history_*`` of the search,
+        ``grid_<var>`` of the first two variables (any others held at the chosen design:
+        ``attrs["landscape_held"]``), ``history_*`` of the search,
         ``n_model_runs_search``, ``n_model_runs_confirm``, ``n_model_runs_naive`` (the runs a
         nested loop would have spent on the same designs at the same sample size) and
         ``status`` with ``attrs["message"]`` and ``attrs["status_reasons"]``.
@@ -502,9 +540,27 @@ def _settings(given: Mapping[str, Any], problem: DesignProblem) -> dict[str, Any
     if s["confirm_samples"] < 0:
         raise ValueError(f"confirm_samples: {s['confirm_samples']!r} must be >= 0")
     s["min_ess"] = s["n_samples"] / 4 if s["min_ess"] is None else float(s["min_ess"])
+    s["starts"] = _start_units(given["start_designs"], problem)
     if s["grid"] < 2:
         raise ValueError(f"grid: {s['grid']!r} must be >= 2")
     return s
+
+
+def _start_units(designs: Any, problem: DesignProblem) -> list[np.ndarray]:
+    """``start_designs`` on the unit box, checked against the design bounds."""
+    if designs is None:
+        return []
+    d = np.atleast_2d(np.asarray(designs, dtype=float))
+    k = len(problem.variables)
+    if d.ndim != 2 or d.shape[1] != k or not np.all(np.isfinite(d)):
+        raise ValueError(f"start_designs: shape {d.shape} must be (m, {k}) of finite numbers "
+                         f"(one row per design, columns {problem.names})")
+    outside = (d < problem.lower) | (d > problem.upper)
+    if outside.any():
+        i, j = map(int, np.argwhere(outside)[0])
+        raise ValueError(f"start_designs: row {i} has {problem.names[j]}={float(d[i, j])!r} "
+                         f"outside its bounds [{problem.lower[j]}, {problem.upper[j]}]")
+    return list((d - problem.lower) / (problem.upper - problem.lower))
 
 
 def _result(problem: DesignProblem, strategy: str, s: Mapping[str, Any], seed: int,
@@ -533,8 +589,8 @@ def _result(problem: DesignProblem, strategy: str, s: Mapping[str, Any], seed: i
                                          "long_name": "objective at the chosen design"})
     land = found["landscape"]
     if land:
-        dims = tuple(f"grid_{v.name}" for v in problem.variables)
-        for v, axis in zip(problem.variables, land["axes"], strict=True):
+        dims = tuple(f"grid_{v.name}" for v in problem.variables[:2])
+        for v, axis in zip(problem.variables[:2], land["axes"], strict=True):
             coords[f"grid_{v.name}"] = (f"grid_{v.name}", axis, {"units": v.units})
         for m in problem.measures:
             for i, suffix in enumerate(("", "_lower", "_upper")):
@@ -564,7 +620,8 @@ def _result(problem: DesignProblem, strategy: str, s: Mapping[str, Any], seed: i
         ds = ds.merge(confirm[[v for v in confirm.data_vars if str(v).startswith("run_")]])
     ds.attrs.update(provenance(f"design/{strategy}", problem.model, None, problem.space, seed,
                                strategy=strategy, **{k: v for k, v in s.items()
-                                                     if v is not None and k != "x0"}))
+                                                     if v is not None
+                                                     and k not in ("x0", "starts")}))
     ds.attrs.update({
         "design_variables": json.dumps([v.__dict__ for v in problem.variables]),
         "search_options": json.dumps(problem.model_options, default=repr),
@@ -576,7 +633,11 @@ def _result(problem: DesignProblem, strategy: str, s: Mapping[str, Any], seed: i
         "constraint_verdicts": "{}" if confirm is None else confirm.attrs["constraint_verdicts"],
         "batches": json.dumps(found["batches"]),
         "search_history": json.dumps(hist, default=float),
+        "start_designs": json.dumps([(problem.lower + u * (problem.upper - problem.lower))
+                                     .tolist() for u in s["starts"]]),
         "confirm_seed": -1 if confirm is None else int(confirm.attrs["seed"]),
+        "landscape_held": json.dumps({v.name: float(x) for v, x in
+                                      zip(problem.variables[2:], d[2:], strict=True)}),
         "message": "; ".join(r for _, r in reasons) or "ok: " + _ok_text(problem),
         "status_reasons": json.dumps([r for _, r in reasons]),
         "wall_time": wall,

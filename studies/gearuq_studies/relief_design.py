@@ -1,9 +1,9 @@
-"""Tip relief of the geared rotor that keeps K_v least likely to exceed X over the speed range.
+"""Tip relief and crowning of the geared rotor that keep K_v least likely to exceed X.
 
 Design under uncertainty on the finite-element helical geared rotor of Yuan, Liu and Liu
 ("Dynamic characteristics of a helical geared rotor system with random cumulative pitch
 deviations", Applied Sciences 10 (2020) 4403): choose the nominal tip relief (amount, length
-and shape, linear or parabolic) that minimises
+and shape, linear or parabolic) and lead crowning that minimise
 
     Pf(d) = P( kv_max >= X  |  both gears pass inspection )
 
@@ -22,6 +22,7 @@ pitch_xi_{p,g}_1..29   independent standard normals (58),     the pitch-deviatio
 torque                 lognormal, mean 1000 N m, CoV 10 %     load spread
 tip_relief_amount      uniform, design value +- 3 um          drawing tolerance
 tip_relief_length      uniform, design value +- 1 mm          drawing tolerance
+lead_crowning          uniform, design value +- 3 um          drawing tolerance (both gears)
 =====================  =====================================  ============================
 
 Failure given acceptance: the design measure is the joint probability P(kv_max >= X and both
@@ -31,28 +32,33 @@ design that minimises one minimises the other. X = :data:`LIMIT` (docs/design.md
 
 What the study does:
 
+0. **Deterministic optimum**: nominal gears (germ 0), design torque, nominal relief and
+   crowning, least kv_max on a grid of designs of both shapes. It seeds step 1.
 1. **Search** per relief shape (:func:`gearuq.design.optimize_levels` over
    ``tip_relief_shape``; cheap fidelity :data:`SEARCH_OPTIONS`): a Gaussian process of the
-   probit of Pf over amount x length, fitted to common-random-number estimates at a Latin
-   hypercube of designs and at its own successive optima, its error carried into the
-   landscape; SLSQP on it.
+   probit of Pf over amount x length x crowning, fitted to common-random-number estimates at
+   a Latin hypercube of designs and at its own successive optima, its error carried into the
+   landscape (amount x length at the chosen crowning); SLSQP on it. The deterministic
+   optimum is run first in each shape's search (``start_designs``), so the search cannot
+   end worse than it on its own estimates.
 2. **Confirm** (expensive fidelity :data:`CONFIRM_OPTIONS`): an independent Monte Carlo run
    at each shape's chosen design, one fresh seed for both (paired: McNemar between shapes).
-3. **Deterministic optimum**: nominal gears (germ 0), design torque, nominal relief, least
-   kv_max on a grid of designs of both shapes; its Pf under scatter confirmed with the
-   confirmation's seed (the same built gears and loads).
-4. **Brute force**: crude Monte Carlo on a grid of designs of the chosen shape, fresh seeds,
-   search fidelity; its best design should agree with the optimiser's choice within the
-   intervals. And the chosen design against its four neighbours (+-10 % of each range), one
-   seed for the five (common random numbers).
+3. **Deterministic optimum under scatter**: its Pf confirmed with the confirmation's seed
+   (the same built gears and loads), paired against the chosen design (McNemar).
+4. **Brute force**: crude Monte Carlo on a grid of amount x length of the chosen shape at the
+   chosen crowning, fresh seeds, search fidelity; its best design should agree with the
+   optimiser's choice within the intervals. And the chosen design against its six neighbours
+   (+-10 % of each range), one seed for the seven (common random numbers).
 5. **Stage file**: the same design problem through ``get_model("geared_rotor", stage=...)``
    with the paper's stage file, checked sample by sample against the paper's rotor; ``stage=``
    runs the whole study on another stage.
 
-Figures: the Pf landscape over amount x length (surrogate mean, its interval width, the brute
-force's estimates); the chosen design's K_v band against speed beside the deterministic
-optimum's. Run: ``gearuq study relief_design [--quick] [--out DIR]``; ``--quick`` runs a few
-dozen samples and marks every figure "quick: N runs, not a result".
+Figures: the Pf landscape over amount x length at the chosen crowning (surrogate mean, its
+interval width, the brute force's estimates); the chosen design's K_v band against speed
+beside the deterministic optimum's. Run: ``gearuq study relief_design [--quick] [--out DIR]``;
+``--quick`` runs a few dozen samples and marks every figure "quick: N runs, not a result".
+Every step runs on one lasting pool of two process workers (``executor="processes"``); the
+study prints each step's wall and CPU seconds (this process and its workers).
 """
 
 from __future__ import annotations
@@ -78,6 +84,7 @@ from gearuq.design import (
     optimize_levels,
     paired_failures,
 )
+from gearuq.execution import evaluate_chunks, workers_for_run
 from gearuq.failure.modes import LimitState
 from gearuq.plot import save_figure
 
@@ -98,20 +105,26 @@ SEARCH_OPTIONS: dict[str, Any] = {**_LAW, "n_speeds": 40, "range_mesh_harmonics"
 #: settings of the geared_rotor_dynamic_factor study).
 CONFIRM_OPTIONS: dict[str, Any] = {**_LAW, "n_speeds": 80, "range_mesh_harmonics": 3,
                                    "peaks_refined": 2}
-#: Drawing tolerances (half-widths of the uniform laws) and design bounds.
-AMOUNT_TOL, LENGTH_TOL = 3.0, 1.0
-AMOUNT_BOUNDS, LENGTH_BOUNDS = (3.0, 40.0), (4.0, 24.0)
+#: Drawing tolerances (half-widths of the uniform laws) and design bounds (docs/design.md).
+AMOUNT_TOL, LENGTH_TOL, CROWNING_TOL = 3.0, 1.0, 3.0
+AMOUNT_BOUNDS, LENGTH_BOUNDS, CROWNING_BOUNDS = (3.0, 40.0), (4.0, 24.0), (3.0, 10.0)
+#: The design box, one row per design variable (amount um, length mm, crowning um).
+BOUNDS = np.array([AMOUNT_BOUNDS, LENGTH_BOUNDS, CROWNING_BOUNDS])
+#: Samples per chunk on the two workers (a 40-run design is four chunks).
+CHUNK = 10
 #: Sample sizes: full and quick (``scale`` multiplies the full ones).
 SIZES = {
-    False: {"n_designs": 10, "n_infill": 3, "n_per_design": 40, "confirm": 120, "grid": 3,
-            "brute": 30, "det_grid": 5, "stage": 10},
-    True: {"n_designs": 4, "n_infill": 1, "n_per_design": 8, "confirm": 10, "grid": 2,
+    False: {"n_designs": 12, "n_infill": 3, "n_per_design": 40, "confirm": 120, "grid": 3,
+            "brute": 30, "det_grid": 4, "stage": 10},
+    True: {"n_designs": 5, "n_infill": 1, "n_per_design": 8, "confirm": 10, "grid": 2,
            "brute": 6, "det_grid": 2, "stage": 3},
 }
 
 
-def input_space(amount: float = 20.0, length: float = 11.4) -> gearuq.ParameterSpace:
-    """The scatter of built and loaded gears around a relief design (amount um, length mm)."""
+def input_space(amount: float = 20.0, length: float = 11.4, crowning: float = 10.0
+                ) -> gearuq.ParameterSpace:
+    """The scatter of built and loaded gears around a design (relief amount um, length mm,
+    lead crowning um summed over both gears)."""
     germ = {f"pitch_xi_{gear}_{k}": {"dist": "normal", "mean": 0.0, "std": 1.0}
             for gear in ("p", "g") for k in range(1, 30)}
     return gearuq.ParameterSpace({
@@ -120,6 +133,8 @@ def input_space(amount: float = 20.0, length: float = 11.4) -> gearuq.ParameterS
                               "upper": amount + AMOUNT_TOL},
         "tip_relief_length": {"dist": "uniform", "lower": length - LENGTH_TOL,
                               "upper": length + LENGTH_TOL},
+        "lead_crowning": {"dist": "uniform", "lower": crowning - CROWNING_TOL,
+                          "upper": crowning + CROWNING_TOL},
         **germ})
 
 
@@ -142,12 +157,14 @@ def failure_given_pass() -> Any:
 
 def design_problem(options: dict[str, Any], grade: int = 6, stage: Any = None
                    ) -> DesignProblem:
-    """Minimise P(kv_max >= LIMIT and pass) over the relief amount and length."""
+    """Minimise P(kv_max >= LIMIT and pass) over the relief amount, length and crowning."""
     variables = [
         DesignVariable("amount", *AMOUNT_BOUNDS, target="tip_relief_amount", units="um",
                        description="nominal tip-relief amount on the drawing"),
         DesignVariable("length", *LENGTH_BOUNDS, target="tip_relief_length", units="mm",
-                       description="nominal tip-relief length on the drawing")]
+                       description="nominal tip-relief length on the drawing"),
+        DesignVariable("crowning", *CROWNING_BOUNDS, target="lead_crowning", units="um",
+                       description="nominal lead crowning on the drawings (both gears)")]
     pf = Probability(failure_given_pass(), name="pf")
     return DesignProblem(rotor(grade, stage), input_space(), variables, pf,
                          model_options=options, run_outputs=["kv_over_speed"])
@@ -159,75 +176,85 @@ def given_pass(value: Any) -> float:
 
 
 def deterministic_optimum(options: dict[str, Any], per_dim: int, grade: int,
-                          stage: Any = None) -> tuple[np.ndarray, str, xr.Dataset]:
-    """The design (and shape) with the least kv_max of nominal gears at the design load."""
+                          stage: Any = None, run_on: dict[str, Any] | None = None
+                          ) -> tuple[np.ndarray, str, xr.Dataset]:
+    """The design (and shape) with the least kv_max of nominal gears at the design load, on a
+    ``per_dim``-point grid per design variable."""
     model = rotor(grade, stage)
-    amounts = np.linspace(*AMOUNT_BOUNDS, per_dim)
-    lengths = np.linspace(*LENGTH_BOUNDS, per_dim)
-    a, b = (g.ravel() for g in np.meshgrid(amounts, lengths, indexing="ij"))
+    axes = [np.linspace(*b, per_dim) for b in BOUNDS]
+    a, b, c = (g.ravel() for g in np.meshgrid(*axes, indexing="ij"))
     x = {n: np.zeros(a.size) for n in input_space().names}
-    x.update(torque=np.full(a.size, 1000.0), tip_relief_amount=a, tip_relief_length=b)
-    y = np.full((len(SHAPES), per_dim, per_dim), np.nan)
+    x.update(torque=np.full(a.size, 1000.0), tip_relief_amount=a, tip_relief_length=b,
+             lead_crowning=c)
+    y = np.full((len(SHAPES), *(per_dim,) * 3), np.nan)
     for k, shape in enumerate(SHAPES):
-        ds = model.response(x, None, outputs=[RESPONSE],
-                            **{**options, "tip_relief_shape": shape})
+        request = model.prepare(None, outputs=[RESPONSE],
+                                **{**options, "tip_relief_shape": shape})
+        ds = evaluate_chunks(model, x, request, progress=False, **(run_on or {}))
         y[k] = np.where(ds["status"].values == 0, ds[RESPONSE].values,
-                        np.nan).reshape(per_dim, per_dim)
-    k, i, j = np.unravel_index(np.nanargmin(y), y.shape)
-    grid = xr.Dataset({"deterministic_kv_max": (("shape", "det_amount", "det_length"), y,
-                                                {"units": "1", "long_name": "kv_max of "
-                                                 "nominal gears at the design torque"})},
-                      coords={"shape": list(SHAPES),
-                              "det_amount": ("det_amount", amounts, {"units": "um"}),
-                              "det_length": ("det_length", lengths, {"units": "mm"})})
-    return np.array([amounts[i], lengths[j]]), SHAPES[k], grid
+                        np.nan).reshape((per_dim,) * 3)
+    k, i, j, m = np.unravel_index(np.nanargmin(y), y.shape)
+    dims = ("shape", "det_amount", "det_length", "det_crowning")
+    grid = xr.Dataset({"deterministic_kv_max": (dims, y, {
+        "units": "1", "long_name": "kv_max of nominal gears at the design torque"})},
+        coords={"shape": list(SHAPES),
+                **{d: (d, ax, {"units": u}) for d, ax, u in
+                   zip(dims[1:], axes, ("um", "mm", "um"), strict=True)}})
+    return np.array([axes[0][i], axes[1][j], axes[2][m]]), SHAPES[k], grid
 
 
-def brute_force(problem: DesignProblem, per_dim: int, n: int, seed: int) -> xr.Dataset:
-    """Crude Monte Carlo at a grid of designs, each with its own fresh seed (Pf given pass)."""
+def brute_force(problem: DesignProblem, per_dim: int, n: int, seed: int, crowning: float,
+                run_on: dict[str, Any]) -> xr.Dataset:
+    """Crude Monte Carlo on a grid of amount x length at ``crowning``, each design with its
+    own fresh seed (Pf given pass)."""
     amounts = np.linspace(*AMOUNT_BOUNDS, per_dim)
     lengths = np.linspace(*LENGTH_BOUNDS, per_dim)
     est = np.full((3, per_dim, per_dim), np.nan)
     for i, a in enumerate(amounts):
         for j, b in enumerate(lengths):
-            r = evaluate_design(problem, [a, b], n_samples=n, rng=seed + 7 * i + j)
+            r = evaluate_design(problem, [a, b, crowning], n_samples=n, rng=seed + 7 * i + j,
+                                **run_on)
             est[:, i, j] = [given_pass(r[f"pf{s}"]) for s in ("", "_lower", "_upper")]
     names = ("brute_pf", "brute_pf_lower", "brute_pf_upper")
     return xr.Dataset({k: (("brute_amount", "brute_length"), est[m], {"units": "1"})
                        for m, k in enumerate(names)},
                       coords={"brute_amount": ("brute_amount", amounts, {"units": "um"}),
-                              "brute_length": ("brute_length", lengths, {"units": "mm"})})
+                              "brute_length": ("brute_length", lengths, {"units": "mm"}),
+                              "brute_crowning": ((), crowning, {"units": "um"})})
+
+
+#: Names of the chosen design's neighbours, in the order :func:`neighbours` runs them.
+NEIGHBOURS = ("chosen", "amount-", "amount+", "length-", "length+", "crowning-", "crowning+")
 
 
 def neighbours(problem: DesignProblem, chosen: list[float], n: int, seed: int,
-               step: float = 0.1) -> xr.Dataset:
-    """Pf at the chosen design and at its four neighbours (+-``step`` of each range), all
+               run_on: dict[str, Any], step: float = 0.1) -> xr.Dataset:
+    """Pf at the chosen design and at its six neighbours (+-``step`` of each range), all
     with one seed (common random numbers: the differences are sharper than the values)."""
-    span = np.array([np.ptp(AMOUNT_BOUNDS), np.ptp(LENGTH_BOUNDS)])
-    lower = np.array([AMOUNT_BOUNDS[0], LENGTH_BOUNDS[0]])
-    upper = np.array([AMOUNT_BOUNDS[1], LENGTH_BOUNDS[1]])
-    points = [np.array(chosen)]
-    for j in range(2):
+    points = [np.array(chosen, dtype=float)]
+    for j in range(len(BOUNDS)):
         for sign in (-1.0, 1.0):
             d = np.array(chosen, dtype=float)
-            d[j] = np.clip(d[j] + sign * step * span[j], lower[j], upper[j])
+            d[j] = np.clip(d[j] + sign * step * np.ptp(BOUNDS[j]), *BOUNDS[j])
             points.append(d)
-    rows = [evaluate_design(problem, d, n_samples=n, rng=seed) for d in points]
+    rows = [evaluate_design(problem, d, n_samples=n, rng=seed, **run_on) for d in points]
     return xr.Dataset({
-        "neighbour_amount": ("neighbour", [p[0] for p in points], {"units": "um"}),
-        "neighbour_length": ("neighbour", [p[1] for p in points], {"units": "mm"}),
+        **{f"neighbour_{name}": ("neighbour", [p[j] for p in points], {"units": u})
+           for j, (name, u) in enumerate((("amount", "um"), ("length", "mm"),
+                                          ("crowning", "um")))},
         **{f"neighbour_pf{s}": ("neighbour", [given_pass(r[f"pf{s}"]) for r in rows],
                                 {"units": "1"}) for s in ("", "_lower", "_upper")}},
-        coords={"neighbour": ["chosen", "amount-", "amount+", "length-", "length+"]})
+        coords={"neighbour": list(NEIGHBOURS)})
 
 
 def stage_check(problem: DesignProblem, chosen: list[float], n: int, seed: int,
-                grade: int, stage: str = "yuan_liu_liu") -> dict[str, Any]:
+                grade: int, run_on: dict[str, Any], stage: str = "yuan_liu_liu"
+                ) -> dict[str, Any]:
     """The same design problem on the stage file's rotor: kv_max per sample beside the
     paper rotor's (the same seed, so the same gears, loads and reliefs)."""
     on_stage = design_problem(problem.model_options, grade, stage)
-    a = evaluate_design(problem, chosen, n_samples=n, rng=seed, keep_runs=True)
-    b = evaluate_design(on_stage, chosen, n_samples=n, rng=seed, keep_runs=True)
+    a = evaluate_design(problem, chosen, n_samples=n, rng=seed, keep_runs=True, **run_on)
+    b = evaluate_design(on_stage, chosen, n_samples=n, rng=seed, keep_runs=True, **run_on)
     ka, kb = a["run_kv_max"].values, b["run_kv_max"].values
     return {"stage": stage, "n": n, "kv_max_paper": ka.tolist(), "kv_max_stage": kb.tolist(),
             "largest_relative_difference": float(np.nanmax(np.abs(kb / ka - 1.0))),
@@ -235,26 +262,30 @@ def stage_check(problem: DesignProblem, chosen: list[float], n: int, seed: int,
 
 
 def landscape_figure(res: xr.Dataset, det: np.ndarray, det_shape: str, brute: xr.Dataset,
-                     tag: str) -> Figure:
+                     tag: str, history: list[dict[str, Any]] | None = None) -> Figure:
     """Pf given acceptance over amount x length at the chosen shape (the surrogate's mean,
-    its interval width) with the brute force's estimates written on it."""
+    its interval width) with the brute force's estimates written on it and, on the width
+    panel, the designs the search ran (``history``: their Pf and crowning), the data behind
+    the surrogate's slice."""
     fig = Figure(figsize=(11, 4.4))
     axes = fig.subplots(1, 2)
     a, b = res["grid_amount"].values, res["grid_length"].values
     pf = res["landscape_pf"] / P_PASS
     width = (res["landscape_pf_upper"] - res["landscape_pf_lower"]) / P_PASS
     shape = str(res["level"].values)
+    held = f"crowning {float(res['design_crowning']):.1f} um, " if "design_crowning" in res \
+        else ""
     for ax, var, title, label in ((axes[0], pf, "Pf given acceptance (surrogate mean)", "Pf"),
                                   (axes[1], width, "width of its 95 % interval", "width")):
         m = ax.pcolormesh(b, a, np.clip(var.values, 0, 1), shading="auto", cmap="viridis")
         fig.colorbar(m, ax=ax, label=f"{label} [-]")
         ax.set_xlabel("tip-relief length [mm]")
         ax.set_ylabel("tip-relief amount [um]")
-        ax.set_title(f"{title}, {shape} relief, X = {LIMIT:g}" + tag, fontsize=9)
+        ax.set_title(f"{title}, {shape} relief,\n{held}X = {LIMIT:g}" + tag, fontsize=9)
         ax.plot(float(res["design_length"]), float(res["design_amount"]), "r*", ms=14,
                 label="chosen (under scatter)")
         ax.plot(det[1], det[0], "s", color="orange", ms=9, mec="k",
-                label=f"deterministic optimum ({det_shape})")
+                label=f"deterministic optimum ({det_shape}, crowning {det[2]:.1f} um)")
     for i, aa in enumerate(brute["brute_amount"].values):
         for j, bb in enumerate(brute["brute_length"].values):
             axes[0].annotate(f"{float(brute['brute_pf'][i, j]):.2f}\n"
@@ -262,7 +293,14 @@ def landscape_figure(res: xr.Dataset, det: np.ndarray, det_shape: str, brute: xr
                              f"{float(brute['brute_pf_upper'][i, j]):.2f}]",
                              (bb, aa), color="w", fontsize=7, ha="center",
                              bbox={"facecolor": "k", "alpha": 0.4, "pad": 1})
-    axes[0].legend(loc="lower right", fontsize=7)
+    for k, h in enumerate(history or []):
+        amount, length, crowning = h["design"]
+        axes[1].plot(length, amount, "o", mfc="none", mec="w", ms=7,
+                     label="search designs: Pf, crowning [um]" if k == 0 else None)
+        axes[1].annotate(f"{given_pass(h['pf']):.2f}, {crowning:.0f}", (length, amount),
+                         color="w", fontsize=6, xytext=(4, 3), textcoords="offset points")
+    # on the width panel: on the Pf panel it would hide the brute force's corner estimates
+    axes[1].legend(loc="lower right", fontsize=7)
     return fig
 
 
@@ -302,7 +340,8 @@ def _sizes(quick: bool, scale: float) -> dict[str, int]:
     left_out=("the full search sizes, the 3 x 3 brute-force grid at full size and the "
               "expensive-fidelity confirmation at full size: the chosen design is not resolved"))
 def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int = 29,
-        grade: int = 6, scale: float = 1.0, stage: str | None = None) -> int:
+        grade: int = 6, scale: float = 1.0, stage: str | None = None,
+        executor: Any = "processes") -> int:
     """Tip relief (amount, length, shape) of the geared rotor that minimises
     Pf(kv_max >= X | inspected gears).
 
@@ -324,6 +363,10 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
     stage : str, optional
         Run the study on a stage's rotor (an example name such as ``"yuan_liu_liu"`` or a
         TOML file) instead of the paper's rotor.
+    executor : str or runner
+        Where the rotor runs go (:func:`gearuq.execution.workers_for_run`): ``"processes"``
+        (default) keeps one pool of process workers for every step; ``"serial"`` runs in
+        this process.
 
     Returns
     -------
@@ -340,54 +383,85 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
     size = _sizes(quick, float(scale))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    cpu0, t0 = time.process_time(), time.perf_counter()
+    t_start = time.perf_counter()
     problem = design_problem(SEARCH_OPTIONS, grade, stage)
     confirm_problem = design_problem(SEARCH_OPTIONS if quick else CONFIRM_OPTIONS, grade, stage)
-    levels = optimize_levels(problem, "tip_relief_shape", SHAPES, strategy="surrogate",
-                             n_samples=size["n_per_design"], n_designs=size["n_designs"],
-                             n_infill=size["n_infill"], grid=9, rng=seed,
-                             confirm_samples=size["confirm"], confirm_problem=confirm_problem,
-                             keep_confirmation_runs=True)
-    shape = str(levels["best_level"].values)
-    res = levels.sel(level=shape)
-    chosen = [float(res["design_amount"]), float(res["design_length"])]
-    cpu_search = time.process_time() - cpu0
-    det, det_shape, det_grid = deterministic_optimum(SEARCH_OPTIONS, size["det_grid"], grade,
-                                                     stage)
-    # the confirmation's seed again: the two designs see the same built gears and loads
-    det_conf = evaluate_design(at_level(confirm_problem, "tip_relief_shape", det_shape), det,
-                               n_samples=size["confirm"], rng=int(res.attrs["confirm_seed"]),
-                               keep_runs=True)
-    at_shape = at_level(problem, "tip_relief_shape", shape)
-    brute = brute_force(at_shape, size["grid"], size["brute"], seed + 100)
-    near = neighbours(at_shape, chosen, size["brute"], seed + 200)
-    staged = None if stage is not None else stage_check(at_shape, chosen, size["stage"],
-                                                         seed + 300, grade)
-    cpu, wall = time.process_time() - cpu0, time.perf_counter() - t0
+    steps: dict[str, tuple[float, float]] = {}
+    # one pool of workers for every step (a fresh worker costs seconds of imports and
+    # compiled kernels); a step's CPU is this process's plus its workers'
+    with workers_for_run(executor) as pool:
+        run_on = {"executor": pool, "chunk_size": CHUNK}
+
+        def clock(step: str | None = None, since: tuple[float, float] = (0.0, 0.0)
+                  ) -> tuple[float, float]:
+            now = (time.perf_counter(), time.process_time()
+                   + getattr(pool, "worker_cpu_seconds", 0.0))
+            if step is not None:
+                steps[step] = (now[0] - since[0], now[1] - since[1])
+                print(f"step {step}: {steps[step][0]:.0f} s wall, {steps[step][1]:.0f} s CPU "
+                      "(this process and its workers)", flush=True)
+            return now
+
+        t = clock()
+        # the deterministic optimum first: it seeds each shape's search (classic RBDO starts
+        # there), so the search cannot end worse than it on its own estimates
+        det, det_shape, det_grid = deterministic_optimum(SEARCH_OPTIONS, size["det_grid"],
+                                                         grade, stage, run_on)
+        t = clock("deterministic", t)
+        levels = optimize_levels(problem, "tip_relief_shape", SHAPES, strategy="surrogate",
+                                 n_samples=size["n_per_design"], n_designs=size["n_designs"],
+                                 n_infill=size["n_infill"], grid=9, rng=seed,
+                                 start_designs=[det], confirm_samples=size["confirm"],
+                                 confirm_problem=confirm_problem,
+                                 keep_confirmation_runs=True, **run_on)
+        t = clock("search_and_confirm", t)
+        shape = str(levels["best_level"].values)
+        res = levels.sel(level=shape)
+        chosen = [float(res[f"design_{v.name}"]) for v in problem.variables]
+        # the confirmation's seed again: the two designs see the same built gears and loads
+        det_conf = evaluate_design(at_level(confirm_problem, "tip_relief_shape", det_shape),
+                                   det, n_samples=size["confirm"],
+                                   rng=int(res.attrs["confirm_seed"]), keep_runs=True,
+                                   **run_on)
+        t = clock("deterministic_under_scatter", t)
+        at_shape = at_level(problem, "tip_relief_shape", shape)
+        brute = brute_force(at_shape, size["grid"], size["brute"], seed + 100, chosen[2],
+                            run_on)
+        t = clock("brute_force", t)
+        near = neighbours(at_shape, chosen, size["brute"], seed + 200, run_on)
+        t = clock("neighbours", t)
+        staged = None if stage is not None else stage_check(at_shape, chosen, size["stage"],
+                                                             seed + 300, grade, run_on)
+        t = clock("stage_check", t)
+    wall = time.perf_counter() - t_start
+    cpu = sum(c for _, c in steps.values())
     paired = paired_failures(_fails(res), _fails(det_conf))
     status = _status(res, det_conf, brute, near, paired, staged)
     n_levels = len(SHAPES)
     n_runs = {"search": int(levels["n_model_runs_search"].sum()),
               "confirm": int(levels["n_model_runs_confirm"].sum()),
-              "deterministic": n_levels * size["det_grid"] ** 2,
+              "deterministic": n_levels * size["det_grid"] ** len(BOUNDS),
               "deterministic_confirm": int(det_conf["n_model_runs"]),
               "brute_force": size["grid"] ** 2 * size["brute"],
-              "neighbours": 5 * size["brute"], "stage_check": 0 if staged is None
+              "neighbours": len(NEIGHBOURS) * size["brute"],
+              "stage_check": 0 if staged is None
               else 2 * size["stage"],
               "naive_nested_loop": int(levels["n_model_runs_naive"].sum())}
     n_total = sum(v for k, v in n_runs.items() if k != "naive_nested_loop")
     tag = f"\nquick: {n_total} runs, not a result" if quick else ""
     summary = {
         "chosen": {"shape": shape, "amount_um": chosen[0], "length_mm": chosen[1],
-                   **_pf_given_pass(res, "confirm_pf")},
+                   "crowning_um": chosen[2], **_pf_given_pass(res, "confirm_pf")},
         "per_shape": {str(lv): {"amount_um": float(levels["design_amount"].sel(level=lv)),
                                 "length_mm": float(levels["design_length"].sel(level=lv)),
+                                "crowning_um": float(levels["design_crowning"].sel(level=lv)),
                                 **_pf_given_pass(levels.sel(level=lv), "confirm_pf")}
                       for lv in levels["level"].values},
         "shape_comparison": levels.attrs["level_message"],
         "shape_decided": bool(int(levels["level_decided"])),
         "deterministic": {"shape": det_shape, "amount_um": float(det[0]),
-                          "length_mm": float(det[1]), **_pf_given_pass(det_conf, "pf")},
+                          "length_mm": float(det[1]), "crowning_um": float(det[2]),
+                          **_pf_given_pass(det_conf, "pf")},
         "paired_chosen_vs_deterministic": paired,
         "neighbours": {str(k): [float(near[f"neighbour_pf{s}"][i])
                                 for s in ("", "_lower", "_upper")]
@@ -399,8 +473,8 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
         "status": status[0], "message": status[1],
         "design_status": [int(v) for v in levels["status"].values],
         "design_message": json.loads(levels.attrs["message_per_level"]),
-        "cpu_seconds": {"search_and_confirm": cpu_search, "total": cpu}, "wall_time_s": wall,
-        "sizes": size, "quick": bool(quick)}
+        "steps_wall_cpu_s": steps, "cpu_seconds": cpu, "wall_time_s": wall,
+        "executor": repr(executor), "sizes": size, "quick": bool(quick)}
     keep = [v for v in levels.data_vars if not str(v).startswith("run_")]
     gearuq.save(levels[keep], out / "relief_design.nc")
     gearuq.save(xr.merge([det_grid, det_conf.drop_vars(
@@ -408,12 +482,25 @@ def run(out: str | Path = "gearuq_relief_design", quick: bool = False, seed: int
         combine_attrs="drop_conflicts"), out / "deterministic.nc")
     gearuq.save(xr.merge([brute, near]), out / "brute.nc")
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    save_figure(landscape_figure(res, det, det_shape, brute, tag), out / "pf_landscape.png")
-    labels = (f"chosen: {shape} {chosen[0]:.1f} um / {chosen[1]:.1f} mm",
-              f"deterministic optimum: {det_shape} {det[0]:.1f} um / {det[1]:.1f} mm")
+    save_figure(landscape_figure(res, det, det_shape, brute, tag, search_history(levels, shape)),
+                out / "pf_landscape.png")
+    labels = (f"chosen: {shape} {chosen[0]:.1f} um / {chosen[1]:.1f} mm, crown "
+              f"{chosen[2]:.1f} um",
+              f"deterministic optimum: {det_shape} {det[0]:.1f} um / {det[1]:.1f} mm, crown "
+              f"{det[2]:.1f} um")
     save_figure(band_figure(res, det_conf, labels, tag), out / "kv_band.png")
     print(json.dumps(summary, indent=2))
+    for step, (w, c) in steps.items():
+        print(f"step {step}: {w:.0f} s wall, {c:.0f} s CPU (this process and its workers)")
+    print(f"total: {wall:.0f} s wall, {cpu:.0f} s CPU; {n_total} rotor runs against "
+          f"{n_runs['naive_nested_loop']} for a nested loop's search alone")
     return max(status[0], int(res["status"]))
+
+
+def search_history(levels: xr.Dataset, shape: str) -> list[dict[str, Any]]:
+    """The designs the search ran at ``shape`` and their estimates (joint probability)."""
+    per_level = json.loads(levels.attrs["search_history_per_level"])
+    return json.loads(per_level[list(levels["level"].values).index(shape)])
 
 
 def _pf_given_pass(ds: xr.Dataset, name: str) -> dict[str, Any]:
@@ -472,9 +559,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--grade", type=int, default=6, help="ISO 1328-1 class (6 or 7)")
     ap.add_argument("--scale", type=float, default=1.0, help="multiplies the sample sizes")
     ap.add_argument("--stage", default=None, help="a stage example name or TOML file")
+    ap.add_argument("--executor", default="processes", help="processes (default) or serial")
     args = ap.parse_args(argv)
     return run(args.out, quick=args.quick, seed=args.seed, grade=args.grade, scale=args.scale,
-               stage=args.stage)
+               stage=args.stage, executor=args.executor)
 
 
 if __name__ == "__main__":

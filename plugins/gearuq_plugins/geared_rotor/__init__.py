@@ -70,6 +70,10 @@ _PARAMETERS = (
        "of the option tip_relief_shape); 0: unmodified"),
     _P("tip_relief_length", "mm", 11.4, 0.0, 28.594,
        "tip relief length along the path of contact (LTCA optimum at 1000 N m: 11.4 mm)"),
+    _P("lead_crowning", "um", 0.0, 0.0, 2000.0,
+       "lead crowning C_b summed over both gears (gearuq.gears.deviations: the clearance "
+       "C_b (2 y / b - 1)^2 across the face width); 0: uncrowned; a stage's nominal is the sum "
+       "of its two gears' lead_crowning (each at most 1000 um)"),
     _P("bearing_stiffness", "N m-1", 5.0e8, 1.0e7, 1.0e11,
        "radial stiffness of each of the four bearings (ours; Yuan, Liu and Liu print none)"),
     _P("bearing_axial_stiffness", "N m-1", 2.0e8, 1.0e7, 1.0e11,

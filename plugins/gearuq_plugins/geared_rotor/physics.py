@@ -11,6 +11,7 @@ speed sweep at fixed torque and deviations runs the LTCA and the eigen-solution 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -221,7 +222,7 @@ def _cached(model: Any, key: tuple, build: Any) -> Any:
 
 _LTCA_KEYS = ("torque", "pitch_amplitude", "pitch_sigma", "iso_grade", "pitch_seed",
               "pitch_phase_pinion", "pitch_phase_wheel", "tip_relief_amount",
-              "tip_relief_length")
+              "tip_relief_length", "lead_crowning")
 _GERM_KEYS = tuple(f"{p}{i}" for p in ("pitch_xi_p_", "pitch_xi_g_") for i in range(1, 30))
 _ROTOR_KEYS = ("bearing_stiffness", "bearing_axial_stiffness", "bearing_damping",
                "bearing_stiffness_scale", "bearing_axial_stiffness_scale",
@@ -237,11 +238,16 @@ def _stage_ltca_keys(model: Any) -> tuple[str, ...]:
 
 def model_deviations(model: Any, pair: Any, values: dict[str, float],
                      options: dict[str, Any]) -> Any:
-    """Flank deviations of one sample of ``model``: :func:`sample_deviations` with, for a
-    stage, its measured pitch deviations, reliefs, slopes and crowning."""
+    """Flank deviations of one sample of ``model``: :func:`sample_deviations` with the lead
+    crowning ``lead_crowning`` and, for a stage, its measured pitch deviations, reliefs and
+    slopes."""
     law = (options["pitch_tolerance_law"], options["process_share_beyond"])
     dev = sample_deviations(pair, values, options["pitch_phases"], options["pitch_model"],
                             options["pitch_harmonics"], law, options["tip_relief_shape"])
+    if values.get("lead_crowning", 0.0):  # um, both gears; a stage's nominal is its own
+        from gearuq.gears.stage import to_si
+
+        dev = replace(dev, crowning=to_si(values["lead_crowning"], "1e-6"))
     flanks = getattr(model, "flanks", None)
     return dev if flanks is None else flanks.apply(dev, values)
 

@@ -128,6 +128,7 @@ def stage_nominal(stage: Any) -> dict[str, float]:
     for key in relief_keys(stage):
         gear, kind = key.split("_")
         values[f"{key}_relief_amount"] = getattr(getattr(stage, gear), f"{kind}_relief").amount
+    values["lead_crowning"] = stage.pinion.lead_crowning + stage.wheel.lead_crowning
     return values
 
 
@@ -196,18 +197,15 @@ class StageFlanks:
 
     Its measured cumulative pitch deviations replace the germ's for that gear; its reliefs
     off the paper's route, with each amount read from the sample (``pinion_tip_relief_amount``
-    ...), and its helix slope deviations enter as the stage's clearance map; its lead
-    crowning as the LTCA's crowning.
+    ...), and its helix slope deviations enter as the stage's clearance map (its lead crowning
+    is the parameter ``lead_crowning``, whose nominal is the stage's).
     """
 
     def __init__(self, stage: Any) -> None:
-        from gearuq.gears.stage import to_si
-
         self.stage = stage
         self.keys = relief_keys(stage)
         self.measured = (measured_cumulative(stage, "pinion"),
                          measured_cumulative(stage, "wheel"))
-        self.crowning = to_si(stage.pinion.lead_crowning + stage.wheel.lead_crowning, "1e-6")
         self.use_map = not shared_parabolic_tip(stage)
 
     @property
@@ -216,7 +214,7 @@ class StageFlanks:
         return tuple(f"{k}_relief_amount" for k in self.keys)
 
     def apply(self, deviations: Any, values: dict[str, float]) -> Any:
-        """``deviations`` with the stage's measured pitch, reliefs, slopes and crowning."""
+        """``deviations`` with the stage's measured pitch, reliefs and slopes."""
         changes: dict[str, Any] = {}
         for name, fp in zip(("Fp1", "Fp2"), self.measured, strict=True):
             if fp is not None:
@@ -226,8 +224,6 @@ class StageFlanks:
                 {k: values[f"{k}_relief_amount"] for k in self.keys})
             if clearance is not None:
                 changes["user"] = clearance
-        if self.crowning:
-            changes["crowning"] = deviations.crowning + self.crowning
         return replace(deviations, **changes) if changes else deviations
 
     def tip_relief_um(self, values: dict[str, float]) -> float:
