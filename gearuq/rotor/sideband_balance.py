@@ -515,21 +515,12 @@ def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray,
     conjugate of class ``r``'s reversed; classes ``r > 0`` are inverted on their ``2 n``
     members only. A third of the cost of inverting every padded block.
     """
-    idx = prep.class_index
-    L, M = idx.shape
-    half = L // 2 + 1
-    valid = idx[:half] >= 0
-    hv = np.where(valid, h_two[np.maximum(idx[:half], 0)], 0.0)
+    from gearuq.rotor._spectral_kernels import class_inverses  # numba: imported for cost
+
     T = prep.class_coupling if coupling is None else coupling
-    B = np.eye(M)[None] + hv[:, :, None] * T[None]
-    B = np.where(valid[:, :, None] & valid[:, None, :], B, np.eye(M)[None])
-    inv = np.zeros((L, M, M), dtype=complex)
-    inv[0] = np.linalg.inv(B[0])
-    m2 = M - 1  # members of a class r > 0
-    inv[1:half, :m2, :m2] = np.linalg.inv(B[1:, :m2, :m2])
-    inv[1:, m2, m2] = 1.0
-    inv[half:, :m2, :m2] = np.conj(inv[L - np.arange(half, L), m2 - 1::-1, m2 - 1::-1])
-    return inv
+    # compiled: numpy's batched inv of 7 x 7 blocks was mostly per-block overhead
+    return class_inverses(prep.class_index, np.ascontiguousarray(h_two, dtype=complex),
+                          np.ascontiguousarray(T, dtype=complex))
 
 
 def solve_periodic_krylov(
@@ -626,20 +617,15 @@ def solve_periodic_krylov(
             return to_real(y)
         return LinearOperator((n_real, n_real), matvec=apply, dtype=float)
 
+    from gearuq.rotor._spectral_kernels import apply_class_inverses
+
     h_two = np.concatenate([np.conj(h[:0:-1]), h])
     blocks = [_class_blocks(prep, h_two)]  # replaced per Newton step (contact indicator)
     idx = prep.class_index
-    valid = idx >= 0
 
     def precondition(v):
-        x = to_complex(v)
-        two = np.concatenate([np.conj(x[:0:-1]), x])
-        z = (blocks[0] @ np.where(valid, two[np.maximum(idx, 0)], 0.0)[:, :, None])[:, :, 0]
-        out = np.zeros(2 * H + 1, dtype=complex)
-        out[idx[valid]] = z[valid]
-        one = out[H:]
-        one[0] = one[0].real
-        return to_real(one)
+        # the blocks' rows j >= 0 only, in the real layout (compiled gather and product)
+        return apply_class_inverses(blocks[0], idx, np.ascontiguousarray(v, dtype=float))
 
     Minv = LinearOperator((n_real, n_real), matvec=precondition, dtype=float)
     count = [0]
