@@ -57,11 +57,12 @@ def _invert(A: np.ndarray, n: int) -> np.ndarray:
     a = A[:n, :n].copy()
     inv = np.eye(n, dtype=np.complex128)
     for col in range(n):
-        piv = col
-        best = abs(a[col, col])
+        piv = col  # pivot by |Re| + |Im| (no square root)
+        best = abs(a[col, col].real) + abs(a[col, col].imag)
         for r in range(col + 1, n):
-            if abs(a[r, col]) > best:
-                piv, best = r, abs(a[r, col])
+            m = abs(a[r, col].real) + abs(a[r, col].imag)
+            if m > best:
+                piv, best = r, m
         if piv != col:
             for c in range(n):
                 a[col, c], a[piv, c] = a[piv, c], a[col, c]

@@ -70,7 +70,8 @@ def _series_maximum(harmonics: np.ndarray, orders: np.ndarray, period: float) ->
     f = scipy.fft.irfft(c * n, n=n)
     top = float(f.max())
     peaks = np.flatnonzero((f >= np.roll(f, 1)) & (f >= np.roll(f, -1)))
-    peaks = peaks[np.argsort(f[peaks])[::-1][:PEAK_CANDIDATES]]
+    if peaks.size > PEAK_CANDIDATES:  # the largest few, unordered (no full sort)
+        peaks = peaks[np.argpartition(f[peaks], -PEAK_CANDIDATES)[-PEAK_CANDIDATES:]]
     dt = period / n
     # compiled: one pass over the orders per candidate and step, where numpy's phases by
     # cumprod over every order were a seventh of a steady state's cost
@@ -229,9 +230,7 @@ class LongPeriodProblem(GearedRotorProblem):
                                         initial=self._previous if self._continued else None)
             # the next speed starts GMRES here (a nearby speed: fewer iterations)
             self._previous = sol.delta if sol.status == 0 else None
-            N = self.krylov.n_time
-            if math.isinf(self.backlash) or np.min(np.fft.irfft(
-                    sol.delta * N, n=N)) > -self.backlash:
+            if math.isinf(self.backlash) or sol.min_approach > -self.backlash:
                 return sol
             # the flanks would meet on the back: the order balance, which has the back flank
             return self._back_flank(model, T, omega, rec, names, tol)
