@@ -331,3 +331,29 @@ def test_block_preconditioner_applied_in_the_real_layout(problem):
     want = np.concatenate([out[H:].real, out[H + 1:].imag])
     np.testing.assert_allclose(apply_class_inverses(inv, idx, v), want, rtol=0,
                                atol=1e-13 * np.abs(want).max())
+
+
+def test_rotor_bench_table_renders_every_kind_of_row():
+    """The table writer of `gearuq bench longperiod_rotor` takes each kind of row (a plugin
+    sample of a pair that also names a GMRES table, 27/79, went to the wrong table)."""
+    from gearuq.bench.long_period import _rotor_table
+
+    errs = {"dte_rms_rel": 1e-8, "dte_ptp_rel": 2e-8, "force_max_rel": 3e-5,
+            "force_min_over_max": 2e-5}
+    rows = [{"pair": "27/79", "n_speeds": 160, "method": "every harmonic, GMRES 1e-06",
+             "n_orders": 8533, "cpu_per_speed_ms": 9.0, "gmres_iterations": 3.1, **errs},
+            {"pair": "27/79 at 100 N m", "n_speeds": 10, "max_contact_loss": 0.27,
+             "method": "reference", "n_orders": 8533, "cpu_per_speed_ms": 4e3,
+             "gmres_iterations": 3e3},
+            {"pair": "30/30", "plugin": True, "n_speeds": 160, "cpu_s": 2.0, "kv_max": 4.57,
+             "dte_rms_max": 1.1e-5},
+            {"pair": "27/79", "plugin": True, "n_speeds": 160, "cpu_s": 1.4, "kv_max": 1.369,
+             "dte_rms_max": 1.8e-5, "cpu_ref_s": 2.0, "kv_max_rel": 4e-8,
+             "dte_rms_max_rel": 4e-11, "kv_over_speed_rel": 1.3e-6}]
+    lines: list[str] = []
+    _rotor_table(rows, lines)
+    plugin = [ln for ln in lines if ln.startswith("| 27/79 | 1.40 | 2.00 |")]
+    assert len(plugin) == 1 and "1.3e-06" in plugin[0]
+    assert any(ln.startswith("| every harmonic, GMRES 1e-06 | 8533 | 9.0 | 1.44 |")
+               for ln in lines)
+    assert sum(ln.startswith("| 30/30 | 2.00 | - |") for ln in lines) == 1

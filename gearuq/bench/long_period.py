@@ -471,6 +471,72 @@ def _plugin_rows(quick: bool) -> list[dict]:
     return rows
 
 
+def _rotor_table(rows: list[dict], lines: list[str]) -> None:
+    """Append the 27/79, contact-loss and plugin-sample rows to the 13/17 table's ``lines``."""
+    eaxle_header = False
+    for r in rows:
+        if r.get("plugin"):
+            if r["pair"] == "30/30":
+                lines += ["", f"One `geared_rotor` sample over {r['n_speeds']} speeds and the "
+                          "peak refinement (150 N m, damping ratio 0.03, germ seed 7; 30/30: "
+                          "the dense balance, 25-8000 rpm; stages 13/17 and 27/79: the "
+                          "long-period route, GMRES 1e-6 continued, 500-16000 rpm), against "
+                          "the same sample with `gmres_tol` 1e-10.", "",
+                          "| pair | CPU per sample [s] | reference CPU [s] | kv_max | "
+                          "dte_rms_max [m] | kv_max rel. | dte_rms_max rel. | kv_over_speed "
+                          "rel. (worst speed) |", "|---|---|---|---|---|---|---|---|"]
+            errs = ("| | | |" if "kv_max_rel" not in r else
+                    f"{r['kv_max_rel']:.1e} | {r['dte_rms_max_rel']:.1e} | "
+                    f"{r['kv_over_speed_rel']:.1e} |")
+            ref_cpu = f"{r['cpu_ref_s']:.2f}" if "cpu_ref_s" in r else "-"
+            lines.append(f"| {r['pair']} | {r['cpu_s']:.2f} | {ref_cpu} | {r['kv_max']:.6f} | "
+                         f"{r['dte_rms_max']:.4e} {errs}")
+            continue
+        if r.get("pair") == "27/79" and not eaxle_header:
+            eaxle_header = True
+            lines += ["", f"27/79 (m_n 6 mm) on the same rotor, 600 N m, grade 6, {r['n_speeds']} "
+                      "speeds 25-8000 rpm (sparse orders: every fifth), all in full contact; "
+                      "reference: every harmonic (8533) by GMRES to 1e-10; CPU per speed "
+                      "with its receptances, for 160 speeds scaled.", "",
+                      "| orders | kept | CPU per speed [ms] | CPU for 160 speeds [s] | GMRES "
+                      "iterations | DTE RMS rel. | DTE p-p rel. | max force rel. | min force / "
+                      "max | left-out amplitude sum / max |",
+                      "|---|---|---|---|---|---|---|---|---|---|"]
+        if r.get("pair") == "27/79":
+            errs = ("reference | | | | |" if "dte_rms_rel" not in r else
+                    f"{r['dte_rms_rel']:.1e} | {r['dte_ptp_rel']:.1e} | "
+                    f"{r['force_max_rel']:.1e} | {r['force_min_over_max']:.1e} | "
+                    + (f"{r['left_out_amplitude_sum']:.1e} |"
+                       if "left_out_amplitude_sum" in r else "|"))
+            its = f"{r['gmres_iterations']:.1f}" if "gmres_iterations" in r else "-"
+            lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
+                         f"{0.16 * r['cpu_per_speed_ms']:.2f} | {its} | {errs}")
+            continue
+        if r.get("pair") == "27/79 at 100 N m":
+            if "dte_rms_rel" not in r:
+                lines += ["", f"27/79 at 100 N m, {r['n_speeds']} speeds 25-8000 rpm, largest "
+                          f"contact-loss share {r['max_contact_loss']:.3f}.", "",
+                          "| orders | kept | CPU per speed [ms] | GMRES iterations | DTE RMS "
+                          "rel. | DTE p-p rel. | max force rel. | min force / max | "
+                          "contact-loss share abs. |", "|---|---|---|---|---|---|---|---|---|"]
+                errs = "reference | | | | |"
+            else:
+                errs = (f"{r['dte_rms_rel']:.1e} | {r['dte_ptp_rel']:.1e} | "
+                        f"{r['force_max_rel']:.1e} | {r['force_min_over_max']:.1e} | "
+                        f"{r['loss_abs']:.1e} |")
+            lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
+                         f"{r['gmres_iterations']:.1f} | {errs}")
+            continue
+        if "dte_rms_rel" not in r:
+            lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
+                         "reference | | | | |")
+            continue
+        lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
+                     f"{r['dte_rms_rel']:.1e} | {r['dte_ptp_rel']:.1e} | "
+                     f"{r['force_max_rel']:.1e} | {r['force_min_over_max']:.1e} | "
+                     f"{r['loss_abs']:.1e} |")
+
+
 def run_rotor(out: str | Path = "gearuq_bench", quick: bool = False) -> list[dict]:
     """Rotor steady state on a sparse set of orders against the full harmonic balance.
 
@@ -558,72 +624,11 @@ def run_rotor(out: str | Path = "gearuq_bench", quick: bool = False) -> list[dic
              f"{ref[:, 4].max():.3f}; worst speed's error.", "",
              "| orders | kept | CPU per speed [ms] | DTE RMS rel. | DTE p-p rel. | max force rel. "
              "| min force / max | contact-loss share abs. |", "|---|---|---|---|---|---|---|---|"]
-    eaxle_header = False
-    for r in rows:
-        if r.get("pair") == "27/79" and not eaxle_header:
-            eaxle_header = True
-            lines += ["", f"27/79 (m_n 6 mm) on the same rotor, 600 N m, grade 6, {r['n_speeds']} "
-                      "speeds 25-8000 rpm (sparse orders: every fifth), all in full contact; "
-                      "reference: every harmonic (8533) by GMRES to 1e-10; CPU per speed "
-                      "with its receptances, for 160 speeds scaled.", "",
-                      "| orders | kept | CPU per speed [ms] | CPU for 160 speeds [s] | GMRES "
-                      "iterations | DTE RMS rel. | DTE p-p rel. | max force rel. | min force / "
-                      "max | left-out amplitude sum / max |",
-                      "|---|---|---|---|---|---|---|---|---|---|"]
-        if r.get("pair") == "27/79":
-            errs = ("reference | | | | |" if "dte_rms_rel" not in r else
-                    f"{r['dte_rms_rel']:.1e} | {r['dte_ptp_rel']:.1e} | "
-                    f"{r['force_max_rel']:.1e} | {r['force_min_over_max']:.1e} | "
-                    + (f"{r['left_out_amplitude_sum']:.1e} |"
-                       if "left_out_amplitude_sum" in r else "|"))
-            its = f"{r['gmres_iterations']:.1f}" if "gmres_iterations" in r else "-"
-            lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
-                         f"{0.16 * r['cpu_per_speed_ms']:.2f} | {its} | {errs}")
-            continue
-        if r.get("plugin"):
-            if r["pair"] == "30/30":
-                lines += ["", f"One `geared_rotor` sample over {r['n_speeds']} speeds and the "
-                          "peak refinement (150 N m, damping ratio 0.03, germ seed 7; 30/30: "
-                          "the dense balance, 25-8000 rpm; stages 13/17 and 27/79: the "
-                          "long-period route, GMRES 1e-6 continued, 500-16000 rpm), against "
-                          "the same sample with `gmres_tol` 1e-10.", "",
-                          "| pair | CPU per sample [s] | reference CPU [s] | kv_max | "
-                          "dte_rms_max [m] | kv_max rel. | dte_rms_max rel. | kv_over_speed "
-                          "rel. (worst speed) |", "|---|---|---|---|---|---|---|---|"]
-            errs = ("| | | |" if "kv_max_rel" not in r else
-                    f"{r['kv_max_rel']:.1e} | {r['dte_rms_max_rel']:.1e} | "
-                    f"{r['kv_over_speed_rel']:.1e} |")
-            ref_cpu = f"{r['cpu_ref_s']:.2f}" if "cpu_ref_s" in r else "-"
-            lines.append(f"| {r['pair']} | {r['cpu_s']:.2f} | {ref_cpu} | {r['kv_max']:.6f} | "
-                         f"{r['dte_rms_max']:.4e} {errs}")
-            continue
-        if r.get("pair") == "27/79 at 100 N m":
-            if "dte_rms_rel" not in r:
-                lines += ["", f"27/79 at 100 N m, {r['n_speeds']} speeds 25-8000 rpm, largest "
-                          f"contact-loss share {r['max_contact_loss']:.3f}.", "",
-                          "| orders | kept | CPU per speed [ms] | GMRES iterations | DTE RMS "
-                          "rel. | DTE p-p rel. | max force rel. | min force / max | "
-                          "contact-loss share abs. |", "|---|---|---|---|---|---|---|---|---|"]
-                errs = "reference | | | | |"
-            else:
-                errs = (f"{r['dte_rms_rel']:.1e} | {r['dte_ptp_rel']:.1e} | "
-                        f"{r['force_max_rel']:.1e} | {r['force_min_over_max']:.1e} | "
-                        f"{r['loss_abs']:.1e} |")
-            lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
-                         f"{r['gmres_iterations']:.1f} | {errs}")
-            continue
-        if "dte_rms_rel" not in r:
-            lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
-                         "reference | | | | |")
-            continue
-        lines.append(f"| {r['method']} | {r['n_orders']} | {r['cpu_per_speed_ms']:.1f} | "
-                     f"{r['dte_rms_rel']:.1e} | {r['dte_ptp_rel']:.1e} | "
-                     f"{r['force_max_rel']:.1e} | {r['force_min_over_max']:.1e} | "
-                     f"{r['loss_abs']:.1e} |")
-    text = "\n".join(lines)
+    _rotor_table(rows, lines)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "longperiod_rotor.md").write_text(text + "\n")
     (out / "longperiod_rotor.json").write_text(json.dumps(rows, indent=1, default=float))
+    text = "\n".join(lines)
+    (out / "longperiod_rotor.md").write_text(text + "\n")
     print(text)
     return rows
