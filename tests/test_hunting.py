@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from gearuq.bench.long_period import hunting_13_17_pair
+from gearuq.bench.long_period import hunting_13_17_pair, uniform_stage
 from gearuq.gears.stage import GearStage
 from gearuq_plugins.mesh_excitation import MeshExcitation
 from gearuq_plugins.mesh_excitation.physics import (
@@ -180,32 +180,11 @@ def test_stage_relief_alone_is_not_contact_loss():
 
 
 # ------------------------------------------------------------------ geared rotor
-def _uniform_stage(teeth: tuple[int, int], thin_seats: bool) -> GearStage:
-    """The e-axle stage with what ``geared_rotor`` takes: four equal bearings, one ISO class,
-    no relief; ``thin_seats``: 20 mm gear seats, so that small gears fit them."""
-    from dataclasses import replace
-
-    from gearuq.gears.stage import Bearing
-
-    e = GearStage.example("e_axle_27_79")
-    bearing = Bearing(0.0, 400.0, 150.0, damping=200.0)
-    shafts = {}
-    for name in ("pinion_shaft", "wheel_shaft"):
-        shaft = getattr(e, name)
-        sections = tuple((length, 20.0 if thin_seats and i == 2 else outer, inner)
-                         for i, (length, outer, inner) in enumerate(shaft.sections))
-        shafts[name] = replace(shaft, sections=sections, bearings=tuple(
-            replace(bearing, position=b.position) for b in shaft.bearings))
-    return replace(e, teeth=teeth, pinion=replace(e.pinion, tip_relief=None),
-                   wheel=replace(e.wheel, iso_grade=6, tip_relief=None),
-                   name=f"uniform_{teeth[0]}_{teeth[1]}", **shafts)
-
-
 @pytest.fixture(scope="module")
 def rotor_13_17():
     import gearuq
 
-    model = gearuq.get_model("geared_rotor", stage=_uniform_stage((13, 17), True))
+    model = gearuq.get_model("geared_rotor", stage=uniform_stage((13, 17), True))
     rng = np.random.default_rng(7)
     params = {"torque": 150.0, "damping_ratio": 0.03} | {
         p.name: float(rng.standard_normal()) for p in model.parameters

@@ -254,3 +254,106 @@ def test_preconditioner_blocks_against_each_class_inverted_by_hand(problem):
         pos = [(j - r) // L + 3 for j in members]  # slot m + n of each member
         np.testing.assert_allclose(inv[r][np.ix_(pos, pos)], np.linalg.inv(B), rtol=0,
                                    atol=1e-12)
+
+
+# ------------------------------------------------------------------ compiled kernels (speed)
+def test_receptances_equal_the_reduced_model_solved_frequency_by_frequency(problem):
+    """The pole sums (compiled, real arithmetic) against the reduced model's dynamic
+    stiffness ``diag(w_r^2) - w^2 I + i w (D + speed G)`` solved at each frequency, for the
+    mesh and every output (displacement, velocity and acceleration channels)."""
+    rpm = 4700.0
+    model = problem.reduced(rpm)
+    speed = 2 * math.pi * rpm / 60
+    w = 2 * math.pi / problem.period(rpm) * np.array([0.0, 1.0, 17.0, 230.0, 231.0])
+    got = model.receptances(speed, w)
+    assert model.n_modes > 5
+    want = {name: np.zeros(w.size, dtype=complex) for name in got}
+    for i, wi in enumerate(w):
+        Z = (np.diag(model.omega ** 2) - wi ** 2 * np.eye(model.n_modes)
+             + 1j * wi * (model.damping + speed * model.gyroscopic))
+        eta = np.linalg.solve(Z, model.mesh)
+        want["mesh"][i] = model.mesh @ eta + model.mesh_residual
+        for name, ch in model.channels.items():
+            y = ch["a"] @ eta + ch["a_res"]
+            if ch["b"] is not None:
+                y += 1j * wi * (ch["b"] @ eta + ch["b_res"])
+            want[name][i] = y * (1j * wi) ** ch["derivative"]
+    for name in got:  # to rounding of each output's scale
+        np.testing.assert_allclose(got[name], want[name], rtol=0,
+                                   atol=1e-11 * np.abs(want[name]).max(), err_msg=name)
+
+
+def test_gmres_meets_its_tolerance_with_restarts():
+    """Right-preconditioned GMRES against a dense solve: the true residual is below the
+    tolerance, also when it restarts (restart 4, Krylov buffers grown past their first
+    size with restart 20), and a start at the solution takes no iteration."""
+    from gearuq.rotor.sideband_balance import _gmres
+
+    rng = np.random.default_rng(2)
+    n = 120
+    A = np.eye(n) * np.linspace(1.0, 30.0, n) + 0.3 * rng.normal(size=(n, n))
+    b = rng.normal(size=n)
+    d = np.diag(A).copy()
+    exact = np.linalg.solve(A, b)
+    for restart in (4, 20):
+        x, ok, its = _gmres(lambda v: A @ v, lambda v: v / d, b, None, 1e-10, restart, 200)
+        assert ok and its > restart // 2
+        assert np.linalg.norm(b - A @ x) <= 1e-10 * np.linalg.norm(b) * (1 + 1e-6)
+        np.testing.assert_allclose(x, exact, rtol=0, atol=1e-8 * np.abs(exact).max())
+    x, ok, its = _gmres(lambda v: A @ v, lambda v: v / d, b, exact, 1e-10, 20, 200)
+    assert ok and its == 0
+    # too few cycles: not converged, said so
+    x, ok, its = _gmres(lambda v: A @ v, lambda v: v, b, None, 1e-12, 2, 1)
+    assert not ok and its == 2
+
+
+def test_block_preconditioner_applied_in_the_real_layout(problem):
+    """The compiled application against the blocks applied to each class of the two-sided
+    spectrum and read back on j >= 0."""
+    from gearuq.rotor._spectral_kernels import apply_class_inverses
+    from gearuq.rotor.sideband_balance import _class_blocks
+
+    prep = prepare_krylov(problem.excitation, 3)
+    H, idx = prep.n_harmonics, prep.class_index
+    rng = np.random.default_rng(8)
+    h = 1e-8 * (rng.normal(size=H + 1) + 1j * rng.normal(size=H + 1))
+    h_two = np.concatenate([np.conj(h[:0:-1]), h])
+    inv = _class_blocks(prep, h_two)
+    v = rng.normal(size=2 * H + 1)
+    x = v[:H + 1] + 0j
+    x[1:] += 1j * v[H + 1:]
+    two = np.concatenate([np.conj(x[:0:-1]), x])
+    out = np.zeros(2 * H + 1, dtype=complex)
+    for r in range(L):
+        ok = idx[r] >= 0
+        z = inv[r][:, ok] @ two[idx[r][ok]]
+        out[idx[r][ok]] = z[ok]
+    want = np.concatenate([out[H:].real, out[H + 1:].imag])
+    np.testing.assert_allclose(apply_class_inverses(inv, idx, v), want, rtol=0,
+                               atol=1e-13 * np.abs(want).max())
+
+
+def test_rotor_bench_table_renders_every_kind_of_row():
+    """The table writer of `gearuq bench longperiod_rotor` takes each kind of row (a plugin
+    sample of a pair that also names a GMRES table, 27/79, went to the wrong table)."""
+    from gearuq.bench.long_period import _rotor_table
+
+    errs = {"dte_rms_rel": 1e-8, "dte_ptp_rel": 2e-8, "force_max_rel": 3e-5,
+            "force_min_over_max": 2e-5}
+    rows = [{"pair": "27/79", "n_speeds": 160, "method": "every harmonic, GMRES 1e-06",
+             "n_orders": 8533, "cpu_per_speed_ms": 9.0, "gmres_iterations": 3.1, **errs},
+            {"pair": "27/79 at 100 N m", "n_speeds": 10, "max_contact_loss": 0.27,
+             "method": "reference", "n_orders": 8533, "cpu_per_speed_ms": 4e3,
+             "gmres_iterations": 3e3},
+            {"pair": "30/30", "plugin": True, "n_speeds": 160, "cpu_s": 2.0, "kv_max": 4.57,
+             "dte_rms_max": 1.1e-5},
+            {"pair": "27/79", "plugin": True, "n_speeds": 160, "cpu_s": 1.4, "kv_max": 1.369,
+             "dte_rms_max": 1.8e-5, "cpu_ref_s": 2.0, "kv_max_rel": 4e-8,
+             "dte_rms_max_rel": 4e-11, "kv_over_speed_rel": 1.3e-6}]
+    lines: list[str] = []
+    _rotor_table(rows, lines)
+    plugin = [ln for ln in lines if ln.startswith("| 27/79 | 1.40 | 2.00 |")]
+    assert len(plugin) == 1 and "1.3e-06" in plugin[0]
+    assert any(ln.startswith("| every harmonic, GMRES 1e-06 | 8533 | 9.0 | 1.44 |")
+               for ln in lines)
+    assert sum(ln.startswith("| 30/30 | 2.00 | - |") for ln in lines) == 1

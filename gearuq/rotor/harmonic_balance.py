@@ -162,6 +162,9 @@ class PeriodicSolution:
     drift : float
         Largest deviation between the time integration and the solution over the last
         checked period, relative to the peak-to-peak mesh approach.
+    min_approach : float
+        Smallest mesh approach on the AFT instants [m] (NaN where the solver does not
+        report it; the back-flank check of a balance without back flank reads it).
     start : str
         Where Newton's method started: "linear" (the full-contact solution), "given"
         (continuation from a previous solution), "amplitude_continuation" (from the static
@@ -184,6 +187,7 @@ class PeriodicSolution:
     channels: dict[str, np.ndarray] = field(default_factory=dict)
     stable: bool | None = None
     drift: float = math.nan
+    min_approach: float = math.nan
 
     @property
     def n_harmonics(self) -> int:

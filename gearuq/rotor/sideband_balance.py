@@ -29,6 +29,7 @@ the long-period reference for pairs whose dense balance is out of reach.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -515,21 +516,79 @@ def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray,
     conjugate of class ``r``'s reversed; classes ``r > 0`` are inverted on their ``2 n``
     members only. A third of the cost of inverting every padded block.
     """
-    idx = prep.class_index
-    L, M = idx.shape
-    half = L // 2 + 1
-    valid = idx[:half] >= 0
-    hv = np.where(valid, h_two[np.maximum(idx[:half], 0)], 0.0)
+    from gearuq.rotor._spectral_kernels import class_inverses  # numba: imported for cost
+
     T = prep.class_coupling if coupling is None else coupling
-    B = np.eye(M)[None] + hv[:, :, None] * T[None]
-    B = np.where(valid[:, :, None] & valid[:, None, :], B, np.eye(M)[None])
-    inv = np.zeros((L, M, M), dtype=complex)
-    inv[0] = np.linalg.inv(B[0])
-    m2 = M - 1  # members of a class r > 0
-    inv[1:half, :m2, :m2] = np.linalg.inv(B[1:, :m2, :m2])
-    inv[1:, m2, m2] = 1.0
-    inv[half:, :m2, :m2] = np.conj(inv[L - np.arange(half, L), m2 - 1::-1, m2 - 1::-1])
-    return inv
+    # compiled: numpy's batched inv of 7 x 7 blocks was mostly per-block overhead
+    return class_inverses(prep.class_index, np.ascontiguousarray(h_two, dtype=complex),
+                          np.ascontiguousarray(T, dtype=complex))
+
+
+#: Krylov vectors kept before GMRES restarts.
+GMRES_RESTART = 50
+
+
+def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
+           apply_m: Callable[[np.ndarray], np.ndarray], b: np.ndarray, x0: np.ndarray | None,
+           rtol: float, restart: int, max_cycles: int) -> tuple[np.ndarray, bool, int]:
+    """Right-preconditioned restarted GMRES: ``||b - A x|| <= rtol ||b||``.
+
+    With the preconditioner on the right the least-squares residual of the Arnoldi basis is
+    the residual of ``A x = b`` itself, so convergence needs no extra product to confirm
+    (scipy's left-preconditioned ``gmres`` checks the true residual after every cycle: one
+    FFT product more per solve, a fifth of a continued solve's products). Classical
+    Gram-Schmidt applied twice (BLAS products). Returns ``x``, converged, iterations.
+    """
+    n = b.size
+    target = rtol * float(np.linalg.norm(b))
+    x = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
+    r = b - apply_a(x) if x0 is not None and np.any(x) else b.copy()
+    total = 0
+    for _ in range(max_cycles):
+        beta = float(np.linalg.norm(r))
+        if beta <= target:
+            return x, True, total
+        # rows added as needed: a continued solve takes 2-4 of the `restart` (fresh
+        # multi-megabyte buffers per call were a fifth of the solve)
+        V = np.empty((min(restart + 1, 8), n))
+        Z = np.empty((min(restart, 8), n))
+        Hm = np.zeros((restart + 1, restart))
+        cs, sn = np.zeros(restart), np.zeros(restart)
+        g = np.zeros(restart + 1)
+        g[0] = beta
+        V[0] = r / beta
+        k = 0
+        for k in range(restart):
+            if k + 1 >= V.shape[0]:
+                V = np.concatenate([V, np.empty((min(V.shape[0], restart + 1 - V.shape[0]),
+                                                 n))])
+                Z = np.concatenate([Z, np.empty((V.shape[0] - 1 - Z.shape[0], n))])
+            Z[k] = apply_m(V[k])
+            w = apply_a(Z[k])
+            for _twice in range(2):  # CGS2: orthogonal to rounding
+                c = V[:k + 1] @ w
+                w -= c @ V[:k + 1]
+                Hm[:k + 1, k] += c
+            Hm[k + 1, k] = float(np.linalg.norm(w))
+            exact = Hm[k + 1, k] == 0.0  # the Krylov space holds the solution
+            if not exact:
+                V[k + 1] = w / Hm[k + 1, k]
+            for i in range(k):  # previous rotations, then this column's
+                Hm[i, k], Hm[i + 1, k] = (cs[i] * Hm[i, k] + sn[i] * Hm[i + 1, k],
+                                          -sn[i] * Hm[i, k] + cs[i] * Hm[i + 1, k])
+            d = math.hypot(Hm[k, k], Hm[k + 1, k])
+            cs[k], sn[k] = (Hm[k, k] / d, Hm[k + 1, k] / d) if d > 0.0 else (1.0, 0.0)
+            Hm[k, k], Hm[k + 1, k] = d, 0.0
+            g[k], g[k + 1] = cs[k] * g[k], -sn[k] * g[k]
+            total += 1
+            if abs(g[k + 1]) <= target or exact:
+                break
+        y = sla.solve_triangular(Hm[:k + 1, :k + 1], g[:k + 1], check_finite=False)
+        x = x + y @ Z[:k + 1]
+        if abs(g[k + 1]) <= target:
+            return x, True, total
+        r = b - apply_a(x)
+    return x, bool(np.linalg.norm(r) <= target), total
 
 
 def solve_periodic_krylov(
@@ -592,7 +651,7 @@ def solve_periodic_krylov(
         converge, 4 contact loss not solved (``contact_loss=False``); ``iterations`` counts
         GMRES iterations over all solves.
     """
-    from scipy.sparse.linalg import LinearOperator, gmres
+    from gearuq.rotor._spectral_kernels import apply_class_inverses  # numba: for cost
 
     if not (math.isfinite(period) and period > 0):
         raise ValueError(f"period={period!r} is outside its valid range (0, inf) s")
@@ -604,7 +663,6 @@ def solve_periodic_krylov(
         receptance = model.receptances(speed, 2.0 * np.pi / period * np.arange(H + 1), names)
     h = receptance["mesh"]
     kbar = prep.mean_stiffness
-    n_real = 2 * H + 1
     if initial is not None and np.shape(initial) != (H + 1,):
         raise ValueError(f"initial has shape {np.shape(initial)}, outside the valid shape "
                          f"({H + 1},): one-sided harmonics 0..H")
@@ -622,34 +680,23 @@ def solve_periodic_krylov(
             x = to_complex(v)
             p = _fft.rfft(_fft.irfft(x * N, n=N) * weight)[:H + 1] / N
             y = x + h * p
-            y[0] = y[0].real
             return to_real(y)
-        return LinearOperator((n_real, n_real), matvec=apply, dtype=float)
+        return apply
 
     h_two = np.concatenate([np.conj(h[:0:-1]), h])
     blocks = [_class_blocks(prep, h_two)]  # replaced per Newton step (contact indicator)
     idx = prep.class_index
-    valid = idx >= 0
 
     def precondition(v):
-        x = to_complex(v)
-        two = np.concatenate([np.conj(x[:0:-1]), x])
-        z = (blocks[0] @ np.where(valid, two[np.maximum(idx, 0)], 0.0)[:, :, None])[:, :, 0]
-        out = np.zeros(2 * H + 1, dtype=complex)
-        out[idx[valid]] = z[valid]
-        one = out[H:]
-        one[0] = one[0].real
-        return to_real(one)
+        # the blocks' rows j >= 0 only, in the real layout (compiled gather and product)
+        return apply_class_inverses(blocks[0], idx, np.ascontiguousarray(v, dtype=float))
 
-    Minv = LinearOperator((n_real, n_real), matvec=precondition, dtype=float)
     count = [0]
 
     def solve(weight, b, x0=None):
-        def callback(_):
-            count[0] += 1
-        v, info = gmres(operator(weight), b, x0=x0, M=Minv, rtol=tol, atol=0.0, restart=50,
-                        maxiter=max_iter, callback=callback, callback_type="pr_norm")
-        return v, info == 0
+        v, ok, its = _gmres(operator(weight), precondition, b, x0, tol, GMRES_RESTART, max_iter)
+        count[0] += its
+        return v, ok
 
     def residual(x):
         delta_t = _fft.irfft(x * N, n=N)
@@ -693,13 +740,20 @@ def solve_periodic_krylov(
                 status = STATUS_NOT_CONVERGED
                 break
             x, R, res, F, r = trial, R_t, res_t, F_t, r_t
-    force = np.maximum(F, 0.0) if status != STATUS_CONTACT_LOSS else F
+    if status != STATUS_CONTACT_LOSS:
+        force = np.maximum(F, 0.0)
+        # r holds force - k_bar delta on 0..H, delta is band-limited to H: no FFT needed
+        force_hat = r + kbar * x
+    else:
+        force = F
+        force_hat = _fft.rfft(force)[:H + 1] / N
     n_sep = float(np.mean(F <= 0.0))
     sol = PeriodicSolution(
-        period=period, delta=x, force=_fft.rfft(force)[:H + 1] / N, remainder=r,
+        period=period, delta=x, force=force_hat, remainder=r,
         status=status, iterations=count[0], residual=res, contact_loss_fraction=n_sep,
         back_contact_fraction=0.0, min_force=float(force.min()),
-        branch="contact_loss" if n_sep > 0 else "full_contact", start="linear")
+        branch="contact_loss" if n_sep > 0 else "full_contact", start="linear",
+        min_approach=float(np.min((F + prep.ke_grid) / prep.k_grid)))
     for name in names:
         y = -receptance[name] * r
         y[0] += model.static_value(name)
