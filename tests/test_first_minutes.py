@@ -351,6 +351,14 @@ def test_quick_run_prints_and_stamps_every_figure_saved_inside(tmp_path, capsys)
     with quick_run(False, 8, "x") as mark:
         save_figure(fig2 := Figure(), tmp_path / "c.png")
     assert text_of(after) == [] and text_of(fig2) == [] and mark == ""
+    # the PNG itself says it: the mark in its text chunks, read back by Pillow (not our code)
+    from PIL import Image
+
+    from gearuq.plot import QUICK_MARK_KEY
+
+    assert Image.open(tmp_path / "a.png").text[QUICK_MARK_KEY] == "quick: 8 runs, not a result"
+    assert QUICK_MARK_KEY not in Image.open(tmp_path / "b.png").text
+    assert QUICK_MARK_KEY not in Image.open(tmp_path / "c.png").text
     with pytest.raises(ValueError, match="runs: expected a positive number"):
         with quick_run(True, 0, "x"):
             pass

@@ -15,10 +15,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 import gearuq
 import gearuq_studies
 from gearuq import cli, registry
+from gearuq.plot import QUICK_MARK_KEY
 
 STUDY_DIR = Path(gearuq_studies.__file__).parent
 MODULES = sorted(p.stem for p in STUDY_DIR.glob("*.py") if p.stem != "__init__")
@@ -132,6 +134,8 @@ def _run_quick(name: str, out: Path) -> None:
     assert pngs, f"{name} wrote no PNG"
     for path in pngs:
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", path
+        # the written file carries the mark too, where a reader of the folder finds it
+        assert Image.open(path).text.get(QUICK_MARK_KEY) == first.split(";")[0], path
     for path in sorted(out.glob("*.nc")):
         gearuq.load(path)  # every netCDF the study wrote reopens with gearuq.io
 
