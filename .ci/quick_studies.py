@@ -11,7 +11,8 @@ on a shared machine. Per study the table says:
   (``gearuq.plot.QUICK_MARK_KEY``),
 - screen: the printed ``quick: ..., not a result; left out: ...`` line,
 - status in words: every printed line that names a status code says what it means
-  (``status 3: the importance weights ...``), or the study prints no status at all ("none").
+  (``status 3: the importance weights ...``, ``status: all 40 samples ok``); "none printed"
+  when the study prints no status.
 
 Numba compiles a model's kernels on its first use from an empty cache; run once before
 measuring (or measure twice) to time a warm cache, and say which it was.
@@ -52,14 +53,16 @@ def measure(name: str, out: Path) -> dict[str, object]:
     text = log.read_text(encoding="utf-8", errors="replace")
     pngs = sorted(folder.glob("**/*.png")) if folder.exists() else []
     marked = [Image.open(p).text.get(QUICK_MARK_KEY, "").startswith("quick: ") for p in pngs]
-    status_lines = [line for line in text.splitlines() if STATUS_CODE.search(line)]
-    bare = [line for line in status_lines if not STATUS_IN_WORDS.search(line)]
+    lines = text.splitlines()
+    in_words = [line for line in lines if STATUS_IN_WORDS.search(line)]
+    bare = [line for line in lines if STATUS_CODE.search(line) and line not in in_words]
     return {"name": name, "exit": os.waitstatus_to_exitcode(code),
             "cpu": usage.ru_utime + usage.ru_stime, "wall": wall,
             "figures": f"{sum(marked)}/{len(pngs)}",
             "screen": any(line.startswith("quick: ") and "; left out: " in line
                           for line in text.splitlines()),
-            "status": "none" if not status_lines else ("yes" if not bare else "NO: " + bare[0])}
+            "status": ("NO: " + bare[0].strip() if bare else
+                       f"yes ({len(in_words)} lines)" if in_words else "none printed")}
 
 
 def main(argv: list[str]) -> int:

@@ -161,7 +161,11 @@ def _expire_gallery_outputs(gallery: Path) -> None:
     stamp.write_text(now + "\n")
 
 
-_expire_gallery_outputs(Path(__file__).parent / "auto_examples")
+def setup(app: object) -> None:
+    """Expire stale gallery outputs before sphinx-gallery looks at them (it listens to the
+    same event at the default priority, 500)."""
+    app.connect("builder-inited", lambda app: _expire_gallery_outputs(
+        Path(app.srcdir) / "auto_examples"), priority=400)
 
 sphinx_gallery_conf = {
     "examples_dirs": "gallery",
