@@ -93,6 +93,8 @@ def test_study_mfis_settings_are_valid_and_the_full_study_tilts_the_fitted_quadr
         assert settings["biasing"] == "gaussian"
         assert model_options == {"n_speeds": 20, "range_mesh_harmonics": 1}
         assert settings["low_fidelity_options"] == {"n_speeds": 10, "range_mesh_harmonics": 1}
+        # half the rotor draws from the standard normal: every weight at most 1 / 0.5
+        assert settings["defensive"] == 0.5 and settings["max_components"] == 1
     else:
         assert settings["biasing"] == "quadratic" and model_options is None
         assert settings["response_offset"] == pytest.approx(62e-6)
