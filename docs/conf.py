@@ -121,8 +121,8 @@ if _mathjax2_local:
 def library_fingerprint() -> str:
     """A digest of what the gallery's outputs depend on besides the scripts themselves.
 
-    The Python sources of gearuq, its plugins and studies, and the versions of the libraries
-    the scripts call. sphinx-gallery reruns an example only when the script's own digest
+    The Python sources of gearuq and its plugins (the scripts call no study), and the versions
+    of the libraries the scripts call. sphinx-gallery reruns an example only when the script's own digest
     changed (its ``.md5`` beside the output); :func:`_expire_gallery_outputs` makes a change
     of the library rerun every example too.
     """
@@ -131,7 +131,7 @@ def library_fingerprint() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
     digest = hashlib.sha256()
-    for package in ("gearuq", "gearuq_plugins", "gearuq_studies"):
+    for package in ("gearuq", "gearuq_plugins"):
         root = Path(import_module(package).__file__).parent
         for path in sorted(root.rglob("*.py")):
             digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())

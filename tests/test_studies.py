@@ -285,6 +285,15 @@ def test_quick_mesh_oscillator_regions(tmp_path):
     assert np.all(ds["peak_dte_either"].values[ok] >= ds["peak_dte_runup"].values[ok])
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_rare_events(tmp_path):
+    import json
+
     _run_quick("geared_rotor_rare_events", tmp_path)
+    info = json.loads((tmp_path / "summary.json").read_text())
+    (check,) = info["crude_mc"]  # the one quick level, checked by crude Monte Carlo
+    assert check["X_um"] == 25.0 and check["runs"] == 100 and check["invalid"] == 0
+    assert sorted(r["method"] for r in info["rows"]) == ["mfis", "subset"]
+    for row in info["rows"]:
+        if row["status"] == 0:  # an interval vouched for meets crude Monte Carlo's
+            assert row["lower"] <= check["upper"] and check["lower"] <= row["upper"], row
