@@ -2,8 +2,9 @@
 
 Contract checks cover all studies registered under ``gearuq.studies``; the quick modes of the
 cheap studies run through the registry into a temporary folder, and each asserts a number
-its physics fixes (not only that files exist). The quick modes of the expensive studies run
-with ``-m slow``.
+its physics fixes (not only that files exist). The quick modes over ~20 s of wall run with
+``-m e2e`` (``.ci/run`` does), so every study's quick output is checked for its marks in CI;
+each is under a minute of CPU (docs/benchmarks.md, "Quick modes, measured one by one").
 """
 
 from __future__ import annotations
@@ -234,8 +235,8 @@ def test_quick_transmission_error_uq(tmp_path):
     assert np.all((exc["pf_lower"] <= exc["pf"]) & (exc["pf"] <= exc["pf_upper"]))
 
 
-# =========================================================================== slow quick runs
-@pytest.mark.slow
+# =========================================================================== e2e quick runs
+@pytest.mark.e2e
 def test_quick_mc_vs_surrogate(tmp_path):
     _run_quick("mc_vs_surrogate", tmp_path)
     ds = gearuq.load(tmp_path / "comparison.nc")
@@ -243,7 +244,7 @@ def test_quick_mc_vs_surrogate(tmp_path):
     assert pf[:-1].max() <= pf[-1] <= pf[:-1].sum()
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_reliability(tmp_path):
     _run_quick("geared_rotor_reliability", tmp_path)
     med = [float(np.nanmedian(gearuq.load(tmp_path / f"rms_dte_grade{g}.nc")["dte_rms"]))
@@ -251,7 +252,7 @@ def test_quick_geared_rotor_reliability(tmp_path):
     assert med[0] < med[1] < med[2], med  # a coarser ISO grade, a larger kinematic error
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_speed_sweep(tmp_path):
     _run_quick("geared_rotor_speed_sweep", tmp_path)
     ds = gearuq.load(tmp_path / "rms_dte_vs_speed.nc")
@@ -259,14 +260,14 @@ def test_quick_geared_rotor_speed_sweep(tmp_path):
     assert np.all(rms[1, 0] < rms[0, 0])  # error-free teeth: the relief helps at every speed
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_speed_range_bench(tmp_path):
     _run_quick("geared_rotor_speed_range_bench", tmp_path)
     ds = gearuq.load(tmp_path / "timings.nc")
     assert np.all(np.abs(ds["relative_error"].sel(path="plugin dte_rms_max").values) < 1e-3)
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_helical_pair_rare_events(tmp_path):
     import json
 
