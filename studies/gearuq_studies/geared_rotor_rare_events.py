@@ -64,9 +64,9 @@ dynamic question (K_v and the mesh orders, on gears that pass inspection) is the
 
 Run: ``gearuq study geared_rotor_rare_events [--quick] [--out DIR]``. ``--quick`` answers
 one smaller question, Pf ~ 1e-1, by the study's three routes side by side (100 crude Monte
-Carlo runs, multi-fidelity importance sampling and subset simulation; about 400 rotor runs,
-under a minute of CPU) two fidelity steps down (the rotor at 20 speeds and 1 mesh harmonic,
-its cheap model at 10), in one process, and says so. The full study ran end to end in 77 minutes on
+Carlo runs, multi-fidelity importance sampling and subset simulation; about 330 rotor runs,
+52 s of CPU) two fidelity steps down (the rotor at 20 speeds and 1 mesh harmonic, its cheap
+model at 10), in one process, and says so. The full study ran end to end in 77 minutes on
 a 2-core machine shared with another job (about 45 on a quiet one, by the per-run costs),
 most of it the two checks, crude Monte Carlo and subset simulation on the rotor; the answer
 at Pf ~ 1e-6 alone took 11 minutes there and 7.2 on the quiet machine (docs/benchmarks.md).
@@ -347,7 +347,7 @@ def figures(out: Path, mc: dict[str, np.ndarray], rows: list[dict[str, Any]],
 
 
 @plot.quick_mode(
-    "about 400 rotor runs",
+    "about 330 rotor and 330 cheap-model runs",
     left_out=(
         "the questions the study answers (Pf ~ 1e-2, 1e-3 and 1e-6): this run asks Pf ~ 1e-1 "
         "only, by crude Monte Carlo (100 runs), multi-fidelity importance sampling and subset "
