@@ -277,7 +277,7 @@ def test_quick_helical_pair_rare_events(tmp_path):
     assert pf[0] > pf[1] > pf[2] > 0, pf  # a higher force limit is reached less often
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_mesh_oscillator_regions(tmp_path):
     _run_quick("mesh_oscillator_regions", tmp_path)
     ds = gearuq.load(tmp_path / "reliability_mc.nc")
