@@ -122,9 +122,9 @@ def library_fingerprint() -> str:
     """A digest of what the gallery's outputs depend on besides the scripts themselves.
 
     The Python sources of gearuq and its plugins (the scripts call no study), and the versions
-    of the libraries the scripts call. sphinx-gallery reruns an example only when the script's own digest
-    changed (its ``.md5`` beside the output); :func:`_expire_gallery_outputs` makes a change
-    of the library rerun every example too.
+    of the libraries the scripts call. sphinx-gallery reruns an example only when the script's
+    own digest changed (its ``.md5`` beside the output); :func:`_expire_gallery_outputs` makes
+    a change of the library rerun every example too.
     """
     import hashlib
     from importlib import import_module
