@@ -298,3 +298,16 @@ def test_quick_geared_rotor_rare_events(tmp_path):
     for row in info["rows"]:
         if row["status"] == 0:  # an interval vouched for meets crude Monte Carlo's
             assert row["lower"] <= check["upper"] and check["lower"] <= row["upper"], row
+
+
+@pytest.mark.e2e
+def test_quick_helical_pair_reliability(tmp_path):
+    _run_quick("helical_pair_reliability", tmp_path)
+    ds = gearuq.load(tmp_path / "reliability_tolerance.nc")
+    pf = ds["pf"].isel(time=-1)
+    dofs = pf.sel(mode=[m for m in pf["mode"].values if m != "system"]).values
+    system = float(pf.sel(mode="system"))
+    assert int(ds["n_samples"]) == 1000  # the quick size it announced
+    # a series system fails at least as often as its worst DOF and at most as all together
+    assert dofs.max() <= system <= dofs.sum()
+    assert np.allclose(pf.values, ds["n_failures"].isel(time=-1).values / int(ds["n_valid"]))
