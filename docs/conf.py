@@ -3,7 +3,8 @@
 Build: ``python -m sphinx -W --keep-going -b html docs docs/_build/html`` (after
 ``pip install -e ".[docs]"``). The Markdown pages are read by MyST-Parser, the API reference
 is generated from the numpydoc docstrings by autodoc/autosummary, and the gallery scripts in
-``docs/gallery/`` are run by sphinx-gallery at every build.
+``docs/gallery/`` are run by sphinx-gallery; a rebuild reruns only the scripts that changed, or
+all of them when the library changed (:func:`library_fingerprint`).
 """
 
 from __future__ import annotations
@@ -115,6 +116,56 @@ else:
           "mathjax@3.2.2): the pages load it from the CDN and need a network for equations")
 if _mathjax2_local:
     mathjax2_config = _mathjax2_local
+
+
+def library_fingerprint() -> str:
+    """A digest of what the gallery's outputs depend on besides the scripts themselves.
+
+    The Python sources of gearuq and its plugins (the scripts call no study), and the versions
+    of the libraries the scripts call. sphinx-gallery reruns an example only when the script's
+    own digest changed (its ``.md5`` beside the output); :func:`_expire_gallery_outputs` makes
+    a change of the library rerun every example too.
+    """
+    import hashlib
+    from importlib import import_module
+    from importlib.metadata import PackageNotFoundError, version
+
+    digest = hashlib.sha256()
+    for package in ("gearuq", "gearuq_plugins"):
+        root = Path(import_module(package).__file__).parent
+        for path in sorted(root.rglob("*.py")):
+            digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+    for dist in ("numpy", "scipy", "numba", "xarray", "matplotlib", "openturns",
+                 "sphinx-gallery"):
+        try:
+            digest.update(f"{dist}=={version(dist)}\n".encode())
+        except PackageNotFoundError:
+            digest.update(f"{dist} absent\n".encode())
+    return digest.hexdigest()
+
+
+def _expire_gallery_outputs(gallery: Path) -> None:
+    """Rerun every gallery example when the library changed since their outputs were made.
+
+    Outputs of a build are kept (a rebuild with neither the scripts nor the library changed
+    reruns nothing); the digest of the library they were made with sits beside them, and a
+    different one removes the examples' ``.md5`` files, the marks sphinx-gallery keeps them by.
+    """
+    stamp = gallery / "library.sha256"
+    now = library_fingerprint()
+    if stamp.is_file() and stamp.read_text().strip() == now:
+        return
+    for md5 in gallery.glob("*.py.md5"):
+        md5.unlink()
+    gallery.mkdir(parents=True, exist_ok=True)
+    stamp.write_text(now + "\n")
+
+
+def setup(app: object) -> None:
+    """Expire stale gallery outputs before sphinx-gallery looks at them (it listens to the
+    same event at the default priority, 500)."""
+    app.connect("builder-inited", lambda app: _expire_gallery_outputs(
+        Path(app.srcdir) / "auto_examples"), priority=400)
 
 sphinx_gallery_conf = {
     "examples_dirs": "gallery",

@@ -85,14 +85,16 @@ def test_study_mfis_settings_are_valid_and_the_full_study_tilts_the_fitted_quadr
     monkeypatch.setattr(study, "failure_probability", capture)
     assert study.mfis(62.0, 3, quick) == "report"
     assert seen.pop("method") == "mfis" and seen.pop("rng") == 3
-    # the quick run is one fidelity step down: the study's cheap rotor plays the rotor
+    # the quick run is two fidelity steps down: the benchmark case's cheap rotor plays the
+    # rotor, and the same at half its speeds the cheap model
     model_options = seen.pop("model_options", None)
     settings = validate_settings("mfis", seen)
     if quick:
         assert settings["biasing"] == "gaussian"
-        assert model_options == study.LOW_FIDELITY_OPTIONS == {"n_speeds": 40,
-                                                                "range_mesh_harmonics": 2}
-        assert settings["low_fidelity_options"] == {"n_speeds": 20, "range_mesh_harmonics": 1}
+        assert model_options == {"n_speeds": 20, "range_mesh_harmonics": 1}
+        assert settings["low_fidelity_options"] == {"n_speeds": 10, "range_mesh_harmonics": 1}
+        # half the rotor draws from the standard normal: every weight at most 1 / 0.5
+        assert settings["defensive"] == 0.5 and settings["max_components"] == 1
     else:
         assert settings["biasing"] == "quadratic" and model_options is None
         assert settings["response_offset"] == pytest.approx(62e-6)
@@ -119,3 +121,27 @@ def test_every_stage_of_the_study_runs_on_the_cores_it_is_given(monkeypatch):
         with pytest.raises(RuntimeError, match="captured"):
             stage()
     assert seen == [execution] * 3
+
+
+@pytest.mark.parametrize("quick, given, expected", [
+    (True, None, "serial"), (False, None, "processes"), (True, "processes", "processes")])
+def test_the_quick_run_stays_in_one_process_unless_told(monkeypatch, tmp_path, capsys, quick,
+                                                        given, expected):
+    """Its stages are seconds each: a worker pool (imports and kernel loads in every worker)
+    would cost more CPU than it shares. An executor given is used; the full study's default
+    is worker processes. The quick run also says it is quick, and asks one level only."""
+    seen = []
+
+    def capture(*args, **kw):
+        seen.append((kw.get("executor"), kw.get("method")))
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(study, "failure_probability", capture)
+    monkeypatch.setattr(study, "study_model", lambda: type(
+        "Stub", (), {"response": lambda *a, **k: None})())
+    with pytest.raises(RuntimeError, match="captured"):
+        study.run(out=tmp_path, quick=quick, executor=given)
+    assert seen == [(expected, "mfis")]
+    mark = "quick: about 330 rotor and 330 cheap-model runs, not a result"
+    assert (mark in capsys.readouterr().out) is quick
+    assert list(study.QUICK_LEVELS_UM.values()) == [25.0]

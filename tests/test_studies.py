@@ -2,8 +2,9 @@
 
 Contract checks cover all studies registered under ``gearuq.studies``; the quick modes of the
 cheap studies run through the registry into a temporary folder, and each asserts a number
-its physics fixes (not only that files exist). The quick modes of the expensive studies run
-with ``-m slow``.
+its physics fixes (not only that files exist). The quick modes over ~20 s of wall run with
+``-m e2e`` (``.ci/run`` does), so every study's quick output is checked for its marks in CI;
+each is under a minute of CPU (docs/benchmarks.md, "Quick modes, measured one by one").
 """
 
 from __future__ import annotations
@@ -15,10 +16,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 import gearuq
 import gearuq_studies
 from gearuq import cli, registry
+from gearuq.plot import QUICK_MARK_KEY
 
 STUDY_DIR = Path(gearuq_studies.__file__).parent
 MODULES = sorted(p.stem for p in STUDY_DIR.glob("*.py") if p.stem != "__init__")
@@ -132,6 +135,8 @@ def _run_quick(name: str, out: Path) -> None:
     assert pngs, f"{name} wrote no PNG"
     for path in pngs:
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", path
+        # the written file carries the mark too, where a reader of the folder finds it
+        assert Image.open(path).text.get(QUICK_MARK_KEY) == first.split(";")[0], path
     for path in sorted(out.glob("*.nc")):
         gearuq.load(path)  # every netCDF the study wrote reopens with gearuq.io
 
@@ -230,8 +235,8 @@ def test_quick_transmission_error_uq(tmp_path):
     assert np.all((exc["pf_lower"] <= exc["pf"]) & (exc["pf"] <= exc["pf_upper"]))
 
 
-# =========================================================================== slow quick runs
-@pytest.mark.slow
+# =========================================================================== e2e quick runs
+@pytest.mark.e2e
 def test_quick_mc_vs_surrogate(tmp_path):
     _run_quick("mc_vs_surrogate", tmp_path)
     ds = gearuq.load(tmp_path / "comparison.nc")
@@ -239,7 +244,7 @@ def test_quick_mc_vs_surrogate(tmp_path):
     assert pf[:-1].max() <= pf[-1] <= pf[:-1].sum()
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_reliability(tmp_path):
     _run_quick("geared_rotor_reliability", tmp_path)
     med = [float(np.nanmedian(gearuq.load(tmp_path / f"rms_dte_grade{g}.nc")["dte_rms"]))
@@ -247,7 +252,7 @@ def test_quick_geared_rotor_reliability(tmp_path):
     assert med[0] < med[1] < med[2], med  # a coarser ISO grade, a larger kinematic error
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_speed_sweep(tmp_path):
     _run_quick("geared_rotor_speed_sweep", tmp_path)
     ds = gearuq.load(tmp_path / "rms_dte_vs_speed.nc")
@@ -255,14 +260,14 @@ def test_quick_geared_rotor_speed_sweep(tmp_path):
     assert np.all(rms[1, 0] < rms[0, 0])  # error-free teeth: the relief helps at every speed
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_speed_range_bench(tmp_path):
     _run_quick("geared_rotor_speed_range_bench", tmp_path)
     ds = gearuq.load(tmp_path / "timings.nc")
     assert np.all(np.abs(ds["relative_error"].sel(path="plugin dte_rms_max").values) < 1e-3)
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_helical_pair_rare_events(tmp_path):
     import json
 
@@ -272,7 +277,7 @@ def test_quick_helical_pair_rare_events(tmp_path):
     assert pf[0] > pf[1] > pf[2] > 0, pf  # a higher force limit is reached less often
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_mesh_oscillator_regions(tmp_path):
     _run_quick("mesh_oscillator_regions", tmp_path)
     ds = gearuq.load(tmp_path / "reliability_mc.nc")
@@ -281,6 +286,28 @@ def test_quick_mesh_oscillator_regions(tmp_path):
     assert np.all(ds["peak_dte_either"].values[ok] >= ds["peak_dte_runup"].values[ok])
 
 
-@pytest.mark.slow
+@pytest.mark.e2e
 def test_quick_geared_rotor_rare_events(tmp_path):
+    import json
+
     _run_quick("geared_rotor_rare_events", tmp_path)
+    info = json.loads((tmp_path / "summary.json").read_text())
+    (check,) = info["crude_mc"]  # the one quick level, checked by crude Monte Carlo
+    assert check["X_um"] == 25.0 and check["runs"] == 100 and check["invalid"] == 0
+    assert sorted(r["method"] for r in info["rows"]) == ["mfis", "subset"]
+    for row in info["rows"]:
+        if row["status"] == 0:  # an interval vouched for meets crude Monte Carlo's
+            assert row["lower"] <= check["upper"] and check["lower"] <= row["upper"], row
+
+
+@pytest.mark.e2e
+def test_quick_helical_pair_reliability(tmp_path):
+    _run_quick("helical_pair_reliability", tmp_path)
+    ds = gearuq.load(tmp_path / "reliability_tolerance.nc")
+    pf = ds["pf"].isel(time=-1)
+    dofs = pf.sel(mode=[m for m in pf["mode"].values if m != "system"]).values
+    system = float(pf.sel(mode="system"))
+    assert int(ds["n_samples"]) == 1000  # the quick size it announced
+    # a series system fails at least as often as its worst DOF and at most as all together
+    assert dofs.max() <= system <= dofs.sum()
+    assert np.allclose(pf.values, ds["n_failures"].isel(time=-1).values / int(ds["n_valid"]))

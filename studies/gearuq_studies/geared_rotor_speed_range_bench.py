@@ -191,6 +191,7 @@ def figure(ds: xr.Dataset):
 
 def _continuation(model: gearuq.Model) -> None:
     from gearuq.rotor.geared import single_threaded_blas
+    from gearuq.rotor.harmonic_balance import STATUS_MEANINGS
     values = {p.name: p.nominal for p in model.parameters} | {
         "torque": 100.0, "pitch_amplitude": 40.0, "pitch_xi_p_1": 1.0, "pitch_xi_g_2": 1.0}
     prob = model.rotor_problem(values, speed_range=True)
@@ -207,7 +208,8 @@ def _continuation(model: gearuq.Model) -> None:
     for cont, ((cpu, wall), res) in out.items():
         print(f"  {'continued' if cont else 'linear start'}: {int(res.iterations.sum())} Newton "
               f"iterations, CPU {cpu:.3f} s, wall {wall:.3f} s, dte_rms_max "
-              f"{res.maximum()[0] * 1e6:.5f} um, status {res.maximum()[2]}")
+              f"{res.maximum()[0] * 1e6:.5f} um, status {res.maximum()[2]}: "
+              f"{STATUS_MEANINGS[res.maximum()[2]].replace('_', ' ')}")
 
 
 def form_check(model: Any, limit: float) -> None:

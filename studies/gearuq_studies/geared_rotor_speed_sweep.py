@@ -29,6 +29,7 @@ from matplotlib.figure import Figure
 
 import gearuq
 from gearuq import plot
+from gearuq.failure.report import describe_status
 from gearuq.plot import save_figure
 
 AMPLITUDES = (0.0, 5.0, 10.0, 15.0)
@@ -136,8 +137,7 @@ def report(res: xr.Dataset, wall: float, n_states: int) -> None:
     speeds = res["speed"].values
     print(f"geared_rotor speed sweep: {n_states} steady states (8 LTCA runs) in {wall:.1f} s "
           f"= {1e3 * wall / n_states:.1f} ms each (shared 2-core machine; provisional)")
-    bad = int(np.count_nonzero(res["status"].values))
-    print(f"samples flagged: {bad}; largest contact-loss fraction "
+    print(f"steady states: {describe_status(res['status'])}; largest contact-loss fraction "
           f"{float(res['contact_loss_fraction'].max()):.3f}")
     for k, amp in enumerate(AMPLITUDES):
         u, m = res["dte_rms"].values[0, k], res["dte_rms"].values[1, k]

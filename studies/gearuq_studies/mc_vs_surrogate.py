@@ -39,6 +39,7 @@ import gearuq
 from gearuq import plot
 from gearuq.engines.pce import polynomial_chaos
 from gearuq.failure.modes import Band
+from gearuq.failure.report import describe_status
 from gearuq.failure.samples import reliability
 
 DOFS = ["x_p", "y_p", "z_p", "theta_py", "theta_pz", "x_g", "y_g", "z_g", "theta_gy",
@@ -107,6 +108,7 @@ def run(out: str | Path = "gearuq_mc_vs_surrogate", quick: bool = False, full: b
     pilot = gearuq.monte_carlo(model, space, TAU, n_samples=n_pilot, rng=seed + 1,
                                outputs=outs, executor="serial", progress=False)
     ok = pilot["status"].values == 0
+    print(f"pilot of {n_pilot} runs (the tolerance bands): {describe_status(pilot)}")
     bands = []
     for o, dof in zip(outs, DOFS, strict=True):
         v = pilot[o].values[ok, -1]

@@ -37,6 +37,7 @@ import xarray as xr
 
 import gearuq
 from gearuq import plot
+from gearuq.failure.report import describe_status
 from gearuq.gears.deviations import FlankDeviations
 from gearuq.gears.geometry import HelicalGearPair
 from gearuq.gears.ltca import normal_force_from_torque
@@ -283,6 +284,7 @@ def reliability(out: Path, quick: bool) -> dict:
     num_peaks = _peaks(num)
     result = {"n": n, "n_invalid": int((~valid).sum()), "limit_um": limit * 1e6,
               "wall": wall, "wall_check": wall_num, "m": pick.size, "n_check_ok": int(ok.sum()),
+              "status_words": describe_status(ds), "check_status_words": describe_status(num),
               "questions": {}}
     for key, var in names.items():
         mode = rel.sel(mode=var)
@@ -389,6 +391,8 @@ def run(out: str | Path = "gearuq_mesh_oscillator_regions", quick: bool = False)
     print(f"  {rel['n']} perturbation samples in {rel['wall']:.1f} s ({rel['n_invalid']} "
           f"flagged invalid); check: {rel['n_check_ok']} of {rel['m']} samples integrated "
           f"in {rel['wall_check']:.1f} s")
+    print(f"  perturbation samples: {rel['status_words']}; check sweeps: "
+          f"{rel['check_status_words']}")
     for key, q in rel["questions"].items():
         print(f"  {key:12s} P(peak > {rel['limit_um']:.0f} um) = {q['pf']:.4f} "
               f"[{q['pf_interval'][0]:.4f}, {q['pf_interval'][1]:.4f}]; check: "

@@ -139,7 +139,8 @@ def run(out: str | Path = "gearuq_sensitivity_ranking", quick: bool = False,
         f"Sobol' MC: SALib Saltelli, N = {n_base}, {mc.attrs['n_model_evaluations']} runs, "
         f"{t_mc:.1f} s. PCE: order {pce.order} (sparse LARS, degree chosen by corrected LOO "
         f"of 1..{3 if quick else 4}), "
-        f"{pce.n_evaluations} runs incl. hold-out, {t_pce:.1f} s, LOO error "
+        f"{pce.n_evaluations} runs incl. hold-out ({pce.n_failed} failed, excluded from the "
+        f"fit; a failed Sobol' or Morris run stops the study), {t_pce:.1f} s, LOO error "
         f"{np.mean(list(pce.loo_error.values())):.2e} (mean over DOFs). Morris: "
         f"{mor.attrs['n_model_evaluations']} runs, {t_mor:.1f} s.",
         "",
