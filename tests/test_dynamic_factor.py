@@ -343,6 +343,11 @@ def test_quick_dynamic_factor_study(tmp_path):
     count, ss = info["crude_mc"], info["subset"]
     assert count["lower"] <= count["pf"] <= count["upper"]
     assert ss["p_pass"] == pytest.approx(0.95**2)
+    rare = info["rare"]  # quick: the rare stage's code path at the moderate X
+    assert rare["X"] == info["X"] and set(rare) == {"X", "mfis"}
+    assert rare["mfis"]["lower"] <= rare["mfis"]["pf"] <= rare["mfis"]["upper"]
+    assert rare["mfis"]["runs"] <= 40 and rare["mfis"]["cheap_runs"] > 0
+    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_mfis"}
     assert min(info["kv_max_quantiles"]) >= 1.0 and min(info["kv_iso_max_quantiles"]) >= 1.0
     assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
                                                        "campbell_map.png"}
