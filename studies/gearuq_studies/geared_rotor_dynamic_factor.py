@@ -38,11 +38,18 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    acceptance makes it close to the accepted one);
 4. figures: K_v against speed with the population's bands and ISO 6336-1 Method B; a
    Campbell-like map (speed of the K_v peak against K_v, failures marked, the speeds where
-   the mesh frequency meets the natural frequencies with the most mesh strain energy).
+   the mesh frequency meets the natural frequencies with the most mesh strain energy);
+5. the rare level: P(kv_max >= :data:`RARE_X` | pass), near 1e-6, by multi-fidelity
+   importance sampling on the parallel system (:func:`mfis_given_acceptance`; the cheap
+   model is the same rotor on 20 speeds with 2 mesh harmonics and its largest grid peak
+   located, :data:`CHEAP_OPTIONS`) and by subset simulation on the rotor itself
+   (:func:`subset_given_acceptance`), which share no estimator code. X = 1.83 came from a
+   pilot: subset simulation on the cheap model with the acceptance condition scaled into
+   its limit state, 1460 cheap runs, whose levels put P(kv >= 1.81, pass) at 1.6e-6 and
+   P(kv >= 1.90, pass) at 1.7e-7; 1.83 interpolates 9e-7 = 1e-6 x P(pass) on their log.
 
-The rare level (Pf ~ 1e-6 by multi-fidelity importance sampling and a second method) is not
-part of this study yet (docs/benchmarks.md says what was run). ``--quick`` runs a few dozen
-rotor runs (about a minute of CPU) and marks every figure "quick: N runs, not a result".
+``--quick`` runs a few dozen rotor runs (a few minutes of CPU), the rare stage at the
+moderate X with 40 rotor runs, and marks every figure "quick: N runs, not a result".
 
 Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]``.
 """
