@@ -343,6 +343,11 @@ def test_quick_dynamic_factor_study(tmp_path):
     count, ss = info["crude_mc"], info["subset"]
     assert count["lower"] <= count["pf"] <= count["upper"]
     assert ss["p_pass"] == pytest.approx(0.95**2)
+    rare = info["rare"]  # quick: the rare stage's code path at the moderate X
+    assert rare["X"] == info["X"] and set(rare) == {"X", "mfis"}
+    assert rare["mfis"]["lower"] <= rare["mfis"]["pf"] <= rare["mfis"]["upper"]
+    assert rare["mfis"]["runs"] <= 40 and rare["mfis"]["cheap_runs"] > 0
+    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_mfis"}
     assert min(info["kv_max_quantiles"]) >= 1.0 and min(info["kv_iso_max_quantiles"]) >= 1.0
     assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
                                                        "campbell_map.png"}
@@ -373,3 +378,32 @@ def test_a_failed_steady_state_while_locating_a_peak_is_flagged(problem, monkeyp
     kv, at, bracket = dyn.peaks["kv"]
     assert kv == pytest.approx(dyn.kv.max()) and bracket > 1.0  # the grid's, unresolved
     assert kv < clean.peaks["kv"][0]
+
+
+@pytest.mark.e2e
+def test_rare_stage_against_an_independent_count():
+    """The rare stage's MFIS on a small rotor (3 speeds) at a moderate level against a crude
+    count of accepted pairs that shares no estimator code with it (and divides by the
+    counted acceptance, not the exact 0.95^2 the stage uses)."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    small = {**study.OPTIONS, "n_speeds": 3, "speed_min": 6000.0, "speed_max": 8000.0,
+             "range_mesh_harmonics": 1, "peaks_refined": 0}
+    cheap = {**small, "n_speeds": 2, "positions_per_cycle": 12, "n_pts": 8}
+    x = 1.22
+    settings = {**study.RARE_MFIS, "n_per_level": 100, "n_samples": 60, "max_samples": 180,
+                "target_cov": 0.2}
+    res = study.mfis_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
+                                      options=small, cheap_options=cheap)
+    assert res["p_pass"] == pytest.approx(0.95**2) and res["cheap_runs"] >= 100
+    assert res["runs"] <= 180 and res["lower"] <= res["pf"] <= res["upper"]
+    draws = study.study_space().sample(400, rng=17)
+    ds = study.study_model(6).response(draws, None, outputs=["kv_max",
+                                                             "pitch_acceptance_margin"], **small)
+    assert np.all(ds["status"].values == 0)
+    acc = ds["pitch_acceptance_margin"].values >= 0
+    k, n = int(np.sum(acc & (ds["kv_max"].values >= x))), int(acc.sum())
+    count = k / n
+    assert 0.05 < count < 0.5  # a moderate level, so the count resolves it
+    se = math.hypot(math.sqrt(count * (1 - count) / n), res["cov"] * res["pf"])
+    assert abs(res["pf"] - count) < 3.5 * se

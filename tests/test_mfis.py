@@ -194,3 +194,28 @@ def test_a_stored_run_with_cheap_instants_resumes_to_the_same_answer(tmp_path):
     # 400 runs, half of them the pilot: the interval holds or the status says it cannot vouch
     assert (float(first["pf_lower"]) <= exact <= float(first["pf_upper"])
             or int(first["status"]) != 0)
+
+
+def _two_outputs(x1: np.ndarray, x2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two responses on very different scales: a in units of 1, b in units of 1e-3."""
+    return x1, 1e-3 * x2
+
+
+def test_a_system_compares_cheap_and_expensive_g_in_one_unit():
+    """Parallel system {a >= 2.5} and {b >= 0}: exact Pf = Phi(-2.5) / 2. With the cheap model
+    the expensive one itself, the discrepancy must be 0: the components are scaled by their
+    gradients (1 and 1e-3) on both sides, not on the cheap side alone."""
+    from scipy.stats import norm
+
+    model = gearuq.FunctionModel(_two_outputs, ["x1", "x2"], ["a", "b"], name="two_outputs")
+    space = {"x1": {"dist": "normal", "mean": 0.0, "std": 1.0},
+             "x2": {"dist": "normal", "mean": 0.0, "std": 1.0}}
+    system = gearuq.ParallelSystem([gearuq.LimitState.upper("a", 2.5, name="a_high"),
+                                    gearuq.LimitState.upper("b", 0.0, name="b_positive")])
+    rep = failure_probability(model, space, system, method="mfis", low_fidelity=model, rng=3,
+                              executor="serial", n_per_level=500, n_samples=300,
+                              max_samples=1200)
+    assert float(rep["discrepancy_measured"]) == pytest.approx(0.0, abs=1e-12)
+    assert not bool(rep["widened"])
+    exact = norm.sf(2.5) / 2.0
+    assert float(rep["pf_lower"]) <= exact <= float(rep["pf_upper"])

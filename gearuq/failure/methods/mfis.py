@@ -197,6 +197,10 @@ def run_mfis(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidenc
     family = resolve_biasing(s)
     ev_lf = _low_fidelity(ev, s, seed)
     first = family.fit(ev_lf, seed)
+    # a system's g is scaled per component, calibrated on the cheap model by its walk: the
+    # expensive g takes the same scales, or the discrepancy g_LF - g_HF mixes two units
+    if ev_lf.leaf_scales is not None:
+        ev.leaf_scales = dict(ev_lf.leaf_scales)
     t_lf = time.perf_counter() - t0
     w = _widen(ev, ev_lf, family, first, s, seed)
     # the pilot is batch PILOT_BATCH of this stream, the estimate's fresh draws 0, 1, ...

@@ -92,6 +92,9 @@ _COMMON_OUTPUTS = (
     _O("peak_frequency_ratio", "1", ("sample",), "Omega of the largest stable amplitude"),
     _O("u", "1", ("sample", "time"), "nondimensional deflection u = (x - x_m) / d"),
     _O("contact", "1", ("sample", "time"), "1 in contact, 0 out of contact"),
+    _O("kv", "1", ("sample",), "dynamic factor K_v: largest mesh force over the output "
+       "instants t (after settling) over the static mesh force, the mean load (alpha_0_0, "
+       "F_0); 1 without excitation and in the quasi-static limit"),
     _O("u_perturbation", "1", ("sample", "time"),
        "approximate solution (Eritenel and Parker Eq. 28) on the upward-sweep branch at "
        "frequency_ratio"),
@@ -114,7 +117,7 @@ _DIMENSIONAL_OUTPUTS = (
     _O("mesh_force", "N", ("sample", "time"), "mesh force C f(x, t)"),
 )
 _PERTURBATION_ONLY = {"branch_amplitude", "branch_phase", "branch_stable", "n_branches"}
-_TIME_OUTPUTS = {"u", "contact", "u_perturbation", "dte", "mesh_force"}
+_TIME_OUTPUTS = {"u", "contact", "u_perturbation", "dte", "mesh_force", "kv"}
 _EXPANSION_OUTPUTS = {"mean_deflection", "deflection_scale", "natural_frequency",
                       "mesh_stiffness", "secant_stiffness", "expansion_error", "alpha",
                       "alpha_phase"}
@@ -124,10 +127,12 @@ STATUS_CURVE = 16
 STATUS_SEPARATION = 17
 STATUS_FORCE_PEAK = 18
 STATUS_UNSETTLED = 19
+STATUS_KV_WINDOW = 20
 STATUS_MEANINGS = {STATUS_CURVE: "perturbation_curve_incomplete",
                    STATUS_SEPARATION: "separation_beyond_validity",
                    STATUS_FORCE_PEAK: "deflection_beyond_force_maximum",
-                   STATUS_UNSETTLED: "sweep_not_settled"}
+                   STATUS_UNSETTLED: "sweep_not_settled",
+                   STATUS_KV_WINDOW: "kv_window_short"}
 #: The reasons in words, written into the dataset attribute ``status_reasons`` for the codes
 #: that occur.
 STATUS_REASONS = {
@@ -136,6 +141,8 @@ STATUS_REASONS = {
     "this kind exists there and a time integration may escape; the numbers are kept",
     STATUS_UNSETTLED: "the transient cannot decay to settle_tolerance within "
     "max_settle_periods (no or very little damping): the measured amplitudes include it",
+    STATUS_KV_WINDOW: "the output instants span less than one mesh period: kv is the "
+    "largest mesh force over them, only a lower bound of the dynamic factor",
 }
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from gearuq_plugins.mesh_oscillator import kernels as K
 from gearuq_plugins.mesh_oscillator import slowflow as sf
 from gearuq_plugins.mesh_oscillator import sweeps
+from gearuq_plugins.mesh_oscillator.model import STATUS_KV_WINDOW
 
 
 def expanded_rows(system: Any) -> sweeps.OscillatorProblem:
@@ -68,19 +69,39 @@ def _perturbation_state(coefs: np.ndarray, omega: np.ndarray, options: dict[str,
     return a, gam, shift, res.status
 
 
+def series_force(system: Any, u: np.ndarray, theta: np.ndarray, contact: np.ndarray
+                 ) -> np.ndarray:
+    """``(1 + H) f~(u, theta)`` of Eq. (mo-force-series), in units of ``d beta_10`` (n, nt)."""
+    alpha, phi = system.alpha, system.phi
+    out = np.zeros(u.shape)
+    for i in range(alpha.shape[1]):
+        coef = alpha[:, i, 0, None] + sum(
+            alpha[:, i, r, None] * np.cos(r * theta - phi[:, i, r, None])
+            for r in range(1, alpha.shape[2]))
+        out += coef * u**i
+    return np.where(contact, out, 0.0)
+
+
+def dynamic_factor(force: np.ndarray, static: np.ndarray, span: np.ndarray,
+                   status: np.ndarray) -> np.ndarray:
+    """``K_v`` = largest mesh force over the output instants / the static mesh force.
+
+    ``force`` (n, nt) and ``static`` (n,) in one unit; ``span`` (n,) is the instants' span in
+    mesh periods. A sample whose window is shorter than a period gets status 20
+    (``kv_window_short``) unless its integration already failed.
+    """
+    short = (span < 1.0 - 1e-9) & (status == 0)
+    status[short] = STATUS_KV_WINDOW
+    return np.max(force, axis=1) / static
+
+
 def _force_values(model, system, params, u, theta, contact, options):
     """Mesh force [N] at the output instants (exact or expanded, as integrated)."""
     ex = system.expansion
     n, nt = u.shape
     out = np.zeros((n, nt))
     if options["time_model"] == "expanded":
-        alpha, phi = system.alpha, system.phi
-        for i in range(alpha.shape[1]):
-            coef = alpha[:, i, 0, None] + sum(
-                alpha[:, i, r, None] * np.cos(r * theta - phi[:, i, r, None])
-                for r in range(1, alpha.shape[2]))
-            out += coef * u**i
-        return np.where(contact, out, 0.0) * (ex.stiffness * ex.scale)[:, None]
+        return series_force(system, u, theta, contact) * (ex.stiffness * ex.scale)[:, None]
     x = ex.mean_deflection[:, None] + ex.scale[:, None] * u
     phase = ((theta + ex.phase_reference[:, None]) / (2.0 * math.pi)) % 1.0
     for i in range(n):
@@ -97,6 +118,9 @@ def time_block(model, system, params, t, outputs, options, out, extra, status) -
 
     if t.size and t[0] < 0.0:
         raise ValueError(f"t: instants must be >= 0 (start of the response), got {t[0]}")
+    if "kv" in outputs and t.size < 2:
+        raise ValueError(f"t: kv is the largest mesh force over the output instants; give at "
+                         f"least two instants spanning one mesh period, got {t.size}")
     n = system.mu.size
     omega = params["frequency_ratio"]
     wn = system.expansion.natural_frequency if model.dimensional else np.ones(n)
@@ -139,6 +163,12 @@ def time_block(model, system, params, t, outputs, options, out, extra, status) -
     if model.dimensional:
         ex = system.expansion
         out["dte"] = ex.mean_deflection[:, None] + ex.scale[:, None] * u
-        if "mesh_force" in outputs:
+        if "mesh_force" in outputs or "kv" in outputs:
             out["mesh_force"] = _force_values(model, system, params, u, theta, contact,
                                               options)
+    if "kv" in outputs:
+        # static mesh force: the mean load, F_0 [N] or alpha_0_0 in units of d beta_10
+        force, static = ((out["mesh_force"], params["mean_force"]) if model.dimensional
+                         else (series_force(system, u, theta, contact), system.alpha[:, 0, 0]))
+        span = (theta[:, -1] - theta[:, 0]) / (2.0 * math.pi)
+        out["kv"] = dynamic_factor(force, static, span, status)
