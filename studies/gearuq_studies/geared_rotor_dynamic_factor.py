@@ -46,9 +46,10 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    (:func:`subset_given_acceptance`), which share no estimator code. X = 1.83 came from a
    pilot: subset simulation on the cheap model with the acceptance relaxed to margins >=
    -b/10 in its limit state, 1460 cheap runs, whose levels put P(kv >= 1.81, pass) at
-   1.6e-6; the rotor runs at full size show the event with the exact acceptance is much
-   rarer (MFIS 1.1e-11, status 3: degenerate weights; subset simulation 1.2e-8, status 1):
-   the rare level is not yet answered (docs/benchmarks.md, "The rare level").
+   1.6e-6 (a second pilot with the acceptance all but exact gives about 3e-6 at 1.83). The
+   rotor runs at full size disagree with it and with each other (MFIS 1.1e-11, status 3:
+   degenerate weights; subset simulation 1.2e-8, status 1: chains not mixed): the rare
+   level is not yet answered (docs/benchmarks.md, "The dynamic question").
 
 ``--quick`` runs a few dozen rotor runs (a few minutes of CPU), the rare stage at the
 moderate X with 40 rotor runs, and marks every figure "quick: N runs, not a result".
@@ -94,8 +95,8 @@ DEFAULT_EXECUTION: dict[str, Any] = {"executor": "processes", "chunk_size": 25}
 #: misses the resonance near 7800 rpm that the rare event lives on, by up to 0.24.
 CHEAP_OPTIONS: dict[str, Any] = {**OPTIONS, "n_speeds": 20, "range_mesh_harmonics": 2,
                                  "peaks_refined": 1, "peak_speed_tol": 10.0}
-#: X of the rare stage, from a pilot on the cheap model with a relaxed acceptance that put
-#: P(kv_max >= X | pass) near 1e-6; on the rotor it is below 1e-7 (docs/benchmarks.md).
+#: X of the rare stage, from pilots on the cheap model that put P(kv_max >= X | pass) near
+#: 1e-6; the rotor's estimates there disagree and none is vouched for (docs/benchmarks.md).
 RARE_X = 1.83
 #: MFIS of the rare stage: subset simulation on the cheap model at 250 per level (about 1600
 #: cheap runs, 460 CPU s), the Gaussian mixture fitted to its last level (10 % defensive),
