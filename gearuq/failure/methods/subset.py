@@ -422,7 +422,7 @@ def mixing_reason(spread: Mapping[str, float]) -> list[tuple[int, str]]:
 #: "auto"``). The lineage bootstrap measures the walk's spread from the lineages that carry its
 #: failures; a standard deviation from ``k`` independent units is understated by more than a
 #: factor 2 with probability ``P(chi2_{k-1} < (k-1)/4)``, at most 5 % from ``k = 7`` on
-#: (0.054 at 6, 0.034 at 7): below it, one walk cannot measure its own scatter (docs).
+#: (0.060 at 6, 0.041 at 7): below it, one walk cannot measure its own scatter (docs).
 SECOND_WALK_LINEAGES = 7
 
 
