@@ -524,30 +524,42 @@ def _class_blocks(prep: KrylovExcitation, h_two: np.ndarray,
                           np.ascontiguousarray(T, dtype=complex))
 
 
-#: Krylov vectors kept before GMRES restarts.
-GMRES_RESTART = 50
+#: Krylov vectors kept before GMRES restarts (at contact loss near a resonance GMRES(50)
+#: stagnated: 10 000 iterations for four decades where GMRES(300) took 1100 for three).
+GMRES_RESTART = 100
+
+#: Largest relative tolerance of a Newton step's GMRES solve (inexact Newton): at 12 % contact
+#: loss 520 GMRES iterations to the same steady state where exact steps took 6650.
+NEWTON_FORCING_MAX = 0.3
+
+#: GMRES iterations a steady state may spend over all its solves (``max_iter``): at about
+#: 1.4 ms each for a 27/79 pair, a few seconds; reached, the steady state returns status 1.
+GMRES_BUDGET = 3000
 
 
 def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
            apply_m: Callable[[np.ndarray], np.ndarray], b: np.ndarray, x0: np.ndarray | None,
-           rtol: float, restart: int, max_cycles: int) -> tuple[np.ndarray, bool, int]:
+           rtol: float, restart: int, max_iterations: int) -> tuple[np.ndarray, bool, int]:
     """Right-preconditioned restarted GMRES: ``||b - A x|| <= rtol ||b||``.
 
     With the preconditioner on the right the least-squares residual of the Arnoldi basis is
     the residual of ``A x = b`` itself, so convergence needs no extra product to confirm
     (scipy's left-preconditioned ``gmres`` checks the true residual after every cycle: one
     FFT product more per solve, a fifth of a continued solve's products). Classical
-    Gram-Schmidt applied twice (BLAS products). Returns ``x``, converged, iterations.
+    Gram-Schmidt applied twice (BLAS products). At most ``max_iterations`` products with
+    ``A`` in all (restarts included): on reaching it, the iterate so far is returned with
+    converged False. Returns ``x``, converged, iterations.
     """
     n = b.size
     target = rtol * float(np.linalg.norm(b))
     x = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
     r = b - apply_a(x) if x0 is not None and np.any(x) else b.copy()
     total = 0
-    for _ in range(max_cycles):
+    while total < max_iterations:
         beta = float(np.linalg.norm(r))
         if beta <= target:
             return x, True, total
+        restart = min(restart, max_iterations - total)
         # rows added as needed: a continued solve takes 2-4 of the `restart` (fresh
         # multi-megabyte buffers per call were a fifth of the solve)
         V = np.empty((min(restart + 1, 8), n))
@@ -598,13 +610,14 @@ def solve_periodic_krylov(
     speed: float,
     *,
     tol: float = 1e-10,
-    max_iter: int = 200,
+    max_iter: int = GMRES_BUDGET,
     contact_loss: bool = True,
     newton_tol: float = 1e-9,
     max_newton: int = 40,
     receptance: dict[str, np.ndarray] | None = None,
     channels: list[str] | None = None,
     initial: np.ndarray | None = None,
+    newton_start: np.ndarray | None = None,
 ) -> PeriodicSolution:
     """Steady state on every harmonic ``0..H`` of the long period, by preconditioned GMRES.
 
@@ -627,9 +640,13 @@ def solve_periodic_krylov(
     period, speed : float
         Long period [s] and reference speed [rad/s].
     tol : float
-        GMRES relative residual tolerance.
+        GMRES relative residual tolerance (of the full-contact solve, and of Newton's last
+        steps: earlier steps are solved to at most ``NEWTON_FORCING_MAX``, Eisenstat and
+        Walker's inexact Newton).
     max_iter : int
-        GMRES iterations per solve.
+        GMRES iterations of the whole steady state, over all its solves (the budget that
+        bounds its cost: near a resonance with contact loss Newton's method can stagnate);
+        reached, the steady state returns status 1.
     contact_loss : bool
         Solve the contact law when the full-contact solution separates; False: return it
         with status 4.
@@ -643,12 +660,16 @@ def solve_periodic_krylov(
         Start of GMRES for the full-contact solve (e.g. the neighbouring speed's ``delta``);
         the tolerance stays relative to the right-hand side, so a close start saves
         iterations without changing what is converged to.
+    newton_start : ndarray, complex (H + 1,), optional
+        Start of Newton's method when the flanks separate (e.g. the neighbouring speed's
+        contact-loss ``delta``), taken when its residual is below the linear solution's.
 
     Returns
     -------
     PeriodicSolution
         Over harmonics ``0..H``; ``status`` 0 converged, 1 GMRES or Newton did not
-        converge, 4 contact loss not solved (``contact_loss=False``); ``iterations`` counts
+        converge (``max_iter``, ``max_newton`` or a failed line search), 4 contact loss
+        not solved (``contact_loss=False``); ``iterations`` counts
         GMRES iterations over all solves.
     """
     from gearuq.rotor._spectral_kernels import apply_class_inverses  # numba: for cost
@@ -693,8 +714,10 @@ def solve_periodic_krylov(
 
     count = [0]
 
-    def solve(weight, b, x0=None):
-        v, ok, its = _gmres(operator(weight), precondition, b, x0, tol, GMRES_RESTART, max_iter)
+    def solve(weight, b, x0=None, rtol=tol):
+        # one budget for the whole steady state: what is left of it bounds this solve
+        v, ok, its = _gmres(operator(weight), precondition, b, x0, rtol, GMRES_RESTART,
+                            max(max_iter - count[0], 0))
         count[0] += its
         return v, ok
 
@@ -714,10 +737,17 @@ def solve_periodic_krylov(
     x = to_complex(v)
     R, res, F, r = residual(x)
     status = STATUS_CONVERGED if ok else STATUS_NOT_CONVERGED
-    n_newton = 0
+    n_newton, eta, res_before = 0, NEWTON_FORCING_MAX, res
     if ok and F.min() <= 0.0:
         if not contact_loss:
             status = STATUS_CONTACT_LOSS
+        elif newton_start is not None:
+            # a neighbouring speed's contact-loss solution: Newton starts there when it
+            # meets the contact law better than the linear solution does
+            guess = np.asarray(newton_start, dtype=complex)
+            evaluated = residual(guess)
+            if evaluated[1] < res:
+                x, (R, res, F, r) = guess, evaluated
         while contact_loss and res > newton_tol:
             if n_newton >= max_newton:
                 status = STATUS_NOT_CONVERGED
@@ -730,7 +760,14 @@ def solve_periodic_krylov(
             M = prep.class_coupling.shape[0]
             blocks[0] = _class_blocks(prep, h_two, _class_toeplitz(
                 _fft.rfft(weight)[::prep.n_cycles][:M] / N))
-            step, ok = solve(weight, -to_real(R))
+            # inexact Newton (Eisenstat and Walker's second forcing term): a loose linear
+            # solve while the contact law is far from met, tight near the solution (first
+            # step: res_before = res gives the cap); their safeguard: no sudden tightening
+            floor = 0.9 * eta ** 2
+            eta = min(NEWTON_FORCING_MAX, max(0.9 * (res / res_before) ** 2,
+                                              floor if floor > 0.1 else 0.0))
+            res_before = res
+            step, ok = solve(weight, -to_real(R), rtol=max(tol, eta))
             if not ok:
                 status = STATUS_NOT_CONVERGED
                 break

@@ -225,9 +225,10 @@ class LongPeriodProblem(GearedRotorProblem):
         )
 
         if self.solver == "gmres":
+            start = self._previous if self._continued else None
             sol = solve_periodic_krylov(model, self.krylov, T, omega, newton_tol=tol,
                                         tol=self.gmres_tol, receptance=rec, channels=names,
-                                        initial=self._previous if self._continued else None)
+                                        initial=start, newton_start=start)
             # the next speed starts GMRES here (a nearby speed: fewer iterations)
             self._previous = sol.delta if sol.status == 0 else None
             if math.isinf(self.backlash) or sol.min_approach > -self.backlash:
