@@ -372,6 +372,9 @@ def test_rotor_bench_table_renders_every_kind_of_row():
             {"pair": "27/79 at 100 N m", "n_speeds": 10, "max_contact_loss": 0.27,
              "method": "reference", "n_orders": 8533, "cpu_per_speed_ms": 4e3,
              "gmres_iterations": 3e3},
+            {"pair": "27/79 at 100 N m", "n_speeds": 10, "max_contact_loss": 0.27,
+             "method": "GMRES 1e-06", "n_orders": 8533, "cpu_per_speed_ms": 9e2,
+             "gmres_iterations": 6e2, "failed_speeds": [4450.0], "loss_abs": 0.0, **errs},
             {"pair": "30/30", "plugin": True, "n_speeds": 160, "cpu_s": 2.0, "kv_max": 4.57,
              "dte_rms_max": 1.1e-5},
             {"pair": "27/79", "plugin": True, "n_speeds": 160, "cpu_s": 1.4, "kv_max": 1.369,
@@ -384,3 +387,6 @@ def test_rotor_bench_table_renders_every_kind_of_row():
     assert any(ln.startswith("| every harmonic, GMRES 1e-06 | 8533 | 9.0 | 1.44 |")
                for ln in lines)
     assert sum(ln.startswith("| 30/30 | 2.00 | - |") for ln in lines) == 1
+    # a contact-loss row says at which speeds its steady state did not converge
+    assert any(ln.startswith("| GMRES 1e-06 (not converged at 4450 rpm) | 8533 | 900.0 |")
+               for ln in lines)
