@@ -255,30 +255,46 @@ def test_backtracking_line_search_follows_the_armijo_rule():
     assert accepted and trial[0] == 2.0 ** -10
 
 
-def test_preconditioner_blocks_against_each_class_inverted_by_hand(problem):
-    """The mirrored class inverses (half of them computed) against every class's block built
-    member by member and inverted densely."""
-    from gearuq.rotor.sideband_balance import _class_blocks
+def _class_block_by_hand(prep, h_two, r):
+    """Members of class ``r`` (``j = r + m L``, ``|j| <= H``), slots ``m + n`` and the block
+    ``I + diag(h) T`` built member by member from the mesh-periodic stiffness harmonics."""
+    H, n = prep.n_harmonics, (prep.class_coupling.shape[0] - 1) // 2
 
-    prep = prepare_krylov(problem.excitation, 3)
-    H = prep.n_harmonics
-    rng = np.random.default_rng(5)
-    h = 1e-8 * (rng.normal(size=H + 1) + 1j * rng.normal(size=H + 1))
-    h[0] = h[0].real
-    h_two = np.concatenate([np.conj(h[:0:-1]), h])
-    inv = _class_blocks(prep, h_two)
-
-    def dk(k):  # stiffness harmonic k (a multiple of L) of the mesh-periodic part
+    def dk(k):
         v = prep.mesh_stiffness[abs(k) // L]
         return v if k >= 0 else np.conj(v)
 
-    for r in range(L):
-        members = [j for j in range(-H, H + 1) if (j - r) % L == 0]
-        B = np.eye(len(members)) + np.array(
-            [[h_two[a + H] * dk(a - b) for b in members] for a in members])
-        pos = [(j - r) // L + 3 for j in members]  # slot m + n of each member
-        np.testing.assert_allclose(inv[r][np.ix_(pos, pos)], np.linalg.inv(B), rtol=0,
-                                   atol=1e-12)
+    members = [j for j in range(-H, H + 1) if (j - r) % L == 0]
+    B = np.eye(len(members)) + np.array(
+        [[h_two[a + H] * dk(a - b) for b in members] for a in members])
+    return members, [(j - r) // L + n for j in members], B
+
+
+def _random_receptance(H, seed):
+    rng = np.random.default_rng(seed)
+    h = 1e-8 * (rng.normal(size=H + 1) + 1j * rng.normal(size=H + 1))
+    h[0] = h[0].real
+    return rng, np.concatenate([np.conj(h[:0:-1]), h])
+
+
+def test_preconditioner_factors_against_each_class_built_by_hand(problem):
+    """The LU factors (classes 0..L/2, the others left to their mirror) reassemble each
+    class's block built member by member: ``P^T L U = B``."""
+    from gearuq.rotor.sideband_balance import _class_blocks
+
+    prep = prepare_krylov(problem.excitation, 3)
+    _, h_two = _random_receptance(prep.n_harmonics, 5)
+    lu, piv = _class_blocks(prep, h_two)
+    assert lu.shape[0] == L // 2 + 1
+    for r in range(L // 2 + 1):
+        members, pos, B = _class_block_by_hand(prep, h_two, r)
+        n = len(members)
+        assert pos == list(range(n))  # the padding, if any, is the last slot
+        low = np.tril(lu[r][:n, :n], -1) + np.eye(n)
+        A = low @ np.triu(lu[r][:n, :n])
+        for k in range(n - 1, -1, -1):  # undo the swaps, last first
+            A[[k, piv[r][k]]] = A[[piv[r][k], k]]
+        np.testing.assert_allclose(A, B, rtol=0, atol=1e-12)
 
 
 # ------------------------------------------------------------------ compiled kernels (speed)
@@ -335,29 +351,26 @@ def test_gmres_meets_its_tolerance_with_restarts():
 
 
 def test_block_preconditioner_applied_in_the_real_layout(problem):
-    """The compiled application against the blocks applied to each class of the two-sided
+    """The compiled solves (half of the classes, their mirrors read as conjugates) against
+    every class's block, built by hand and inverted densely, applied to the two-sided
     spectrum and read back on j >= 0."""
-    from gearuq.rotor._spectral_kernels import apply_class_inverses
+    from gearuq.rotor._spectral_kernels import apply_class_factors
     from gearuq.rotor.sideband_balance import _class_blocks
 
     prep = prepare_krylov(problem.excitation, 3)
-    H, idx = prep.n_harmonics, prep.class_index
-    rng = np.random.default_rng(8)
-    h = 1e-8 * (rng.normal(size=H + 1) + 1j * rng.normal(size=H + 1))
-    h_two = np.concatenate([np.conj(h[:0:-1]), h])
-    inv = _class_blocks(prep, h_two)
+    H = prep.n_harmonics
+    rng, h_two = _random_receptance(H, 8)
     v = rng.normal(size=2 * H + 1)
     x = v[:H + 1] + 0j
     x[1:] += 1j * v[H + 1:]
     two = np.concatenate([np.conj(x[:0:-1]), x])
     out = np.zeros(2 * H + 1, dtype=complex)
     for r in range(L):
-        ok = idx[r] >= 0
-        z = inv[r][:, ok] @ two[idx[r][ok]]
-        out[idx[r][ok]] = z[ok]
+        members, _, B = _class_block_by_hand(prep, h_two, r)
+        out[np.add(members, H)] = np.linalg.solve(B, two[np.add(members, H)])
     want = np.concatenate([out[H:].real, out[H + 1:].imag])
-    np.testing.assert_allclose(apply_class_inverses(inv, idx, v), want, rtol=0,
-                               atol=1e-13 * np.abs(want).max())
+    got = apply_class_factors(*_class_blocks(prep, h_two), prep.class_index, v)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.abs(want).max())
 
 
 def test_rotor_bench_table_renders_every_kind_of_row():

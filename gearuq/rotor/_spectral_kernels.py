@@ -4,8 +4,8 @@ Each replaces a numpy expression whose temporaries, not its arithmetic, cost the
 ``H`` of several thousand harmonics (docs/theory/geared_rotor.md, "Speed of the long-period
 route"): the modal receptances (a complex division per frequency and pole, then one product
 per output), the preconditioner's small blocks per residue class (batched ``inv`` of 7 x 7
-matrices is mostly call overhead) and their application, and the Newton polish of a
-trigonometric series' maximum. Each computes what the numpy expression computed, to
+matrices is mostly call overhead; here LU factors) and their solves, and the Newton polish
+of a trigonometric series' maximum. Each computes what the numpy expression computed, to
 rounding.
 """
 
@@ -52,106 +52,101 @@ def pole_sums(w: np.ndarray, poles: np.ndarray, weights: np.ndarray) -> np.ndarr
 
 
 @njit(cache=True)
-def _invert(A: np.ndarray, n: int) -> np.ndarray:
-    """Inverse of the leading ``n x n`` block of ``A`` (Gauss-Jordan, partial pivoting)."""
-    a = A[:n, :n].copy()
-    inv = np.eye(n, dtype=np.complex128)
+def _factor(a: np.ndarray, n: int, piv: np.ndarray) -> None:
+    """LU of the leading ``n x n`` block of ``a`` in place, ``P a = L U`` (rows swapped
+    whole, as LAPACK's ``getrf``; ``piv[k]``: the row swapped with ``k`` at step ``k``)."""
     for col in range(n):
-        piv = col  # pivot by |Re| + |Im| (no square root)
+        p = col  # pivot by |Re| + |Im| (no square root)
         best = abs(a[col, col].real) + abs(a[col, col].imag)
         for r in range(col + 1, n):
             m = abs(a[r, col].real) + abs(a[r, col].imag)
             if m > best:
-                piv, best = r, m
-        if piv != col:
+                p, best = r, m
+        piv[col] = p
+        if p != col:
             for c in range(n):
-                a[col, c], a[piv, c] = a[piv, c], a[col, c]
-                inv[col, c], inv[piv, c] = inv[piv, c], inv[col, c]
-        s = 1.0 / a[col, col]
-        for c in range(n):
-            a[col, c] *= s
-            inv[col, c] *= s
-        for r in range(n):
-            if r != col:
-                f = a[r, col]
-                if f != 0.0:
-                    for c in range(n):
-                        a[r, c] -= f * a[col, c]
-                        inv[r, c] -= f * inv[col, c]
-    return inv
+                a[col, c], a[p, c] = a[p, c], a[col, c]
+        d = 1.0 / a[col, col]
+        for r in range(col + 1, n):
+            f = a[r, col] * d
+            a[r, col] = f
+            for c in range(col + 1, n):
+                a[r, c] -= f * a[col, c]
 
 
 @njit(cache=True)
-def class_inverses(index: np.ndarray, h_two: np.ndarray, coupling: np.ndarray) -> np.ndarray:
-    """Inverse blocks of ``I + diag(h) T`` per residue class (see ``_class_blocks``).
+def class_factors(index: np.ndarray, h_two: np.ndarray,
+                  coupling: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """LU factors of ``I + diag(h) T`` for the residue classes ``0..L // 2`` only.
 
-    Classes ``0..L // 2`` are inverted (class 0 on all ``M`` members, the others on their
-    ``M - 1``; the last member is padding, an identity row and column); class ``L - r`` is
-    the conjugate of class ``r`` reversed.
+    Class 0 on all ``M`` members, the others on their ``M - 1`` (the last member is
+    padding); a third of the arithmetic of the blocks' inverses. Class ``L - r`` needs no
+    factors: its members are the negatives of class ``r``'s, and
+    :func:`apply_class_factors` reads their outputs as conjugates of class ``r``'s.
     """
     L, M = index.shape
     half = L // 2 + 1
-    inv = np.zeros((L, M, M), dtype=np.complex128)
-    B = np.empty((M, M), dtype=np.complex128)
+    lu = np.zeros((half, M, M), dtype=np.complex128)
+    piv = np.zeros((half, M), dtype=np.int64)
     for r in range(half):
         for a in range(M):
             ia = index[r, a]
             for b in range(M):
                 ib = index[r, b]
+                lu[r, a, b] = 1.0 if a == b else 0.0
                 if ia >= 0 and ib >= 0:
-                    B[a, b] = (1.0 if a == b else 0.0) + h_two[ia] * coupling[a, b]
-                else:
-                    B[a, b] = 1.0 if a == b else 0.0
-        n = M if r == 0 else M - 1
-        inv[r, :n, :n] = _invert(B, n)
-        if r > 0:
-            inv[r, M - 1, M - 1] = 1.0
-    m2 = M - 1
-    for r in range(half, L):
-        src = L - r
-        for a in range(m2):
-            for b in range(m2):
-                inv[r, a, b] = np.conj(inv[src, m2 - 1 - a, m2 - 1 - b])
-        inv[r, m2, m2] = 1.0
-    return inv
+                    lu[r, a, b] += h_two[ia] * coupling[a, b]
+        _factor(lu[r], M if r == 0 else M - 1, piv[r])
+    return lu, piv
 
 
 @njit(cache=True)
-def apply_class_inverses(inv: np.ndarray, index: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The block preconditioner on a real vector ``[Re x_0..x_H, Im x_1..x_H]``.
+def apply_class_factors(lu: np.ndarray, piv: np.ndarray, index: np.ndarray,
+                        v: np.ndarray) -> np.ndarray:
+    """The block preconditioner by its LU factors on ``[Re x_0..x_H, Im x_1..x_H]``.
 
-    ``x`` is the one-sided spectrum of a real signal (``x_-j = conj(x_j)``); only the
-    outputs ``j >= 0`` are formed (the rest is their conjugate), and the result is returned
-    in the same real layout with ``Im`` of ``j = 0`` dropped.
+    One solve per class ``r = 0..L // 2`` on all its members: those ``j >= 0`` are outputs
+    of class ``r``, those ``j < 0`` give class ``L - r``'s outputs at ``-j`` as their
+    conjugates (``x`` is the spectrum of a real signal, and so is its image).
     """
-    L, M = index.shape
+    M = index.shape[1]
+    half = lu.shape[0]
     H = (v.size - 1) // 2
     out = np.zeros(v.size)
-    for r in range(L):
-        for a in range(M):
-            ia = index[r, a]
-            if ia < H:  # padding (-1) or a negative harmonic
-                continue
-            sr = 0.0
-            si = 0.0
-            for b in range(M):
-                ib = index[r, b]
-                if ib < 0:
-                    continue
-                j = ib - H
-                if j >= 0:
-                    xr = v[j]
-                    xi = v[H + j] if j > 0 else 0.0
-                else:
-                    xr = v[-j]
-                    xi = -v[H - j]
-                c = inv[r, a, b]
-                sr += c.real * xr - c.imag * xi
-                si += c.real * xi + c.imag * xr
-            j = ia - H
-            out[j] = sr
+    z = np.empty(M, dtype=np.complex128)
+    for r in range(half):
+        n = M if r == 0 else M - 1
+        for a in range(n):
+            j = index[r, a] - H
             if j > 0:
-                out[H + j] = si
+                z[a] = v[j] + 1j * v[H + j]
+            elif j == 0:
+                z[a] = v[0]
+            else:
+                z[a] = v[-j] - 1j * v[H - j]
+        for k in range(n):  # the row swaps, then L (unit diagonal), then U
+            p = piv[r, k]
+            if p != k:
+                z[k], z[p] = z[p], z[k]
+        for a in range(1, n):
+            s = z[a]
+            for b in range(a):
+                s -= lu[r, a, b] * z[b]
+            z[a] = s
+        for a in range(n - 1, -1, -1):
+            s = z[a]
+            for b in range(a + 1, n):
+                s -= lu[r, a, b] * z[b]
+            z[a] = s / lu[r, a, a]
+        for a in range(n):
+            j = index[r, a] - H
+            if j >= 0:
+                out[j] = z[a].real
+                if j > 0:
+                    out[H + j] = z[a].imag
+            else:
+                out[-j] = z[a].real
+                out[H - j] = -z[a].imag
     return out
 
 
