@@ -383,6 +383,30 @@ def test_speed_continuation_is_reproducible_and_within_the_gmres_tolerance(rotor
     assert first.iterations[1:].sum() < cold.iterations[1:].sum()
 
 
+def test_speed_range_gmres_account_bounds_a_sample(rotor_13_17, monkeypatch):
+    """Once a speed-range call has spent its GMRES budget, each further steady state gets
+    ``SPENT_SWEEP_GMRES`` iterations and, short of them, status 1 (a 27/79 sample with
+    contact loss near a resonance ran past 5 min of CPU); the next call has its own
+    account."""
+    from gearuq_plugins.geared_rotor import long_period
+
+    model, params = rotor_13_17
+    problem = model.rotor_problem(params, speed_range=True, range_mesh_harmonics=2)
+    speeds = np.linspace(6000.0, 6400.0, 5)
+    kw = {"peaks_refined": 0, "refine": ()}
+    full = problem.dynamics_over_speeds(speeds, **kw)
+    assert np.all(full.status == 0) and np.all(full.iterations > 0)
+    monkeypatch.setattr(long_period, "SWEEP_GMRES_BUDGET", int(full.iterations[0]))
+    monkeypatch.setattr(long_period, "SPENT_SWEEP_GMRES", 0)
+    cut = problem.dynamics_over_speeds(speeds, **kw)
+    # the first speed spends the account; the others get none, and say they failed
+    assert cut.status[0] == 0 and np.all(cut.status[1:] == 1)
+    assert np.all(cut.iterations[1:] == 0) and cut.worst_status() == 1
+    monkeypatch.undo()
+    again = problem.dynamics_over_speeds(speeds, **kw)
+    np.testing.assert_array_equal(again.kv, full.kv)
+
+
 def test_series_maximum_against_a_fine_search():
     """The polished maximum of a sparse trigonometric series, against an independent
     brute-force search (direct cosine sums on 200 000 instants, then a bounded scalar

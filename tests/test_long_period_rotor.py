@@ -397,6 +397,7 @@ def test_rotor_bench_table_renders_every_kind_of_row():
     _rotor_table(rows, lines)
     plugin = [ln for ln in lines if ln.startswith("| 27/79 | 1.40 | 2.00 |")]
     assert len(plugin) == 1 and "1.3e-06" in plugin[0]
+    assert plugin[0].count("|") == 9  # eight cells: dte_rms_max and its error apart
     assert any(ln.startswith("| every harmonic, GMRES 1e-06 | 8533 | 9.0 | 1.44 |")
                for ln in lines)
     assert sum(ln.startswith("| 30/30 | 2.00 | - |") for ln in lines) == 1

@@ -42,6 +42,15 @@ STATUS_BACK_FLANK_TRUNCATED = 4
 #: GMRES relative tolerance of the long-period route (its error: docs/theory/geared_rotor.md).
 GMRES_TOL = 1e-6
 
+#: GMRES iterations one speed-range call (a sample's sweep and peak refinement) may spend
+#: in all (about 30 s of CPU for a 27/79 stage): past it, each steady state gets
+#: ``SPENT_SWEEP_GMRES``, enough for full contact, so a sample whose contact-loss steady
+#: states stagnate ends in bounded time with status 1 at those speeds.
+SWEEP_GMRES_BUDGET = 20_000
+
+#: GMRES iterations a steady state gets once the sweep's budget is spent.
+SPENT_SWEEP_GMRES = 200
+
 #: Local maxima of the sampled mesh force polished by Newton's method for K_v.
 PEAK_CANDIDATES = 4
 
@@ -132,6 +141,7 @@ class LongPeriodProblem(GearedRotorProblem):
         self._blas_limited = False  # inside dynamics_over_speeds, BLAS is limited once
         self._previous: np.ndarray | None = None  # last GMRES delta: the next solve's start
         self._continued = False  # GMRES starts from _previous (inside dynamics_over_speeds)
+        self._spent = 0  # GMRES iterations of the current dynamics_over_speeds call
         if solver == "gmres":
             self.krylov = prepare_krylov(excitation, self.mesh_harmonics)
             self.kept = np.arange(self._H + 1)
@@ -197,6 +207,7 @@ class LongPeriodProblem(GearedRotorProblem):
         with single_threaded_blas():
             self._blas_limited = True
             self._continued = bool(kw.get("continuation", True))
+            self._spent = 0
             try:
                 return super().dynamics_over_speeds(speeds_rpm, **kw)
             finally:
@@ -225,10 +236,15 @@ class LongPeriodProblem(GearedRotorProblem):
         )
 
         if self.solver == "gmres":
+            from gearuq.rotor.sideband_balance import GMRES_BUDGET
+
             start = self._previous if self._continued else None
+            budget = min(GMRES_BUDGET, max(SWEEP_GMRES_BUDGET - self._spent, SPENT_SWEEP_GMRES))
             sol = solve_periodic_krylov(model, self.krylov, T, omega, newton_tol=tol,
                                         tol=self.gmres_tol, receptance=rec, channels=names,
-                                        initial=start, newton_start=start)
+                                        initial=start, newton_start=start, max_iter=budget)
+            if self._blas_limited:  # inside dynamics_over_speeds: the sweep's account
+                self._spent += sol.iterations
             # the next speed starts GMRES here (a nearby speed: fewer iterations)
             self._previous = sol.delta if sol.status == 0 else None
             if math.isinf(self.backlash) or sol.min_approach > -self.backlash:
