@@ -11,7 +11,9 @@ long-period harmonics that hold ``spectral_energy`` of the excitation (:func:`~g
 sideband_balance.solve_periodic_orders`). What each costs and loses: docs/theory/
 geared_rotor.md, "Hunting-tooth stages in the plugin" and "Speed of the long-period route"
 (GMRES to ``gmres_tol``, started from the previous speed of a sweep; K_v from the force
-series' maximum polished by Newton's method).
+series' maximum polished by Newton's method; the GMRES iterations of a steady state and of a
+speed-range call bounded, so that a sample whose contact-loss steady states stagnate ends,
+flagged).
 """
 
 from __future__ import annotations
@@ -231,13 +233,12 @@ class LongPeriodProblem(GearedRotorProblem):
                tol: float, initial: np.ndarray | None) -> PeriodicSolution:
         """One steady state on the kept orders by the chosen solver."""
         from gearuq.rotor.sideband_balance import (
+            GMRES_BUDGET,
             solve_periodic_krylov,
             solve_periodic_orders,
         )
 
         if self.solver == "gmres":
-            from gearuq.rotor.sideband_balance import GMRES_BUDGET
-
             start = self._previous if self._continued else None
             budget = min(GMRES_BUDGET, max(SWEEP_GMRES_BUDGET - self._spent, SPENT_SWEEP_GMRES))
             sol = solve_periodic_krylov(model, self.krylov, T, omega, newton_tol=tol,
