@@ -353,6 +353,24 @@ def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatc
     assert "spectral_orders_only" in ds["status"].attrs["flag_meanings"]
 
 
+@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
+def test_back_flank_fallback_too_large_is_refused_and_flagged(rotor_13_17, monkeypatch):
+    """Spectral orders beyond the fallback's limit are not solved densely (minutes per steady
+    state for a 27/79 sample): GMRES's front-flank solution comes back with status 1."""
+    from gearuq_plugins.geared_rotor import long_period
+
+    monkeypatch.setattr(long_period, "MAX_DENSE_FALLBACK_ORDERS", 100)
+    monkeypatch.setattr(long_period, "MAX_SPECTRAL_FALLBACK_ORDERS", 10)
+    model, params = rotor_13_17
+    rattle = params | {"torque": 10.0, "damping_ratio": 0.01, "backlash": 0.5,
+                       "iso_grade": 11}
+    problem = model.rotor_problem(rattle, speed_range=True, spectral_energy=0.995)
+    got, sol = problem.dynamics_at(8000.0)
+    assert problem.orders.orders.size > 10 and sol.status == 1
+    assert sol.back_contact_fraction == 0.0 and sol.min_approach < -0.5e-6  # front only
+    assert sol.delta.size == problem.n_harmonics + 1
+
+
 def test_table_route_in_threads_gives_the_serial_numbers(routes_13_17):
     """A fresh model built in threads: one table per level, the serial run's numbers."""
     _, params, _, table = routes_13_17

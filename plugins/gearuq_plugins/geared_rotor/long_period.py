@@ -27,7 +27,7 @@ import numpy as np
 
 from gearuq.rotor.excitation import MeshExcitation
 from gearuq.rotor.geared import GearedRotorProblem, single_threaded_blas
-from gearuq.rotor.harmonic_balance import PeriodicSolution
+from gearuq.rotor.harmonic_balance import STATUS_NOT_CONVERGED, PeriodicSolution
 
 #: Longest period [mesh cycles] solved by the dense balance; above it, this module.
 MAX_DENSE_LONG_PERIOD = 120
@@ -36,6 +36,11 @@ MAX_DENSE_LONG_PERIOD = 120
 #: Most harmonics the back-flank fallback solves densely (a real system of 2 x this size);
 #: beyond, it keeps the spectral orders and flags the speed with STATUS_BACK_FLANK_TRUNCATED.
 MAX_DENSE_FALLBACK_ORDERS = 2048
+
+#: Most spectral orders the back-flank fallback of a long period solves (a dense real system
+#: of twice as many unknowns per Newton step, 0.1 s at 512 orders): a 27/79 sample (germ
+#: seed 3, 150 N m) met the back flank with a set that took minutes per steady state.
+MAX_SPECTRAL_FALLBACK_ORDERS = 512
 
 #: Status of a steady state (beyond the balance's 0-3): back-flank contact solved on the
 #: spectral orders only, with their truncation error (docs/theory/geared_rotor.md).
@@ -251,7 +256,7 @@ class LongPeriodProblem(GearedRotorProblem):
             if math.isinf(self.backlash) or sol.min_approach > -self.backlash:
                 return sol
             # the flanks would meet on the back: the order balance, which has the back flank
-            return self._back_flank(model, T, omega, rec, names, tol)
+            return self._back_flank(model, T, omega, rec, names, tol, sol)
         start = None if initial is None or np.asarray(initial).size != 2 * self.kept.size - 1 \
             else np.asarray(initial)[self.kept.size - 1:]
         kw = {"backlash": self.backlash, "tol": tol, "receptance": rec, "channels": names}
@@ -261,8 +266,13 @@ class LongPeriodProblem(GearedRotorProblem):
         return sol
 
     def _back_flank(self, model: Any, T: float, omega: float, rec: dict, names: list[str],
-                    tol: float) -> PeriodicSolution:
-        """Back-flank contact after GMRES: every harmonic, or the spectral orders, flagged."""
+                    tol: float, front_only: PeriodicSolution) -> PeriodicSolution:
+        """Back-flank contact after GMRES: every harmonic, or the spectral orders, flagged.
+
+        Spectral orders beyond ``MAX_SPECTRAL_FALLBACK_ORDERS`` are not solved (a dense
+        system of twice their number per Newton step): ``front_only``, GMRES's solution
+        without the back flank, is returned with status 1.
+        """
         from gearuq.rotor.sideband_balance import (
             prepare_orders,
             solve_periodic_orders,
@@ -275,6 +285,9 @@ class LongPeriodProblem(GearedRotorProblem):
                                  always=self.mesh_order_index) if truncated else self.kept)
             self.orders = prepare_orders(self.excitation, J)
         J = self.orders.orders
+        if truncated and J.size > MAX_SPECTRAL_FALLBACK_ORDERS:
+            front_only.status = STATUS_NOT_CONVERGED
+            return front_only
         sol = solve_periodic_orders(model, self.orders, T, omega, backlash=self.backlash,
                                     tol=tol, channels=names,
                                     receptance={k: v[J] for k, v in rec.items()})
