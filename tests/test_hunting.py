@@ -330,17 +330,26 @@ def test_gmres_falls_back_to_back_flank_contact(rotor_13_17):
     assert got["kv"] > 3.0
 
 
-@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
-def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatch):
-    """Too many harmonics for a dense fallback: spectral orders, and a status that says so."""
+def _rattle_truncated(rotor_13_17, monkeypatch, largest_spectral_set=None):
+    """The 13/17 rattle case at 8000 rpm with the dense fallback limited to 100 harmonics
+    (and, if given, the spectral fallback to ``largest_spectral_set`` orders)."""
     from gearuq_plugins.geared_rotor import long_period
 
     monkeypatch.setattr(long_period, "MAX_DENSE_FALLBACK_ORDERS", 100)
+    if largest_spectral_set is not None:
+        monkeypatch.setattr(long_period, "MAX_SPECTRAL_FALLBACK_ORDERS", largest_spectral_set)
     model, params = rotor_13_17
     rattle = params | {"torque": 10.0, "damping_ratio": 0.01, "backlash": 0.5,
                        "iso_grade": 11}
     problem = model.rotor_problem(rattle, speed_range=True, spectral_energy=0.995)
-    got, sol = problem.dynamics_at(8000.0)
+    return long_period, model, rattle, problem, problem.dynamics_at(8000.0)
+
+
+@pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
+def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatch):
+    """Too many harmonics for a dense fallback: spectral orders, and a status that says so."""
+    long_period, model, rattle, problem, (got, sol) = _rattle_truncated(rotor_13_17,
+                                                                        monkeypatch)
     assert sol.status == long_period.STATUS_BACK_FLANK_TRUNCATED
     assert sol.branch == "back_flank_contact" and sol.delta.size == problem.n_harmonics + 1
     ref, _ = _dense_twin(problem).dynamics_at(8000.0)
@@ -357,15 +366,8 @@ def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatc
 def test_back_flank_fallback_too_large_is_refused_and_flagged(rotor_13_17, monkeypatch):
     """Spectral orders beyond the fallback's limit are not solved densely (minutes per steady
     state for a 27/79 sample): GMRES's front-flank solution comes back with status 1."""
-    from gearuq_plugins.geared_rotor import long_period
-
-    monkeypatch.setattr(long_period, "MAX_DENSE_FALLBACK_ORDERS", 100)
-    monkeypatch.setattr(long_period, "MAX_SPECTRAL_FALLBACK_ORDERS", 10)
-    model, params = rotor_13_17
-    rattle = params | {"torque": 10.0, "damping_ratio": 0.01, "backlash": 0.5,
-                       "iso_grade": 11}
-    problem = model.rotor_problem(rattle, speed_range=True, spectral_energy=0.995)
-    got, sol = problem.dynamics_at(8000.0)
+    _, _, _, problem, (_, sol) = _rattle_truncated(rotor_13_17, monkeypatch,
+                                                   largest_spectral_set=10)
     assert problem.orders.orders.size > 10 and sol.status == 1
     assert sol.back_contact_fraction == 0.0 and sol.min_approach < -0.5e-6  # front only
     assert sol.delta.size == problem.n_harmonics + 1
