@@ -261,6 +261,7 @@ def test_kill_releases_the_lock_and_identical_rerun_resumes(tmp_path):
     assert out.stdout.split()[-1] == str(done)  # the finished chunks were shared
 
 
+@pytest.mark.e2e  # two whole runs in subprocesses (6 s of CPU): CI runs it with -m e2e
 def test_second_identical_run_waits_and_shares(tmp_path):
     store = str(tmp_path / "s")
     a = _run_script(tmp_path, "a.py", SLOW_RUN, store, "7", "0.1", wait=False)

@@ -197,8 +197,10 @@ def test_upper_tail_pf_from_fit_close_to_exact():
     true = stats.lognorm(0.5, scale=1.0)
     thr = true.isf(1e-3)
     x = true.rvs(N_LARGE, random_state=np.random.default_rng(15))
+    # 100 bootstrap refits (half the cost of 200): the lognormal interval's ends move by under
+    # 1 % (0.827e-3 and 1.224e-3 against 0.829e-3 and 1.237e-3), 17-22 % from the truth
     res = fit_distributions(x, ["lognormal", "gamma", "weibull"], threshold=thr,
-                            bootstrap=200, rng=16)
+                            bootstrap=100, rng=16)
     ds = res.dataset
     pf = float(ds["pf_fit"].sel(candidate="lognormal"))
     assert pf == pytest.approx(1e-3, rel=0.3)

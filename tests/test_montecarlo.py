@@ -302,6 +302,7 @@ def _script_env():
                                                          os.environ.get("PYTHONPATH", "")])}
 
 
+@pytest.mark.e2e  # two runs in subprocesses, one killed (5 s of CPU): CI runs it with -m e2e
 def test_resume_after_killed_subprocess(tmp_path):
     """Kill a run after >= 3 of 12 chunks; the identical rerun computes only the rest."""
     store = tmp_path / "store"

@@ -2,8 +2,8 @@
 
 Contract checks cover all studies registered under ``gearuq.studies``; the quick modes of the
 cheap studies run through the registry into a temporary folder, and each asserts a number
-its physics fixes (not only that files exist). The quick modes over ~20 s of wall run with
-``-m e2e`` (``.ci/run`` does), so every study's quick output is checked for its marks in CI;
+its physics fixes (not only that files exist). The quick modes over a few seconds of CPU run
+with ``-m e2e`` (``.ci/run`` does), so every study's quick output is checked for its marks in CI;
 each is under a minute of CPU (docs/benchmarks.md, "Quick modes, measured one by one").
 """
 
@@ -216,6 +216,7 @@ def test_quick_pitch_deviation_excitation(tmp_path):
     assert rmap.attrs["optimum_ste_ptp_um"] < float(rmap["ste_ptp"].isel(amount=0).min())
 
 
+@pytest.mark.e2e
 def test_quick_geared_rotor_spectra(tmp_path):
     _run_quick("geared_rotor_spectra", tmp_path)
     loads = gearuq.load(tmp_path / "spectra_torques.nc")
@@ -226,6 +227,7 @@ def test_quick_geared_rotor_spectra(tmp_path):
     assert fm_relief[1] < 0.5 * fm_relief[0], fm_relief  # the 42 um relief near its optimum
 
 
+@pytest.mark.e2e
 def test_quick_transmission_error_uq(tmp_path):
     _run_quick("transmission_error_uq", tmp_path)
     sob = gearuq.load(tmp_path / "sobol_indices.nc").sel(output="ste_ptp")
