@@ -344,10 +344,15 @@ def test_quick_dynamic_factor_study(tmp_path):
     assert count["lower"] <= count["pf"] <= count["upper"]
     assert ss["p_pass"] == pytest.approx(0.95**2)
     rare = info["rare"]  # quick: the rare stage's code path at the moderate X
-    assert rare["X"] == info["X"] and set(rare) == {"X", "mfis"}
-    assert rare["mfis"]["lower"] <= rare["mfis"]["pf"] <= rare["mfis"]["upper"]
-    assert rare["mfis"]["runs"] <= 40 and rare["mfis"]["cheap_runs"] > 0
-    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_mfis"}
+    assert rare["X"] == info["X"] and set(rare) == {"X", "subspace"}
+    sub = rare["subspace"]
+    for fidelity in ("cheap", "rotor"):
+        assert sub[fidelity]["lower"] <= sub[fidelity]["pf"] <= sub[fidelity]["upper"]
+        assert isinstance(sub[fidelity]["message"], str) and sub[fidelity]["message"]
+    # rejected pairs cost no run: at most the 12 draws, and P(pass) counted near 0.95^2
+    assert sub["rotor"]["runs"] <= 12 and sub["fit"]["runs"] > 0
+    assert sub["p_pass"] == pytest.approx(0.95**2, abs=0.004)
+    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_subspace"}
     assert min(info["kv_max_quantiles"]) >= 1.0 and min(info["kv_iso_max_quantiles"]) >= 1.0
     assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
                                                        "campbell_map.png"}
@@ -407,3 +412,52 @@ def test_rare_stage_against_an_independent_count():
     assert 0.05 < count < 0.5  # a moderate level, so the count resolves it
     se = math.hypot(math.sqrt(count * (1 - count) / n), res["cov"] * res["pf"])
     assert abs(res["pf"] - count) < 3.5 * se
+
+
+def test_germ_acceptance_margin_is_the_plugins_output(model):
+    """The rare stage's vectorised gate equals the rotor's own ``pitch_acceptance_margin``
+    (no dynamics run: pitch outputs need none), and accepts 0.95^2 of the capable process."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    space = study.study_space()
+    u = np.random.default_rng(8).standard_normal((40, len(space.names)))
+    design = {n: space.marginal(n).from_normal(u[:, j]) for j, n in enumerate(space.names)}
+    ds = study.study_model(6).response(design, None, outputs=["pitch_acceptance_margin"],
+                                       **study.OPTIONS)
+    np.testing.assert_allclose(study.germ_acceptance_margin(u, 6),
+                               ds["pitch_acceptance_margin"].values, atol=1e-12)
+    many = np.random.default_rng(9).standard_normal((200_000, 58))
+    share = np.mean(study.germ_acceptance_margin(many, 6) >= 0)
+    # the process's quantile comes from 200 000 draws (0.3 % in F_p): 0.95 to about 1e-3
+    assert share == pytest.approx(0.95**2, abs=0.004)
+
+
+@pytest.mark.e2e
+def test_subspace_rare_stage_against_an_independent_count():
+    """The rare stage's importance sampling in a few directions, on a small rotor (3 speeds)
+    at a moderate level, against a crude count of accepted pairs that shares no estimator
+    code with it (the acceptance read from the rotor's output, not the stage's gate)."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    small = {**study.OPTIONS, "n_speeds": 3, "speed_min": 6000.0, "speed_max": 8000.0,
+             "range_mesh_harmonics": 1, "peaks_refined": 0}
+    cheap = {**small, "n_speeds": 2, "positions_per_cycle": 12, "n_pts": 8}
+    x = 1.22
+    settings = {**study.QUICK_SUBSPACE, "n_per_level": 60, "n_cheap": 60, "n_rotor": 150,
+                "widen": 0.02}
+    res = study.subspace_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
+                                          options=small, cheap_options=cheap)
+    rotor = res["rotor"]
+    # rejected pairs cost no run: fewer runs than draws at every level
+    assert 0 < res["fit"]["runs"] < 60 * len(res["fit"]["levels"]) and rotor["runs"] < 150
+    assert rotor["lower"] <= rotor["pf"] <= rotor["upper"] and rotor["status"] in (0, 1)
+    draws = study.study_space().sample(400, rng=17)
+    ds = study.study_model(6).response(draws, None, outputs=["kv_max",
+                                                             "pitch_acceptance_margin"], **small)
+    assert np.all(ds["status"].values == 0)
+    acc = ds["pitch_acceptance_margin"].values >= 0
+    k, n = int(np.sum(acc & (ds["kv_max"].values >= x))), int(acc.sum())
+    count = k / n
+    assert 0.05 < count < 0.5  # a moderate level, so the count resolves it
+    se = math.hypot(math.sqrt(count * (1 - count) / n), rotor["cov"] * rotor["pf"])
+    assert abs(rotor["pf"] - count) < 3.5 * se
