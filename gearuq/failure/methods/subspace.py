@@ -66,9 +66,10 @@ def subspace_density(basis: np.ndarray, mean: np.ndarray, cov: np.ndarray,
     ----------
     basis : ndarray (d, k)
         Orthonormal columns ``B``.
-    mean : ndarray (k,)
-        Mean ``m`` of the moved component in the coordinates ``B^T u``.
-    cov : ndarray (k, k)
+    mean : ndarray (k,) or (L, k)
+        Mean ``m`` of the moved component in the coordinates ``B^T u`` (or of ``L``
+        components of equal share).
+    cov : ndarray (k, k) or (L, k, k)
         Its covariance ``C`` in those coordinates (symmetric positive definite).
     defensive : float
         Share ``a`` of the standard normal component, in (0, 1): every weight is at most
@@ -82,10 +83,10 @@ def subspace_density(basis: np.ndarray, mean: np.ndarray, cov: np.ndarray,
     d, k = basis.shape
     if not 0.0 < defensive < 1.0:
         raise ValueError(f"defensive={defensive!r} is outside its valid range (0, 1)")
-    mean = np.asarray(mean, dtype=float).reshape(k)
-    cov = np.asarray(cov, dtype=float).reshape(k, k)
-    full = np.eye(d) + basis @ (cov - np.eye(k)) @ basis.T
-    return Mixture((basis @ mean)[None], full[None], np.ones(1), defensive)
+    means = np.asarray(mean, dtype=float).reshape(-1, k)
+    covs = np.asarray(cov, dtype=float).reshape(-1, k, k)
+    full = np.eye(d)[None] + basis[None] @ (covs - np.eye(k)[None]) @ basis.T[None]
+    return Mixture(means @ basis.T, full, np.ones(len(means)), defensive)
 
 
 def gated_batch(limit: Limit, density: Mixture, n: int, seed: Any,
@@ -128,8 +129,8 @@ def _moments(v: np.ndarray, omega: np.ndarray, min_std: float) -> tuple[np.ndarr
 def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, seed: int,
                          gate: Gate | None = None, p0: float = 0.1, defensive: float = 0.1,
                          min_std: float = 0.3, max_levels: int = 12,
-                         start: tuple[np.ndarray, np.ndarray] | None = None
-                         ) -> tuple[Mixture, dict[str, Any]]:
+                         start: tuple[np.ndarray, np.ndarray] | None = None,
+                         keep_levels: bool = False) -> tuple[Mixture, dict[str, Any]]:
     """Multi-level cross-entropy in ``span(basis)``: the density that reaches ``g <= 0``.
 
     Level ``l`` draws ``n_per_level`` points of the current density, sets ``gamma_l`` to
@@ -158,11 +159,22 @@ def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, s
         Largest number of levels.
     start : (mean, cov), optional
         The first level's component (default: the standard normal).
+    keep_levels : bool
+        Return the mixture, in equal shares, of the components fitted at every level (the
+        balance heuristic of multiple importance sampling, Veach and Guibas 1995; Owen and
+        Zhou 2000) rather than the last one alone. The last level's component sits where
+        the failing points of its level were; a failure set that also reaches towards the
+        origin, where the input law has more mass, gets density from the earlier levels,
+        and a failing draw there no longer carries a large weight. The weights stay bounded
+        by ``1 / defensive`` and depend on ``B^T u`` only. Off by default: on the geared
+        rotor's K_v it spread the draws over the levels and lowered the effective sample
+        size (1.2 against 4.9 of the last level alone; docs/benchmarks.md).
 
     Returns
     -------
     (Mixture, dict)
-        The density and ``{"levels": [gamma_l], "runs": model runs, "reached": gamma = 0}``.
+        The density and ``{"levels": [gamma_l], "runs": model runs, "reached": gamma = 0,
+        "mean", "cov": the last level's component}``.
     """
     basis = _check_basis(basis)
     k = basis.shape[1]
@@ -173,7 +185,7 @@ def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, s
         raise ValueError(f"p0={p0!r} is outside its valid range (0, 0.5)")
     mean, cov = start if start is not None else (np.zeros(k), np.eye(k))
     density = subspace_density(basis, mean, cov, defensive)
-    levels, runs, reached = [], 0, False
+    levels, runs, reached, fitted = [], 0, False, []
     for level in range(int(max_levels)):
         bt = gated_batch(limit, density, n_per_level, np.random.SeedSequence([seed, level]),
                          gate)
@@ -186,10 +198,14 @@ def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, s
         levels.append(gamma)
         omega = np.where(g <= gamma, bt["w"], 0.0)
         mean, cov = _moments(bt["u"] @ basis, omega, min_std)
+        fitted.append((mean, cov))
         density = subspace_density(basis, mean, cov, defensive)
         if gamma == 0.0:
             reached = True
             break
+    if keep_levels and len(fitted) > 1:
+        density = subspace_density(basis, np.array([m for m, _ in fitted]),
+                                   np.array([c for _, c in fitted]), defensive)
     return density, {"levels": levels, "runs": runs, "reached": reached,
                      "mean": mean, "cov": cov}
 
