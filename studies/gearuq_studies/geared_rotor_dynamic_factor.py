@@ -56,10 +56,12 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    loaded machine) the cheap model gives 2.0e-7 and the rotor 5.2e-8; two more runs give
    1.6e-7 and 2.3e-7 (cheap) and 1.3e-7 (rotor). In each a few failing draws at the edge
    of the density carry a third to nine tenths of the estimate (status 1 or 3), so the
-   value, about 1e-7, may lean low and no interval is vouched for yet. The single cheap
-   subset walks' 3e-6 lies 15-20 times higher; the rotor subset's 1.2e-8 [4.6e-10, 3.1e-7]
-   (status 1) holds the new values; the Gaussian-mixture MFIS's 1.1e-11 (status 3) is four
-   decades low (docs/benchmarks.md, "The dynamic question").
+   value, about 1e-7, may lean low and no interval is vouched for yet; moving all 29
+   pinion-plus-wheel pitch sums instead gives 4e-9 and 9e-9 with weights more degenerate
+   still. The single cheap subset walks' 3e-6 lies 15-20 times higher; the rotor subset's
+   1.2e-8 [4.6e-10, 3.1e-7] (status 1) holds the six-direction values; the Gaussian-mixture
+   MFIS's 1.1e-11 (status 3) is far too low. The truth at X = 1.83 lies between about 1e-7
+   and 3e-6 (docs/benchmarks.md, "The dynamic question").
    :func:`mfis_given_acceptance` and :func:`subset_given_acceptance` stay available
    (``--rare-methods``).
 
