@@ -344,10 +344,15 @@ def test_quick_dynamic_factor_study(tmp_path):
     assert count["lower"] <= count["pf"] <= count["upper"]
     assert ss["p_pass"] == pytest.approx(0.95**2)
     rare = info["rare"]  # quick: the rare stage's code path at the moderate X
-    assert rare["X"] == info["X"] and set(rare) == {"X", "mfis"}
-    assert rare["mfis"]["lower"] <= rare["mfis"]["pf"] <= rare["mfis"]["upper"]
-    assert rare["mfis"]["runs"] <= 40 and rare["mfis"]["cheap_runs"] > 0
-    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_mfis"}
+    assert rare["X"] == info["X"] and set(rare) == {"X", "subspace"}
+    sub = rare["subspace"]
+    for fidelity in ("cheap", "rotor"):
+        assert sub[fidelity]["lower"] <= sub[fidelity]["pf"] <= sub[fidelity]["upper"]
+        assert isinstance(sub[fidelity]["message"], str) and sub[fidelity]["message"]
+    # rejected pairs cost no run: at most the 12 draws, and P(pass) counted near 0.95^2
+    assert sub["rotor"]["runs"] <= 12 and sub["fit"]["runs"] > 0
+    assert sub["p_pass"] == pytest.approx(0.95**2, abs=0.004)
+    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_subspace"}
     assert min(info["kv_max_quantiles"]) >= 1.0 and min(info["kv_iso_max_quantiles"]) >= 1.0
     assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
                                                        "campbell_map.png"}
@@ -380,23 +385,17 @@ def test_a_failed_steady_state_while_locating_a_peak_is_flagged(problem, monkeyp
     assert kv < clean.peaks["kv"][0]
 
 
-@pytest.mark.e2e
-def test_rare_stage_against_an_independent_count():
-    """The rare stage's MFIS on a small rotor (3 speeds) at a moderate level against a crude
-    count of accepted pairs that shares no estimator code with it (and divides by the
-    counted acceptance, not the exact 0.95^2 the stage uses)."""
+#: The rare-stage tests' small rotor (3 speeds, 1 harmonic) and its cheaper twin.
+_SMALL_ROTOR = {"pitch_tolerance_law": "capable_process", "process_share_beyond": 0.05,
+                "n_speeds": 3, "speed_min": 6000.0, "speed_max": 8000.0,
+                "range_mesh_harmonics": 1, "peaks_refined": 0}
+_SMALL_CHEAP = {**_SMALL_ROTOR, "n_speeds": 2, "positions_per_cycle": 12, "n_pts": 8}
+
+def _agrees_with_a_crude_count(res: dict, small: dict, x: float) -> None:
+    """``res["pf"]`` against P(kv_max >= x | pass) counted on 400 draws of the small rotor
+    (the acceptance read from the rotor's output), within 3.5 joint standard errors."""
     from gearuq_studies import geared_rotor_dynamic_factor as study
 
-    small = {**study.OPTIONS, "n_speeds": 3, "speed_min": 6000.0, "speed_max": 8000.0,
-             "range_mesh_harmonics": 1, "peaks_refined": 0}
-    cheap = {**small, "n_speeds": 2, "positions_per_cycle": 12, "n_pts": 8}
-    x = 1.22
-    settings = {**study.RARE_MFIS, "n_per_level": 100, "n_samples": 60, "max_samples": 180,
-                "target_cov": 0.2}
-    res = study.mfis_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
-                                      options=small, cheap_options=cheap)
-    assert res["p_pass"] == pytest.approx(0.95**2) and res["cheap_runs"] >= 100
-    assert res["runs"] <= 180 and res["lower"] <= res["pf"] <= res["upper"]
     draws = study.study_space().sample(400, rng=17)
     ds = study.study_model(6).response(draws, None, outputs=["kv_max",
                                                              "pitch_acceptance_margin"], **small)
@@ -407,3 +406,57 @@ def test_rare_stage_against_an_independent_count():
     assert 0.05 < count < 0.5  # a moderate level, so the count resolves it
     se = math.hypot(math.sqrt(count * (1 - count) / n), res["cov"] * res["pf"])
     assert abs(res["pf"] - count) < 3.5 * se
+
+
+@pytest.mark.e2e
+def test_rare_stage_against_an_independent_count():
+    """The rare stage's MFIS on a small rotor (3 speeds) at a moderate level against a crude
+    count of accepted pairs that shares no estimator code with it (and divides by the
+    counted acceptance, not the exact 0.95^2 the stage uses)."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    small, cheap, x = _SMALL_ROTOR, _SMALL_CHEAP, 1.22
+    settings = {**study.RARE_MFIS, "n_per_level": 100, "n_samples": 60, "max_samples": 180,
+                "target_cov": 0.2}
+    res = study.mfis_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
+                                      options=small, cheap_options=cheap)
+    assert res["p_pass"] == pytest.approx(0.95**2) and res["cheap_runs"] >= 100
+    assert res["runs"] <= 180 and res["lower"] <= res["pf"] <= res["upper"]
+    _agrees_with_a_crude_count(res, small, x)
+
+
+def test_germ_acceptance_margin_is_the_plugins_output(model):
+    """The rare stage's vectorised gate equals the rotor's own ``pitch_acceptance_margin``
+    (no dynamics run: pitch outputs need none), and accepts 0.95^2 of the capable process."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    space = study.study_space()
+    u = np.random.default_rng(8).standard_normal((40, len(space.names)))
+    design = {n: space.marginal(n).from_normal(u[:, j]) for j, n in enumerate(space.names)}
+    ds = study.study_model(6).response(design, None, outputs=["pitch_acceptance_margin"],
+                                       **study.OPTIONS)
+    np.testing.assert_allclose(study.germ_acceptance_margin(u, 6),
+                               ds["pitch_acceptance_margin"].values, atol=1e-12)
+    many = np.random.default_rng(9).standard_normal((200_000, 58))
+    share = np.mean(study.germ_acceptance_margin(many, 6) >= 0)
+    # the process's quantile comes from 200 000 draws (0.3 % in F_p): 0.95 to about 1e-3
+    assert share == pytest.approx(0.95**2, abs=0.004)
+
+
+@pytest.mark.e2e
+def test_subspace_rare_stage_against_an_independent_count():
+    """The rare stage's importance sampling in a few directions, on a small rotor (3 speeds)
+    at a moderate level, against a crude count of accepted pairs that shares no estimator
+    code with it (the acceptance read from the rotor's output, not the stage's gate)."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    small, cheap, x = _SMALL_ROTOR, _SMALL_CHEAP, 1.22
+    settings = {**study.QUICK_SUBSPACE, "n_per_level": 60, "n_cheap": 60, "n_rotor": 150,
+                "widen": 0.02}
+    res = study.subspace_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
+                                          options=small, cheap_options=cheap)
+    rotor = res["rotor"]
+    # rejected pairs cost no run: fewer runs than draws at every level
+    assert 0 < res["fit"]["runs"] < 60 * len(res["fit"]["levels"]) and rotor["runs"] < 150
+    assert rotor["lower"] <= rotor["pf"] <= rotor["upper"] and rotor["status"] in (0, 1)
+    _agrees_with_a_crude_count(rotor, small, x)
