@@ -61,6 +61,21 @@ def test_the_stage_sets_the_inputs():
         study.load_stage("no_such_stage")
 
 
+def test_the_stage_option_routes_and_refuses_what_a_stage_does_not_use(tmp_path):
+    """``stage`` sends the call to the stage's population; the paper's call is unchanged."""
+    from gearuq.cli import study_parser
+
+    with pytest.raises(ValueError, match=r"grade=13 is outside its valid range"):
+        study.run(out=tmp_path, grade=13)  # the paper's own validation: not routed
+    with pytest.raises(ValueError, match=r"grade=7 is not used on a stage"):
+        study.run(out=tmp_path, grade=7, stage=STAGE)
+    with pytest.raises(ValueError, match=r"n_per_level=5 is outside its valid range: 0"):
+        study.run(out=tmp_path, n_per_level=5, stage=STAGE)
+    args = study_parser("geared_rotor_dynamic_factor", study.run).parse_args(
+        ["--stage", STAGE, "--n-per-level", "0"])
+    assert vars(args) == {"stage": STAGE, "n_per_level": 0}
+
+
 def test_accepted_share_is_the_capable_process_closed_form():
     """Each gear of its own class and germ count: 5 % beyond F_pT, so P(pass) = 0.95^2.
 

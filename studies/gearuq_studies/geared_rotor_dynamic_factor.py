@@ -54,7 +54,21 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
 ``--quick`` runs a few dozen rotor runs (a few minutes of CPU), the rare stage at the
 moderate X with 40 rotor runs, and marks every figure "quick: N runs, not a result".
 
-Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]``.
+**On a gear stage** (``--stage e_axle_27_79`` or a stage TOML file; :func:`run_on_stage`):
+the population stage on the stage's own rotor and speed range. Inputs: the pitch germ of its
+tooth numbers (26 + 78 normals for 27/79), each gear at its own class (6 and 7) under the
+capable process, the pair kept when both pass inspection; each relief of the drawing as an
+inspected normal (8 +- 3 um per gear, 1 % of the process beyond, as the paper's relief);
+the torque uniform on the stage's operating range (50-250 N m, the range its file's
+``[random.mean_force]`` spans) and the damping ratio as the file declares it (uniform 1-5 %).
+ISO 6336-1 Method B takes the coarser class, 7. The steady states are on the spectral orders
+(:data:`STAGE_SOLVER`): GMRES stalls where the teeth separate. The rare level, the Sobol'
+stage and ``--grade`` do not apply on a stage; subset simulation at the moderate X runs with
+``n_per_level`` > 0. Measured on the e-axle (docs/benchmarks.md, "On the e-axle 27/79
+stage"): EAXLE_NUMBERS.
+
+Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]
+[--stage NAME|FILE]``.
 """
 
 from __future__ import annotations
@@ -125,10 +139,20 @@ def load_stage(stage: str | Path | GearStage) -> GearStage:
                      f"{', '.join(GearStage.examples())}) nor an existing TOML file")
 
 
+#: The long-period solver of a hunting-tooth stage: the steady state on the spectral orders
+#: that hold 98 % of the excitation's energy. GMRES on every harmonic (the plugin's default)
+#: stalls where the teeth separate at the resonance (10-20 CPU s a speed on the e-axle at
+#: 12-16 % contact loss, against 0.01 s without): docs/benchmarks.md, "On the e-axle 27/79
+#: stage", gives the cost and the K_v both give.
+STAGE_SOLVER: dict[str, Any] = {"long_period_solver": "spectral_orders",
+                                "spectral_energy": 0.98}
+
+
 def stage_options(stage: GearStage) -> dict[str, Any]:
-    """:data:`OPTIONS` on the stage's own speed range (its ``[operation] speed``)."""
+    """:data:`OPTIONS` on the stage's own speed range (its ``[operation] speed``), with
+    :data:`STAGE_SOLVER` (used only when the stage's long period is a hunting tooth's)."""
     low, high = stage.operation.speed
-    return {**OPTIONS, "speed_min": float(low), "speed_max": float(high)}
+    return {**OPTIONS, **STAGE_SOLVER, "speed_min": float(low), "speed_max": float(high)}
 
 
 def study_model(grade: int = 6, stage: GearStage | None = None) -> gearuq.Model:
@@ -452,7 +476,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     executor, chunk_size :
         How rotor runs are spread over the cores; the answers do not depend on them.
     n_runs, n_per_level : int
-        Crude Monte Carlo runs and subset-simulation samples per level.
+        Crude Monte Carlo runs and subset-simulation samples per level (0: no subset
+        simulation).
 
     Returns
     -------
@@ -462,9 +487,11 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     stage = load_stage(stage)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    for name, value in (("n_runs", n_runs), ("n_per_level", n_per_level)):
-        if int(value) != value or value < 10:
-            raise ValueError(f"{name}={value!r} is outside its valid range: integers >= 10")
+    if int(n_runs) != n_runs or n_runs < 10:
+        raise ValueError(f"n_runs={n_runs!r} is outside its valid range: integers >= 10")
+    if int(n_per_level) != n_per_level or not (n_per_level == 0 or n_per_level >= 10):
+        raise ValueError(f"n_per_level={n_per_level!r} is outside its valid range: 0 (no "
+                         "subset simulation) or integers >= 10")
     n_mc, stages = (QUICK_STAGE_RUNS if quick else int(n_runs)), {}
     with workers_for_run(executor) as pool:
         run_on = {"executor": pool, "chunk_size": chunk_size}
@@ -480,7 +507,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
         ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
         x = float(np.quantile(ds["kv_max"].values[ok], 0.9))
         ss = None
-        if not quick:
+        if not quick and n_per_level:
             system = gearuq.ParallelSystem([kv_exceeds(x), accepted()])
             ss = given_acceptance(failure_probability(
                 study_model(stage=stage), study_space(stage), system, method="subset",
