@@ -68,12 +68,39 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
 ``--quick`` runs a few dozen rotor runs (a few minutes of CPU), the rare stage at the
 moderate X with 12 rotor runs, and marks every figure "quick: N runs, not a result".
 
-Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]``.
+**On a gear stage** (``--stage e_axle_27_79`` or a stage TOML file; :func:`run_on_stage`):
+the population stage on the stage's own rotor and speed range. Inputs: the pitch germ of its
+tooth numbers (26 + 78 normals for 27/79), each gear at its own class (6 and 7) under the
+capable process, the pair kept when both pass inspection; each relief of the drawing as an
+inspected normal (8 +- 3 um per gear, 1 % of the process beyond, as the paper's relief);
+the torque uniform on the stage's operating range (50-250 N m, the range its file's
+``[random.mean_force]`` spans) and the damping ratio as the file declares it (uniform 1-5 %).
+ISO 6336-1 Method B takes the coarser class, 7. The steady states are on the spectral orders
+(:data:`STAGE_SOLVER`): GMRES stalls where the teeth separate. The rare level, the Sobol'
+stage and ``--grade`` do not apply on a stage; subset simulation at the moderate X runs with
+``n_per_level`` > 0. Measured on the e-axle (112 runs, 9.6 CPU s each; docs/benchmarks.md,
+"On the e-axle 27/79 stage"): 101 pairs pass inspection (0.95^2 = 90.25 % expected); 13 runs
+have no steady state (status 16: the deepest contact loss, damping <= 3 %); the 90 accepted
+pairs with one have ``kv_max`` 1.14 / 1.56 / 2.20 (5 / 50 / 95 %) against Method B's 1.40 /
+1.51 / 2.00, and 86 of them peak at 11 830-12 330 rpm, 7 % below the crossing of ``f_m`` with
+the 5.82 kHz mode (15 % of its strain energy in the mesh), a speed that agrees with the
+sideband ``f_m + 2 f_s`` of the pinion's pitch deviations on it; without pitch deviations K_v
+is 1.02. At X = 2.06,
+P(kv_max >= X | pass) = 0.10 [0.047, 0.18] by count, 0.20 [0.13, 0.29] with the failed
+accepted runs counted as failures; subset simulation (60 per level, 169 runs) 0.092 [0.058,
+0.386], status 6 (0.217 with its 8 failed runs as failures). Rank correlations with
+``kv_max``: pinion F_p +0.59, torque -0.41, damping -0.37, wheel F_p and the reliefs
+|rho| <= 0.10.
+
+Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]
+[--stage NAME|FILE]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
+import inspect
 import json
 import math
 import time
@@ -97,10 +124,12 @@ from gearuq.gears.deviations import (
     capable_pitch_scatter,
     inspected_normal_spec,
     iso1328_pitch_tolerances,
+    pitch_germ_names,
     pitch_germ_scales,
     total_cumulative_pitch_deviation,
 )
 from gearuq.gears.geometry import seed002_pair
+from gearuq.gears.stage import GearStage
 from gearuq.space import ParameterSpace
 
 #: Model options of the study: the capable process law, 80 speeds (100 rpm steps; peaks
@@ -137,13 +166,54 @@ QUICK_MFIS: dict[str, Any] = {**RARE_MFIS, "n_per_level": 100, "n_samples": 20,
                               "max_samples": 40, "target_cov": 0.5}
 
 
-def study_model(grade: int = 6) -> gearuq.Model:
-    """The rotor with both gears of ISO 1328-1 class ``grade``."""
+def load_stage(stage: str | Path | GearStage) -> GearStage:
+    """A :class:`gearuq.GearStage` from a built-in name (``e_axle_27_79``) or a TOML path."""
+    if isinstance(stage, GearStage):
+        return stage
+    if not isinstance(stage, (str, Path)):
+        raise TypeError(f"stage={stage!r} must be a stage name, a TOML path or a GearStage")
+    if str(stage) in GearStage.examples():
+        return GearStage.example(str(stage))
+    if Path(stage).is_file():
+        return GearStage.from_toml(stage)
+    raise ValueError(f"stage={str(stage)!r} is neither a built-in stage (valid: "
+                     f"{', '.join(GearStage.examples())}) nor an existing TOML file")
+
+
+#: The long-period solver of a hunting-tooth stage: the steady state on the spectral orders
+#: that hold 98 % of the excitation's energy. GMRES on every harmonic (the plugin's default)
+#: stalls where the teeth separate at the resonance (10-20 CPU s a speed on the e-axle at
+#: 12-16 % contact loss, against 0.01 s without): docs/benchmarks.md, "On the e-axle 27/79
+#: stage", gives the cost and the K_v both give.
+STAGE_SOLVER: dict[str, Any] = {"long_period_solver": "spectral_orders",
+                                "spectral_energy": 0.98}
+
+
+def stage_options(stage: GearStage) -> dict[str, Any]:
+    """:data:`OPTIONS` on the stage's own speed range (its ``[operation] speed``), with
+    :data:`STAGE_SOLVER` (used only when the stage's long period is a hunting tooth's)."""
+    low, high = stage.operation.speed
+    return {**OPTIONS, **STAGE_SOLVER, "speed_min": float(low), "speed_max": float(high)}
+
+
+def study_model(grade: int = 6, stage: GearStage | None = None) -> gearuq.Model:
+    """The rotor with both gears of ISO 1328-1 class ``grade``; or the rotor of ``stage``
+    with the stage's own classes (``grade`` is then not used)."""
+    if stage is not None:
+        return gearuq.get_model("geared_rotor", stage=stage)
     return gearuq.get_model("geared_rotor").with_nominal(iso_grade=grade)
 
 
-def study_space() -> ParameterSpace:
-    """Pitch germs, inspected relief, load spread and damping (module docstring)."""
+def study_space(stage: GearStage | None = None) -> ParameterSpace:
+    """Pitch germs, inspected relief, load spread and damping (module docstring).
+
+    On a ``stage``: the germ of its tooth numbers (``z - 1`` normals per gear), each relief
+    of the drawing as an inspected normal (its amount and tolerance, 1 % beyond), the torque
+    uniform on its operating range and the laws its ``[random.*]`` tables declare for
+    parameters of the rotor (the e-axle's ``damping_ratio``; without one, uniform 3-8 %).
+    """
+    if stage is not None:
+        return _stage_space(stage)
     germ = {f"pitch_xi_{g}_{k}": {"dist": "normal", "mean": 0.0, "std": 1.0}
             for g in ("p", "g") for k in range(1, 30)}
     return ParameterSpace({
@@ -152,6 +222,27 @@ def study_space() -> ParameterSpace:
         "torque": {"dist": "lognormal", "mean": 1000.0, "std": 100.0},
         "damping_ratio": {"dist": "uniform", "lower": 0.03, "upper": 0.08},
     })
+
+
+def _stage_space(stage: GearStage) -> ParameterSpace:
+    names = set(study_model(stage=stage).parameter_names)
+    spec: dict[str, Any] = {name: {"dist": "normal", "mean": 0.0, "std": 1.0}
+                            for gear, z in ((1, stage.teeth[0]), (2, stage.teeth[1]))
+                            for name in pitch_germ_names(z, gear) if name in names}
+    for gear in ("pinion", "wheel"):
+        for kind in ("tip", "root"):
+            relief = getattr(getattr(stage, gear), f"{kind}_relief")
+            # a relief of its own, or the one shared parabolic tip relief of the paper's route
+            name = next((n for n in (f"{gear}_{kind}_relief_amount", f"{kind}_relief_amount")
+                         if n in names), None)
+            if relief is not None and name is not None and relief.amount_tolerance > 0:
+                spec[name] = inspected_normal_spec(relief.amount, relief.amount_tolerance,
+                                                   0.01)
+    spec["torque"] = {"dist": "uniform", "lower": stage.operation.torque[0],
+                      "upper": stage.operation.torque[1]}
+    spec["damping_ratio"] = {"dist": "uniform", "lower": 0.03, "upper": 0.08}
+    spec |= {name: dict(law) for name, law in stage.random if name in names}
+    return ParameterSpace(spec)
 
 
 def accepted() -> LimitState:
@@ -165,8 +256,14 @@ def kv_exceeds(x: float) -> LimitState:
 
 
 def population(n: int, seed: int, grade: int, out: Path,
-               execution: dict[str, Any]) -> Any:
-    """``n`` rotor runs of the untruncated process, stored (a rerun reuses them)."""
+               execution: dict[str, Any], stage: GearStage | None = None) -> Any:
+    """``n`` rotor runs of the untruncated process, stored (a rerun reuses them); on a
+    ``stage``, its rotor, inputs and speed range (store ``mc_store_<stage name>``)."""
+    if stage is not None:
+        return gearuq.monte_carlo(study_model(stage=stage), study_space(stage), None,
+                                  n_samples=n, rng=seed, outputs=OUTPUTS,
+                                  store=out / f"mc_store_{stage.name}", progress=False,
+                                  model_options=stage_options(stage), **execution)
     return gearuq.monte_carlo(study_model(grade), study_space(), None, n_samples=n, rng=seed,
                               outputs=OUTPUTS, store=out / f"mc_store_grade{grade}",
                               progress=False, model_options=OPTIONS, **execution)
@@ -402,29 +499,53 @@ def grouped_sobol(n_base: int, seed: int, grade: int,
             "ST_conf": res["ST_conf"].tolist(), "runs": int(y.size)}
 
 
-def mesh_mode_speeds(grade: int) -> list[tuple[float, float]]:
+def mesh_mode_speeds(grade: int, stage: GearStage | None = None) -> list[tuple[float, float]]:
     """``(speed [rpm], mesh strain-energy share)`` where z1 n / 60 meets a natural frequency.
 
     Natural frequencies of the nominal rotor linearised at its mean mesh stiffness; only
-    modes with more than 3 % of their strain energy in the mesh.
+    modes with more than 3 % of their strain energy in the mesh. On a ``stage``: its rotor
+    at the middle of its torque range (the mesh stiffness, and so the modes, follow the
+    load), and the modes whose crossing with ``f_m`` or ``2 f_m`` lies in its speed range.
     """
-    prob = study_model(grade).rotor_problem(speed_range=True)
+    if stage is None:
+        prob = study_model(grade).rotor_problem(speed_range=True)
+        low, high, top = 0.0, 8000.0, 8000.0
+    else:
+        low, high = stage.operation.speed
+        top = 2.0 * high  # 2 f_m meets the mode inside the range
+        prob = study_model(stage=stage).rotor_problem(
+            {"torque": float(np.mean(stage.operation.torque))}, speed_range=True,
+            **stage_options(stage))
     modes = prob.modes.elastic
     v = prob.rotor.mesh_vector()
     share = prob.excitation.mean_stiffness * (v @ modes.shapes) ** 2 / modes.omega**2
     speeds = modes.omega / (2.0 * math.pi) * 60.0 / prob.pinion_teeth
     return [(float(s), float(e)) for s, e in zip(speeds, share, strict=True)
-            if e > 0.03 and s < 8000.0]
+            if e > 0.03 and low <= s < top]
 
 
 def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
-            sobol: dict[str, Any] | None, grade: int) -> list[Path]:
-    """K_v against speed with bands and ISO; the Campbell-like map; the Sobol' bars."""
+            sobol: dict[str, Any] | None, grade: int,
+            stage: GearStage | None = None) -> list[Path]:
+    """K_v against speed with bands and ISO; the Campbell-like map; the Sobol' bars.
+
+    On a ``stage`` the ISO curve is labelled with its two classes (Method B takes the
+    coarser) and the titles name the stage; mode lines are drawn inside the speed range.
+    """
     import matplotlib.pyplot as plt
 
     ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
     n = int(ok.sum())
     speeds = ds["range_speed"].values
+
+    def inside(speed: float) -> bool:  # a line off the range would widen the axes
+        return bool(speeds[0] <= speed <= speeds[-1])
+
+    iso_class, where = f"class {grade}", ""
+    if stage is not None:
+        iso_class = (f"classes {stage.pinion.iso_grade}/{stage.wheel.iso_grade}, the coarser "
+                     "taken")
+        where = f", {stage.name}"
     kv = ds["kv_over_speed"].values[ok]
     iso = ds["kv_iso_over_speed"].values[ok]
     paths = []
@@ -434,12 +555,13 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
                         color=shade, label=f"simulated K_v, {lo}-{hi} % of {n} accepted pairs")
     ax.plot(speeds, np.median(kv, axis=0), color="k", lw=1, label="simulated median")
     ax.plot(speeds, np.median(iso, axis=0), color="tab:red", lw=1.5,
-            label=f"ISO 6336-1 Method B, class {grade}, median load and relief")
+            label=f"ISO 6336-1 Method B, {iso_class}, median load and relief")
     ax.axhline(x, color="tab:blue", ls="--", lw=1, label=f"X = {x:.3g}")
     for s, _ in modes:
-        ax.axvline(s, color="tab:green", lw=0.6, alpha=0.6)
+        if inside(s):
+            ax.axvline(s, color="tab:green", lw=0.6, alpha=0.6)
     ax.set(xlabel="pinion speed [rpm]", ylabel="K_v [1]", title="Dynamic factor over the speed "
-           "range (green: mesh frequency = natural frequency)")
+           f"range{where} (green: mesh frequency = natural frequency)")
     ax.legend(fontsize=7, loc="upper left")
     paths.append(out / "kv_over_speed.png")
     plot.save_figure(fig, paths[-1], dpi=130, bbox_inches="tight")  # stamps a quick run
@@ -450,14 +572,16 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
     ax.scatter(at[~fail], top[~fail], s=10, color="0.5", label="accepted, K_v < X")
     ax.scatter(at[fail], top[fail], s=18, color="tab:red", label="accepted, K_v >= X")
     for s, e in modes:
-        ax.axvline(s, color="tab:green", lw=0.8, alpha=0.7)
-        ax.axvline(s / 2.0, color="tab:green", lw=0.8, alpha=0.5, ls=":")
-        # inside the axes, at their top: clear of the title whatever the data's range
-        ax.annotate(f"{e:.0%}", (s, 0.98), xycoords=("data", "axes fraction"), fontsize=6,
-                    ha="center", va="top", color="tab:green")
+        if inside(s):
+            ax.axvline(s, color="tab:green", lw=0.8, alpha=0.7)
+            # inside the axes, at their top: clear of the title whatever the data's range
+            ax.annotate(f"{e:.0%}", (s, 0.98), xycoords=("data", "axes fraction"),
+                        fontsize=6, ha="center", va="top", color="tab:green")
+        if inside(s / 2.0):
+            ax.axvline(s / 2.0, color="tab:green", lw=0.8, alpha=0.5, ls=":")
     ax.set(xlabel="speed of the K_v peak [rpm]", ylabel="kv_max [1]",
-           title="Where the peaks sit (green: f_m, dotted: 2 f_m = a natural frequency; "
-           "share of mesh strain energy)")
+           title=f"Where the peaks sit{where} (green: f_m, dotted: 2 f_m = a natural "
+           "frequency; share of mesh strain energy)")
     ax.legend(fontsize=7)
     paths.append(out / "campbell_map.png")
     plot.save_figure(fig, paths[-1], dpi=130, bbox_inches="tight")  # stamps a quick run
@@ -476,6 +600,209 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
     return paths
 
 
+#: Runs of ``--quick --stage``: a check of the stage's code path, not an answer.
+QUICK_STAGE_RUNS = 8
+#: Inputs whose rank correlation with ``kv_max`` the stage reports (relief amounts added).
+DRIVERS = ("damping_ratio", "torque", "pitch_total_deviation_pinion",
+           "pitch_total_deviation_wheel")
+
+
+def wall_and_cpu(pool: Any) -> tuple[float, float]:
+    """Wall-clock seconds, and CPU seconds of this process plus ``pool``'s workers."""
+    return time.perf_counter(), time.process_time() + getattr(pool, "worker_cpu_seconds", 0.0)
+
+
+def kv_drivers(ds: Any) -> dict[str, float]:
+    """Spearman rank correlation of ``kv_max`` with each cause over the accepted pairs.
+
+    A first look at what drives K_v (damping, load, each relief, each gear's F_p), cheap
+    beside grouped Sobol' indices: it sees monotone effects only, one input at a time.
+    """
+    from scipy.stats import spearmanr
+
+    ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
+    names = [*DRIVERS, *(n for n in ds.data_vars if str(n).endswith("relief_amount"))]
+    return {str(n): float(spearmanr(ds[n].values[ok], ds["kv_max"].values[ok])[0])
+            for n in names if np.ptp(ds[n].values[ok]) > 0}
+
+
+def invalid_as_failures(ds: Any, x: float) -> dict[str, float]:
+    """P(kv_max >= x | pass) with every accepted run whose steady state failed counted as a
+    failure: an upper bound beside :func:`conditional_count`, which leaves them out.
+
+    The runs that fail are those whose teeth separate most at the resonance, i.e. the
+    largest K_v, so leaving them out leans low; inspection's verdict is kinematic and known
+    for them.
+    """
+    bad = (ds["status"].values != 0) & (ds["pitch_acceptance_margin"].values >= 0)
+    count = conditional_count(ds, x)
+    k, n = count["failures"] + int(bad.sum()), count["accepted"] + int(bad.sum())
+    lo, up = clopper_pearson_interval(k, n)
+    return {"pf": k / max(n, 1), "lower": float(lo), "upper": float(up), "failures": k,
+            "accepted": n, "invalid_accepted": int(bad.sum())}
+
+
+def peak_sites(ds: Any, modes: list[tuple[float, float]]) -> list[dict[str, float]]:
+    """How many accepted pairs have their K_v peak nearest each crossing of ``f_m`` or
+    ``2 f_m`` with a mesh mode (and at the top of the range, where a crossing lies above)."""
+    ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
+    at = ds["speed_at_kv_max"].values[ok]
+    top = float(ds["range_speed"].values[-1])
+    sites = [(top, 0, 0.0)] + [(s / h, h, e) for s, e in modes for h in (1, 2)
+                               if s / h <= top]
+    nearest = np.argmin(np.abs(at[:, None] - np.array([c for c, _, _ in sites])), axis=1)
+    return [{"speed": c, "harmonic": h, "mesh_energy_share": e,
+             "peaks": int(np.sum(nearest == i))} for i, (c, h, e) in enumerate(sites)]
+
+
+@plot.quick_mode(
+    lambda a: f"{QUICK_STAGE_RUNS} rotor runs on the stage",
+    left_out=("the population of n_runs rotor runs and subset simulation on the stage: "
+              "no quantile, probability or ranking here is resolved"))
+def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = False,
+                 seed: int = 2028, executor: Any = DEFAULT_EXECUTION["executor"],
+                 chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
+                 n_per_level: int = 200) -> int:
+    """The population stage of the dynamic question on a gear stage (``--stage``).
+
+    The stage's rotor, classes, reliefs, load and speed range (:func:`study_space`), the
+    capable process truncated by inspection; K_v over speed beside ISO 6336-1 Method B,
+    the Campbell-like map, the accepted share against its closed form ``(1 - s)^2``, X at
+    the 90 % quantile of accepted ``kv_max`` with P(kv_max >= X | pass) by counting and by
+    subset simulation on the parallel system (not in ``quick``), the rank correlations of
+    ``kv_max`` with its causes. The rare level is not run on a stage.
+
+    Parameters
+    ----------
+    stage : str, path or GearStage
+        A built-in stage name or a stage TOML file (:func:`load_stage`).
+    out : path
+        Output folder (created); the Monte Carlo store lives in it and is reused.
+    quick : bool
+        :data:`QUICK_STAGE_RUNS` rotor runs and no subset simulation: a check.
+    seed : int
+        Seed of every random stage.
+    executor, chunk_size :
+        How rotor runs are spread over the cores; the answers do not depend on them.
+    n_runs, n_per_level : int
+        Crude Monte Carlo runs and subset-simulation samples per level (0: no subset
+        simulation).
+
+    Returns
+    -------
+    int
+        0.
+    """
+    stage = load_stage(stage)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    if int(n_runs) != n_runs or n_runs < 10:
+        raise ValueError(f"n_runs={n_runs!r} is outside its valid range: integers >= 10")
+    if int(n_per_level) != n_per_level or not (n_per_level == 0 or n_per_level >= 10):
+        raise ValueError(f"n_per_level={n_per_level!r} is outside its valid range: 0 (no "
+                         "subset simulation) or integers >= 10")
+    n_mc, stages = (QUICK_STAGE_RUNS if quick else int(n_runs)), {}
+    with workers_for_run(executor) as pool:
+        run_on = {"executor": pool, "chunk_size": chunk_size}
+        clock = functools.partial(wall_and_cpu, pool)
+        t0, c0 = clock()
+        ds = population(n_mc, seed, 0, out, run_on, stage)
+        t1, c1 = clock()
+        stages["population"] = (t1 - t0, c1 - c0)
+        ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
+        x = float(np.quantile(ds["kv_max"].values[ok], 0.9))
+        ss = None
+        if not quick and n_per_level:
+            system = gearuq.ParallelSystem([kv_exceeds(x), accepted()])
+            ss = given_acceptance(failure_probability(
+                study_model(stage=stage), study_space(stage), system, method="subset",
+                rng=seed + 1, n_per_level=int(n_per_level), model_options=stage_options(stage),
+                **run_on))
+            stages["subset"] = tuple(np.subtract(clock(), (t1, c1)))
+    modes = mesh_mode_speeds(0, stage)
+    paths = figures(out, ds, x, modes, None, 0, stage)
+    p_pass = (1.0 - OPTIONS["process_share_beyond"]) ** 2
+    n_ok = int((ds["status"].values == 0).sum())
+    info = {"quick": quick, "stage": stage.name, "classes": [stage.pinion.iso_grade,
+                                                             stage.wheel.iso_grade],
+            "seed": seed, "X": x, "crude_mc": conditional_count(ds, x),
+            "crude_mc_invalid_as_failures": invalid_as_failures(ds, x), "subset": ss,
+            "accepted_share": int(ok.sum()) / max(n_ok, 1), "accepted_share_interval":
+            clopper_pearson_interval(int(ok.sum()), n_ok), "accepted_share_closed_form": p_pass,
+            "kv_max_quantiles": np.quantile(ds["kv_max"].values[ok], [0.05, 0.5, 0.95]),
+            "kv_iso_max_quantiles": np.quantile(ds["kv_iso_max"].values[ok],
+                                                [0.05, 0.5, 0.95]),
+            "speed_at_kv_max_quantiles": np.quantile(ds["speed_at_kv_max"].values[ok],
+                                                     [0.05, 0.5, 0.95]),
+            "kv_rank_correlations": kv_drivers(ds), "mesh_mode_speeds": modes,
+            "peak_sites": peak_sites(ds, modes), "options": stage_options(stage),
+            "space": [m for m in study_space(stage).to_dict()["parameters"]
+                      if not m["name"].startswith("pitch_xi_")],
+            "population_cpu_s_per_run": stages["population"][1] / n_mc,
+            "stages_wall_cpu_s": stages, "execution": {"executor": executor,
+                                                       "chunk_size": chunk_size}}
+    gearuq.save(ds, out / "population.nc")
+    (out / "summary.json").write_text(json.dumps(info, indent=1, default=lambda v: (
+        v.tolist() if hasattr(v, "tolist") else float(v))))
+    _print_stage(info, out, paths)
+    return 0
+
+
+def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
+    count, ss = info["crude_mc"], info["subset"]
+    lo, up = info["accepted_share_interval"]
+    print(f"{info['stage']}: accepted {count['accepted']} of {count['runs'] - count['invalid']} "
+          f"({info['accepted_share']:.3f} [{lo:.3f}, {up:.3f}]; closed form "
+          f"{info['accepted_share_closed_form']:.4f})")
+    print(f"X = {info['X']:.4g} (90 % of accepted kv_max)")
+    print(f"  crude MC : P(kv_max >= X | pass) = {count['pf']:.3g} [{count['lower']:.3g}, "
+          f"{count['upper']:.3g}] ({count['failures']} of {count['accepted']})")
+    bound = info["crude_mc_invalid_as_failures"]
+    if bound["invalid_accepted"]:
+        print(f"  {count['invalid']} runs without a steady state (status != 0), "
+              f"{bound['invalid_accepted']} of them accepted; counted as failures: "
+              f"{bound['pf']:.3g} [{bound['lower']:.3g}, {bound['upper']:.3g}]")
+    if ss is not None:
+        print(f"  subset   : {ss['pf']:.3g} [{ss['lower']:.3g}, {ss['upper']:.3g}], status "
+              f"{ss['status']} ({ss['message']}), {ss['runs']} rotor runs")
+    print("  kv_max 5/50/95 %: " + ", ".join(f"{v:.3f}" for v in info["kv_max_quantiles"])
+          + "; ISO Method B: " + ", ".join(f"{v:.3f}" for v in info["kv_iso_max_quantiles"]))
+    print("  rank correlation with kv_max: " + ", ".join(
+        f"{k} {v:+.2f}" for k, v in info["kv_rank_correlations"].items()))
+    print("  peaks nearest: " + ", ".join(
+        f"{p['speed']:.0f} rpm (h {p['harmonic']}) {p['peaks']}" for p in info["peak_sites"]
+        if p["peaks"]))
+    for name, (wall, cpu) in info["stages_wall_cpu_s"].items():
+        print(f"  stage {name}: {wall:.0f} s wall, {cpu:.0f} s CPU (this process and its "
+              "workers)")
+    print(f"written: {out} ({', '.join(p.name for p in paths)}, population.nc, summary.json)")
+
+
+def _stage_route(run_paper: Any) -> Any:
+    """Send a call of ``run`` with ``stage`` to :func:`run_on_stage` (its own quick mode);
+    a setting the stage does not use, changed from its default, is refused by name."""
+    signature = inspect.signature(run_paper)
+
+    @functools.wraps(run_paper)
+    def run(*args: Any, **kwargs: Any) -> int:
+        bound = signature.bind(*args, **kwargs)
+        bound.apply_defaults()
+        settings = dict(bound.arguments)
+        if settings.pop("stage") is None:
+            return run_paper(*args, **kwargs)
+        own = inspect.signature(run_on_stage).parameters
+        for name, value in settings.items():
+            if name not in own and value != signature.parameters[name].default:
+                raise ValueError(f"{name}={value!r} is not used on a stage (it takes its "
+                                 "classes from its file and has no Sobol' or rare stage); "
+                                 "valid: the default")
+        return run_on_stage(bound.arguments["stage"], **{k: v for k, v in settings.items()
+                                                         if k in own})
+
+    return run
+
+
+@_stage_route
 @plot.quick_mode(
     "12 rotor runs, subset simulation with 16 per level, the rare stage's importance "
     "sampling at the moderate X with 12 rotor runs",
@@ -487,7 +814,8 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         seed: int = 2028, grade: int = 6, executor: Any = DEFAULT_EXECUTION["executor"],
         chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
         n_per_level: int = 200, sobol_base: int = 16, rare_x: float = RARE_X,
-        rare_per_level: int = 200, rare_methods: tuple[str, ...] = ("subspace",)) -> int:
+        rare_per_level: int = 200, rare_methods: tuple[str, ...] = ("subspace",),
+        stage: str | None = None) -> int:
     """P(K_v >= X anywhere in 25-8000 rpm | the gears pass inspection), where, and why.
 
     Parameters
@@ -515,6 +843,9 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         cheap model's and the rotor's estimates), ``"mfis"`` (:func:`mfis_given_acceptance`,
         the Gaussian mixture over all inputs) and ``"subset"``
         (:func:`subset_given_acceptance` on the rotor).
+    stage : str, optional
+        A built-in stage name (``e_axle_27_79``) or a stage TOML path: the population
+        stage on that stage instead (:func:`run_on_stage`); default: the paper's rotor.
 
     Returns
     -------
@@ -544,11 +875,7 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     # compiled kernels); a stage's CPU is this process's plus its workers'
     with workers_for_run(executor) as pool:
         run_on = {"executor": pool, "chunk_size": chunk_size}
-
-        def clock() -> tuple[float, float]:
-            return time.perf_counter(), time.process_time() + getattr(
-                pool, "worker_cpu_seconds", 0.0)
-
+        clock = functools.partial(wall_and_cpu, pool)
         t0, c0 = clock()
         ds = population(n_mc, seed, grade, out, run_on)
         t1, c1 = clock()
@@ -640,12 +967,15 @@ def main(argv: list[str] | None = None) -> int:
                         help="subset-simulation samples per level of the rare stage")
     parser.add_argument("--rare-methods", default="subspace",
                         help="comma-separated methods of the rare stage: subspace, mfis, subset")
+    parser.add_argument("--stage", default=None, help="a built-in stage name or a stage "
+                        "TOML path: the population stage on it (default: the paper's rotor)")
     args = parser.parse_args(argv)
     return run(args.out, quick=args.quick, seed=args.seed, grade=args.grade,
                executor=args.executor, chunk_size=args.chunk_size, n_runs=args.runs,
                n_per_level=args.per_level, sobol_base=args.sobol_base, rare_x=args.rare_x,
                rare_per_level=args.rare_per_level,
-               rare_methods=tuple(m.strip() for m in args.rare_methods.split(",")))
+               rare_methods=tuple(m.strip() for m in args.rare_methods.split(",")),
+               stage=args.stage)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,191 @@
+"""The dynamic question on a hunting-tooth stage (``geared_rotor_dynamic_factor --stage``).
+
+Each check against an oracle written here: the stage file's numbers, ISO 1328-1's tolerance
+formulas, the binomial law of a capable process truncated by inspection, and ISO 6336-1
+Method B written out by hand from the standard's clauses.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import scipy.stats
+
+import gearuq
+from gearuq.gears.stage import GearStage
+from gearuq_studies import geared_rotor_dynamic_factor as study
+
+STAGE = "e_axle_27_79"
+
+
+def _binomial_holds(k: int, n: int, p: float, alpha: float = 1e-4) -> bool:
+    """Whether ``k`` of ``n`` is inside the two-sided 1 - alpha acceptance region of B(n, p)."""
+    return bool(scipy.stats.binom.cdf(k, n, p) > alpha / 2
+                and scipy.stats.binom.sf(k - 1, n, p) > alpha / 2)
+
+
+def _F_pT(d_mm: float, mn_mm: float, grade: int) -> float:
+    """ISO 1328-1:2013 total cumulative pitch tolerance [um], unrounded."""
+    return (0.002 * d_mm + 0.55 * math.sqrt(d_mm) + 0.7 * mn_mm + 12.0) * \
+        math.sqrt(2.0) ** (grade - 5)
+
+
+def test_the_stage_sets_the_inputs():
+    """27/79 germs (26 + 78 normals), the drawing's reliefs, the file's load and damping."""
+    e_axle = GearStage.example(STAGE)
+    space = study.study_space(e_axle)
+    germ = [n for n in space.names if n.startswith("pitch_xi_")]
+    assert len(germ) == 26 + 78
+    assert {f"pitch_xi_p_{k}" for k in range(1, 27)} | {f"pitch_xi_g_{k}" for k in
+                                                        range(1, 79)} == set(germ)
+    x = space.sample(4000, rng=3)
+    for gear in ("pinion", "wheel"):
+        amount = x[f"{gear}_tip_relief_amount"]  # 8 +- 3 um, 1 % of the process beyond
+        assert amount.min() >= 5.0 and amount.max() <= 11.0
+        assert np.mean(np.abs(amount - 8.0) > 2.5) == pytest.approx(
+            (scipy.stats.norm.cdf(-2.5 / (3.0 / scipy.stats.norm.ppf(0.995))) * 2 - 0.01)
+            / 0.99, abs=0.01)
+    assert x["torque"].min() >= 50.0 and x["torque"].max() <= 250.0
+    assert np.mean(x["torque"]) == pytest.approx(150.0, abs=3.0)
+    assert x["damping_ratio"].min() >= 0.01 and x["damping_ratio"].max() <= 0.05
+    options = study.stage_options(e_axle)
+    assert (options["speed_min"], options["speed_max"]) == (500.0, 16000.0)
+    # the paper's rotor keeps today's space and options
+    paper = study.study_space()
+    assert len(paper.names) == 58 + 3 and "speed_min" not in study.OPTIONS
+    with pytest.raises(ValueError, match=r"stage='no_such_stage' is neither a built-in stage "
+                                         r"\(valid: .*e_axle_27_79"):
+        study.load_stage("no_such_stage")
+
+
+def test_the_stage_option_routes_and_refuses_what_a_stage_does_not_use(tmp_path):
+    """``stage`` sends the call to the stage's population; the paper's call is unchanged."""
+    from gearuq.cli import study_parser
+
+    with pytest.raises(ValueError, match=r"grade=13 is outside its valid range"):
+        study.run(out=tmp_path, grade=13)  # the paper's own validation: not routed
+    with pytest.raises(ValueError, match=r"grade=7 is not used on a stage"):
+        study.run(out=tmp_path, grade=7, stage=STAGE)
+    with pytest.raises(ValueError, match=r"n_per_level=5 is outside its valid range: 0"):
+        study.run(out=tmp_path, n_per_level=5, stage=STAGE)
+    args = study_parser("geared_rotor_dynamic_factor", study.run).parse_args(
+        ["--stage", STAGE, "--n-per-level", "0"])
+    assert vars(args) == {"stage": STAGE, "n_per_level": 0}
+
+
+def test_accepted_share_is_the_capable_process_closed_form():
+    """Each gear of its own class and germ count: 5 % beyond F_pT, so P(pass) = 0.95^2.
+
+    F_pT written from ISO 1328-1 (class 6 pinion, class 7 wheel), the margin recomputed
+    from the two F_p; 4000 pairs, a binomial region at 1e-4 for each share.
+    """
+    e_axle = GearStage.example(STAGE)
+    model, space = study.study_model(stage=e_axle), study.study_space(e_axle)
+    n = 4000
+    ds = model.response(space.sample(n, rng=11), None,
+                        outputs=["pitch_total_deviation_pinion", "pitch_total_deviation_wheel",
+                                 "pitch_acceptance_margin"], **study.OPTIONS)
+    pair = e_axle.pair
+    tol = (_F_pT(pair.d1 * 1e3, 2.0, 6), _F_pT(pair.d2 * 1e3, 2.0, 7))
+    fp = (ds["pitch_total_deviation_pinion"].values * 1e6,
+          ds["pitch_total_deviation_wheel"].values * 1e6)
+    np.testing.assert_allclose(ds["pitch_acceptance_margin"].values,
+                               np.minimum(1 - fp[0] / tol[0], 1 - fp[1] / tol[1]), atol=1e-9)
+    for f, t in zip(fp, tol, strict=True):
+        assert _binomial_holds(int(np.sum(f > t)), n, 0.05)
+    passed = int(np.sum(ds["pitch_acceptance_margin"].values >= 0))
+    assert _binomial_holds(passed, n, 0.95**2)
+    # the count is not blind: a 30/30 calibration on these gears would be visibly off
+    assert not _binomial_holds(passed, n, 0.95**2 - 0.04)
+
+
+def _iso_method_b_by_hand(pair, torque: float, relief_um: float, grade: int,
+                          speed: float) -> float:
+    """ISO 6336-1 Method B K_v at one pinion speed, written out from the standard.
+
+    Inputs taken from elsewhere: the pair's ISO 21771 geometry (tested against closed forms
+    in tests/test_stage.py) and the stiffness c', c_gamma_alpha of ISO 6336-1 clause 9.
+    """
+    from gearuq.gears.iso6336 import mesh_stiffness
+
+    d1, d2 = pair.d1 * 1e3, pair.d2 * 1e3
+    b = pair.face_width * 1e3
+    w = 2000.0 * torque / d1 / b                           # K_A F_t / b, K_A = 1 [N/mm]
+    st = mesh_stiffness(pair, load_per_width=w)
+    c1, cga = st.c_prime, st.c_gamma_alpha
+    d_m = (pair.da1 + pair.df1) / 2.0 * 1e3
+    u = pair.z2 / pair.z1
+    rho = 7.83e-6                                          # steel [kg/mm^3]
+    m_red = math.pi / 8.0 * (d_m / (pair.db1 * 1e3)) ** 2 * d_m**2 / (
+        1.0 / rho + 1.0 / (rho * u**2))
+    n_E1 = 30000.0 / (math.pi * pair.z1) * math.sqrt(cga / m_red)
+    k = math.sqrt(2.0) ** (grade - 5)
+    f_pt = max(0.001 * d + 0.4 * 2.0 + 5.0 for d in (d1, d2)) * k
+    f_pb = f_pt * math.cos(pair.alpha_t)
+    f_f = max(2.5 * math.sqrt(2.0) + 0.17 * math.sqrt(d) + 0.5 for d in (d1, d2)) * k
+    y = min(0.075 * f_pb, 3.0)                             # case-hardened running-in
+    B_p, B_f, B_k = c1 * (f_pb - y) / w, c1 * (f_f - y) / w, abs(1.0 - c1 * relief_um / w)
+    e = pair.eps_gamma
+    assert e > 2.5                                         # C_v7 = 1 above 2.5
+    C = (0.32, 0.57 / (e - 0.3), 0.096 / (e - 1.56), (0.57 - 0.05 * e) / (e - 1.44), 0.47,
+         0.12 / (e - 1.74), 1.0)
+    N = speed / n_E1
+    N_S = 0.85 if w >= 100.0 else 0.5 + 0.35 * math.sqrt(w / 100.0)
+    main = C[0] * B_p + C[1] * B_f + C[3] * B_k + 1.0
+    sup = C[4] * B_p + C[5] * B_f + C[6]
+    if N <= N_S:
+        return N * (C[0] * B_p + C[1] * B_f + C[2] * B_k) + 1.0
+    if N <= 1.15:
+        return main
+    if N < 1.5:
+        return sup + (main - sup) * (1.5 - N) / 0.35
+    return sup
+
+
+@pytest.mark.e2e
+def test_quick_dynamic_factor_study_on_the_stage(tmp_path):
+    """``--quick --stage e_axle_27_79``: K_v >= 1, the acceptance law, ISO by hand, marks."""
+    from gearuq import registry
+
+    assert registry.get_study("geared_rotor_dynamic_factor")(
+        out=tmp_path, quick=True, executor="serial", stage=STAGE) == 0
+    info = json.loads((tmp_path / "summary.json").read_text())
+    ds = gearuq.load(tmp_path / "population.nc")
+    n = study.QUICK_STAGE_RUNS
+    assert info["quick"] and info["stage"] == STAGE and info["classes"] == [6, 7]
+    assert ds.sizes["sample"] == n
+    # a run without a steady state is flagged (16: heavy contact loss), never dropped
+    valid = ds["status"].values == 0
+    assert set(ds["status"].values[~valid]) <= {16} and valid.sum() >= n // 2
+    count, bound = info["crude_mc"], info["crude_mc_invalid_as_failures"]
+    assert count["invalid"] == int((~valid).sum()) and count["runs"] == n
+    speeds = ds["range_speed"].values
+    assert (speeds[0], speeds[-1]) == (500.0, 16000.0)
+    # K_v: the largest force over the mean, which is the static force (to the balance's
+    # tolerance); the located peak is at least the grid's largest value
+    kv = ds["kv_over_speed"].values[valid]
+    assert kv.min() >= 1.0 - 1e-6
+    assert np.all(ds["kv_max"].values[valid] >= kv.max(axis=1) - 1e-9)
+    # inspection's verdict is kinematic: known for every run, the flagged ones included
+    passes = ds["pitch_acceptance_margin"].values >= 0
+    assert _binomial_holds(int(passes.sum()), n, 0.95**2)
+    assert info["accepted_share_closed_form"] == pytest.approx(0.95**2)
+    acc = passes & valid
+    assert count["accepted"] == int(acc.sum()) and count["lower"] <= count["pf"] <= count["upper"]
+    assert bound["invalid_accepted"] == int((passes & ~valid).sum())
+    assert bound["pf"] >= count["pf"] and bound["upper"] >= count["upper"]
+    assert info["X"] == pytest.approx(np.quantile(ds["kv_max"].values[acc], 0.9))
+    # ISO 6336-1 Method B of one sample at three speeds (classes 6/7: the coarser, 7)
+    pair = GearStage.example(STAGE).pair
+    i = int(np.argmin(ds["torque"].values))  # the lightest load: the largest B_p, B_f
+    relief = max(ds["pinion_tip_relief_amount"].values[i],
+                 ds["wheel_tip_relief_amount"].values[i])
+    for j in (0, speeds.size // 2, speeds.size - 1):
+        assert ds["kv_iso_over_speed"].values[i, j] == pytest.approx(_iso_method_b_by_hand(
+            pair, float(ds["torque"].values[i]), float(relief), 7, float(speeds[j])), rel=1e-6)
+    assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
+                                                       "campbell_map.png"}
+    assert set(info["kv_rank_correlations"]) >= {"damping_ratio", "torque"}
