@@ -7,6 +7,7 @@ import json
 import re
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 from gearuq._version import __version__
 
@@ -114,10 +115,20 @@ def _numpydoc_parameters(doc: str | None) -> dict[str, str]:
     return out
 
 
-def _option_type(annotation: object, default: object) -> type | None:
+def _names_list(text: str) -> tuple[str, ...]:
+    """A comma-separated list of names on the command line, as the tuple a study takes."""
+    names = tuple(part.strip() for part in text.split(",") if part.strip())
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected comma-separated names, got {text!r}")
+    return names
+
+
+def _option_type(annotation: object, default: object) -> Any:
     """The command-line type of a study setting: from its default, else its annotation."""
     if isinstance(default, bool):
         return bool
+    if isinstance(default, tuple) and all(isinstance(item, str) for item in default):
+        return _names_list
     if isinstance(default, (int, float, str)):
         return type(default)
     import inspect
@@ -175,6 +186,9 @@ def study_parser(name: str, study: object) -> argparse.ArgumentParser:
         if kind is bool:
             parser.add_argument(flag, action=argparse.BooleanOptionalAction,
                                 help=(text or pname) + shown)
+        elif kind is _names_list:
+            parser.add_argument(flag, type=kind, metavar="NAME[,NAME...]",
+                                help=(text or pname) + f" (default: {','.join(default)})")
         elif kind is not None:
             parser.add_argument(flag, type=kind, metavar=kind.__name__.upper(),
                                 help=(text or pname) + shown)

@@ -542,3 +542,24 @@ def test_the_library_digest_follows_its_sources(tmp_path, monkeypatch):
     assert conf.library_fingerprint() == before
     (copy / "signal.py").write_text((copy / "signal.py").read_text() + "\n# changed\n")
     assert conf.library_fingerprint() != before
+
+
+def test_a_study_setting_that_takes_names_reads_a_comma_separated_list():
+    def study(out: str = "x", quick: bool = False,
+              methods: tuple[str, ...] = ("subspace",)) -> int:
+        """A study.
+
+        Parameters
+        ----------
+        methods : tuple of str
+            Which methods.
+        """
+        return 0
+
+    parser = cli.study_parser("demo_study", study)
+    assert vars(parser.parse_args(["--methods", "mfis, subset"])) == {
+        "methods": ("mfis", "subset")}
+    assert vars(parser.parse_args([])) == {}  # the study's own default applies
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--methods", " , "])
+    assert "NAME[,NAME...]" in parser.format_help() and "default: subspace" in parser.format_help()
