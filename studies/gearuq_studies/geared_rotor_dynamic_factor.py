@@ -445,7 +445,8 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
     -------
     dict
         ``"cheap"`` and ``"rotor"``: ``pf``, ``lower``, ``upper`` (95 %), ``cov``,
-        ``status``, ``message``, ``runs``, ``ess``, ``max_share``; ``"fit"``: the
+        ``status``, ``message``, ``runs``, ``ess``, ``max_share``, ``lower_one_sided``
+        (Markov's 95 % lower bound, which holds whatever the status); ``"fit"``: the
         cross-entropy levels and runs; ``"directions"``; ``"p_pass"``.
     """
     cheap_options = cheap_options or CHEAP_OPTIONS
@@ -936,7 +937,10 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
             print(f"  rare level, {label}: P(kv_max >= {rare['X']:.4g} | pass) = {e['pf']:.3g} "
                   f"[{e['lower']:.3g}, {e['upper']:.3g}], {e['runs']} runs"
                   + (f" and {e['cheap_runs']} cheap runs" if "cheap_runs" in e else "")
-                  + f"; status {e['status']}: {e['message']}")
+                  + f"; status {e['status']}: {e['message']}"
+                  + (f"; whatever the status, P >= {e['lower_one_sided']:.3g} at 95 % "
+                     "(Markov's inequality on the unbiased estimate)"
+                     if e.get("status") and "lower_one_sided" in e else ""))
     if sobol is not None:
         print("  grouped Sobol' (first order / total): " + ", ".join(
             f"{g} {a:.2f}/{b:.2f}" for g, a, b in
