@@ -38,6 +38,7 @@ __all__ = [
     "pitch_germ_names",
     "pitch_germ_energy_fraction",
     "pitch_germ_scales",
+    "pitch_germ_basis",
     "pitch_deviation_germ",
     "iso1328_pitch_tolerances",
     "iso1328_profile_form_tolerance",
@@ -260,12 +261,21 @@ def cumulative_pitch_from_normals(
     if not np.all(np.isfinite(xi)):
         raise ValueError("pitch germ contains non-finite values; valid range (-inf, inf)")
     s = pitch_germ_scales(z, amplitude=amplitude, sigma=sigma)[:xi.size]
-    k = np.arange(int(z))
-    c = np.arange(xi.size)
-    m = c // 2 + 1
-    arg = 2.0 * math.pi * np.outer(k, m) / z
-    basis = np.where(c % 2 == 0, np.cos(arg), np.sin(arg))
+    basis = np.ascontiguousarray(pitch_germ_basis(z, xi.size).T)
     return basis @ (s * xi)
+
+
+def pitch_germ_basis(z: int, n: int) -> np.ndarray:
+    """The shapes of the germ's first ``n`` normals over the ``z`` teeth, ``(n, z)``.
+
+    Row ``c`` is ``cos(2 pi m k / z)`` for even ``c`` and ``sin`` for odd, ``m = c // 2 + 1``,
+    ``k = 0..z-1``: a batch of germs ``xi`` ``(N, n)`` gives the cumulative pitch deviations
+    ``(xi * s) @ basis`` with ``s`` of :func:`pitch_germ_scales`
+    (:func:`cumulative_pitch_from_normals` for one germ).
+    """
+    k, c = np.arange(int(z)), np.arange(int(n))
+    arg = 2.0 * math.pi * np.outer(c // 2 + 1, k) / z
+    return np.where((c % 2 == 0)[:, None], np.cos(arg), np.sin(arg))
 
 
 #: Parameter-name prefixes of the pinion and wheel germs: ``pitch_xi_p_1``, ``pitch_xi_g_1``.
@@ -533,10 +543,7 @@ def _unit_total_deviation_quantile(z: int, ratio: float, share: float, n_draws: 
                                    seed: int) -> float:
     xi = np.random.default_rng(seed).standard_normal((n_draws, pitch_germ_dimension(z)))
     scales = pitch_germ_scales(z, amplitude=1.0, sigma=ratio)
-    k, c = np.arange(z), np.arange(scales.size)
-    arg = 2.0 * math.pi * np.outer(c // 2 + 1, k) / z
-    basis = np.where((c % 2 == 0)[:, None], np.cos(arg), np.sin(arg))
-    Fp = (xi * scales) @ basis
+    Fp = (xi * scales) @ pitch_germ_basis(z, scales.size)
     return float(np.quantile(total_cumulative_pitch_deviation(Fp), 1.0 - share))
 
 

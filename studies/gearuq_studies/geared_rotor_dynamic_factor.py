@@ -60,8 +60,10 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    pinion-plus-wheel pitch sums instead gives 4e-9 and 9e-9 with weights more degenerate
    still. The single cheap subset walks' 3e-6 lies 15-20 times higher; the rotor subset's
    1.2e-8 [4.6e-10, 3.1e-7] (status 1) holds the six-direction values; the Gaussian-mixture
-   MFIS's 1.1e-11 (status 3) is far too low. The truth at X = 1.83 lies between about 1e-7
-   and 3e-6 (docs/benchmarks.md, "The dynamic question").
+   MFIS's 1.1e-11 (status 3) is far too low (Markov's inequality on the bounded-weight
+   estimates: P >= 2.6e-9 at 95 % from the rotor's 5.2e-8, the one statement vouched for);
+   our reading, not vouched for, puts the truth between about 1e-7 and 3e-6
+   (docs/benchmarks.md, "The dynamic question").
    :func:`mfis_given_acceptance` and :func:`subset_given_acceptance` stay available
    (``--rare-methods``).
 
@@ -124,6 +126,7 @@ from gearuq.gears.deviations import (
     capable_pitch_scatter,
     inspected_normal_spec,
     iso1328_pitch_tolerances,
+    pitch_germ_basis,
     pitch_germ_names,
     pitch_germ_scales,
     total_cumulative_pitch_deviation,
@@ -259,14 +262,11 @@ def population(n: int, seed: int, grade: int, out: Path,
                execution: dict[str, Any], stage: GearStage | None = None) -> Any:
     """``n`` rotor runs of the untruncated process, stored (a rerun reuses them); on a
     ``stage``, its rotor, inputs and speed range (store ``mc_store_<stage name>``)."""
-    if stage is not None:
-        return gearuq.monte_carlo(study_model(stage=stage), study_space(stage), None,
-                                  n_samples=n, rng=seed, outputs=OUTPUTS,
-                                  store=out / f"mc_store_{stage.name}", progress=False,
-                                  model_options=stage_options(stage), **execution)
-    return gearuq.monte_carlo(study_model(grade), study_space(), None, n_samples=n, rng=seed,
-                              outputs=OUTPUTS, store=out / f"mc_store_grade{grade}",
-                              progress=False, model_options=OPTIONS, **execution)
+    store, options = ((f"mc_store_grade{grade}", OPTIONS) if stage is None
+                      else (f"mc_store_{stage.name}", stage_options(stage)))
+    return gearuq.monte_carlo(study_model(grade, stage), study_space(stage), None,
+                              n_samples=n, rng=seed, outputs=OUTPUTS, store=out / store,
+                              progress=False, model_options=options, **execution)
 
 
 def conditional_count(ds: Any, x: float) -> dict[str, float]:
@@ -364,11 +364,9 @@ def germ_acceptance_margin(u: np.ndarray, grade: int) -> np.ndarray:
         f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
         amp, sigma = capable_pitch_scatter(z, f_pT, F_pT, OPTIONS["process_share_beyond"])
         scales = pitch_germ_scales(z, amplitude=amp, sigma=sigma)
-        k, c = np.arange(z), np.arange(scales.size)
-        arg = 2.0 * math.pi * np.outer(c // 2 + 1, k) / z
-        basis = np.where((c % 2 == 0)[:, None], np.cos(arg), np.sin(arg))
         xi = u[:, gear * scales.size:(gear + 1) * scales.size]
-        margins.append(1.0 - total_cumulative_pitch_deviation((xi * scales) @ basis) / F_pT)
+        fp = (xi * scales) @ pitch_germ_basis(z, scales.size)
+        margins.append(1.0 - total_cumulative_pitch_deviation(fp) / F_pT)
     return np.minimum(*margins)
 
 
