@@ -211,6 +211,40 @@ def test_krylov_on_every_harmonic_is_the_full_balance(problem):
         prepare_krylov(problem.excitation, 3, n_time=900)
 
 
+def test_krylov_start_from_the_neighbouring_speeds_product(problem):
+    """A full-contact solution carries its approach on the grid and ``((k - k_bar)
+    delta)_j``, combined by GMRES from its directions' products: they equal the FFTs of its
+    ``delta`` computed afresh, and the next speed started with them (no product for the
+    start) converges to what it converges to when it computes that product itself."""
+    prep = prepare_krylov(problem.excitation, 3)
+    N, H = prep.n_time, prep.n_harmonics
+
+    def at(rpm, **kw):
+        return solve_periodic_krylov(problem.reduced(rpm), prep, problem.period(rpm),
+                                     2 * math.pi * rpm / 60, channels=["dte"], tol=1e-6, **kw)
+
+    first = at(3000.0)
+    grid, product = first.krylov_product
+    direct = np.fft.irfft(first.delta * N, n=N)
+    np.testing.assert_allclose(grid, direct, rtol=0, atol=1e-12 * np.abs(direct).max())
+    fresh = np.fft.rfft(direct * (prep.k_grid - prep.mean_stiffness))[:H + 1] / N
+    np.testing.assert_allclose(product, fresh, rtol=0, atol=1e-12 * np.abs(fresh).max())
+    # in full contact the remainder is that product less (k e)_j
+    np.testing.assert_allclose(first.remainder, fresh - prep.stiffness_error, rtol=0,
+                               atol=1e-12 * np.abs(fresh).max())
+    plain = at(3050.0, initial=first.delta)
+    reused = at(3050.0, initial=first.delta, initial_product=first.krylov_product)
+    assert plain.status == reused.status == 0 and reused.iterations == plain.iterations > 0
+    scale = np.abs(plain.delta[1:]).max()
+    assert np.abs(reused.delta - plain.delta).max() < 1e-12 * scale
+    assert np.abs(reused.channels["dte"] - plain.channels["dte"]).max() < 1e-12 * np.abs(
+        plain.channels["dte"][1:]).max()
+    # a contact-loss solution carries none (its remainder is not the linear product)
+    lost = solve_periodic_krylov(problem.reduced(3500.0), prep, problem.period(3500.0),
+                                 2 * math.pi * 3500.0 / 60, channels=["dte"])
+    assert lost.branch == "contact_loss" and lost.krylov_product is None
+
+
 def test_krylov_contact_loss_is_bounded_by_its_iteration_budget(problem):
     """A steady state whose Newton's method needs more GMRES iterations than its budget
     returns status 1 within the budget, never loops on (a 27/79 sample near a resonance with
@@ -337,15 +371,31 @@ def test_gmres_meets_its_tolerance_with_restarts():
     d = np.diag(A).copy()
     exact = np.linalg.solve(A, b)
     for restart in (4, 20):
-        x, ok, its = _gmres(lambda v: A @ v, lambda v: v / d, b, None, 1e-10, restart, 200)
+        x, ok, its, _ = _gmres(lambda v: A @ v, lambda v: v / d, b, None, 1e-10, restart, 200)
         assert ok and its > restart // 2
         assert np.linalg.norm(b - A @ x) <= 1e-10 * np.linalg.norm(b) * (1 + 1e-6)
         np.testing.assert_allclose(x, exact, rtol=0, atol=1e-8 * np.abs(exact).max())
-    x, ok, its = _gmres(lambda v: A @ v, lambda v: v / d, b, exact, 1e-10, 20, 200)
+    x, ok, its, _ = _gmres(lambda v: A @ v, lambda v: v / d, b, exact, 1e-10, 20, 200)
     assert ok and its == 0
+    # by-products linear in the vector (here B v) are combined into x's, across restarts
+    # and from a start whose product is given
+    B = rng.normal(size=(7, n))
+    last = []
+
+    def apply(v):
+        last[:] = [B @ v]
+        return A @ v
+
+    x1 = exact + 0.1 * rng.normal(size=n)
+    for start in (None, (x1, (A @ x1, (B @ x1,)))):
+        x, ok, its, parts = _gmres(apply, lambda v: v / d, b, None if start is None
+                                   else start[0], 1e-10, 4, 200, by_products=lambda: (last[0],),
+                                   x0_product=None if start is None else start[1])
+        assert ok and its > 4
+        np.testing.assert_allclose(parts[0], B @ x, rtol=0, atol=1e-12 * np.abs(B @ x).max())
     # too few iterations (a budget across restarts): not converged, said so, and the
     # budget holds exactly
-    x, ok, its = _gmres(lambda v: A @ v, lambda v: v, b, None, 1e-12, 2, 5)
+    x, ok, its, _ = _gmres(lambda v: A @ v, lambda v: v, b, None, 1e-12, 2, 5)
     assert not ok and its == 5
     assert np.linalg.norm(b - A @ x) < np.linalg.norm(b)  # what it did lowered the residual
 

@@ -542,7 +542,10 @@ GMRES_BUDGET = 3000
 
 def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
            apply_m: Callable[[np.ndarray], np.ndarray], b: np.ndarray, x0: np.ndarray | None,
-           rtol: float, restart: int, max_iterations: int) -> tuple[np.ndarray, bool, int]:
+           rtol: float, restart: int, max_iterations: int, *,
+           by_products: Callable[[], tuple[np.ndarray, ...]] | None = None,
+           x0_product: tuple[np.ndarray, tuple[np.ndarray, ...]] | None = None,
+           ) -> tuple[np.ndarray, bool, int, tuple[np.ndarray, ...] | None]:
     """Right-preconditioned restarted GMRES: ``||b - A x|| <= rtol ||b||``.
 
     With the preconditioner on the right the least-squares residual of the Arnoldi basis is
@@ -551,17 +554,31 @@ def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
     FFT product more per solve, a fifth of a continued solve's products). Classical
     Gram-Schmidt applied twice (BLAS products). At most ``max_iterations`` products with
     ``A`` in all (restarts included): on reaching it, the iterate so far is returned with
-    converged False. Returns ``x``, converged, iterations.
+    converged False. Returns ``x``, converged, iterations and ``x``'s by-products.
+
+    ``by_products``, when given, returns what the last call of ``apply_a`` computed on the
+    way that is linear in its argument (e.g. the vector's FFT); they are combined as the
+    vectors are, so that ``x``'s come without another product (None when ``x`` is zero).
+    ``x0_product``: ``(A x0, by-products of x0)``, known to the caller (no product).
     """
     n = b.size
     target = rtol * float(np.linalg.norm(b))
     x = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
-    r = b - apply_a(x) if x0 is not None and np.any(x) else b.copy()
+    parts = None  # by-products of x (None: x is zero)
+    if x0 is not None and np.any(x):
+        if x0_product is None:
+            image = apply_a(x)
+            parts = None if by_products is None else by_products()
+        else:
+            image, parts = x0_product
+        r = b - image
+    else:
+        r = b.copy()
     total = 0
     while total < max_iterations:
         beta = float(np.linalg.norm(r))
         if beta <= target:
-            return x, True, total
+            return x, True, total, parts
         restart = min(restart, max_iterations - total)
         # rows added as needed: a continued solve takes 2-4 of the `restart` (fresh
         # multi-megabyte buffers per call were a fifth of the solve)
@@ -572,6 +589,7 @@ def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
         g = np.zeros(restart + 1)
         g[0] = beta
         V[0] = r / beta
+        made: list[tuple[np.ndarray, ...]] = []
         k = 0
         for k in range(restart):
             if k + 1 >= V.shape[0]:
@@ -580,6 +598,8 @@ def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
                 Z = np.concatenate([Z, np.empty((V.shape[0] - 1 - Z.shape[0], n))])
             Z[k] = apply_m(V[k])
             w = apply_a(Z[k])
+            if by_products is not None:
+                made.append(by_products())
             for _twice in range(2):  # CGS2: orthogonal to rounding
                 c = V[:k + 1] @ w
                 w -= c @ V[:k + 1]
@@ -600,10 +620,15 @@ def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
                 break
         y = sla.solve_triangular(Hm[:k + 1, :k + 1], g[:k + 1], check_finite=False)
         x = x + y @ Z[:k + 1]
+        if by_products is not None:
+            step = [sum(yi * p[m] for yi, p in zip(y, made, strict=True))
+                    for m in range(len(made[0]))]
+            parts = tuple(step) if parts is None else tuple(
+                a + c for a, c in zip(parts, step, strict=True))
         if abs(g[k + 1]) <= target:
-            return x, True, total
+            return x, True, total, parts
         r = b - apply_a(x)
-    return x, bool(np.linalg.norm(r) <= target), total
+    return x, bool(np.linalg.norm(r) <= target), total, parts
 
 
 def solve_periodic_krylov(
@@ -621,6 +646,7 @@ def solve_periodic_krylov(
     channels: list[str] | None = None,
     initial: np.ndarray | None = None,
     newton_start: np.ndarray | None = None,
+    initial_product: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> PeriodicSolution:
     """Steady state on every harmonic ``0..H`` of the long period, by preconditioned GMRES.
 
@@ -666,6 +692,11 @@ def solve_periodic_krylov(
     newton_start : ndarray, complex (H + 1,), optional
         Start of Newton's method when the flanks separate (e.g. the neighbouring speed's
         contact-loss ``delta``), taken when its residual is below the linear solution's.
+    initial_product : tuple of ndarray, optional
+        ``initial``'s approach on the grid of ``prep`` and its product with the stiffness
+        fluctuation, ``((k - k_bar) delta)_j`` for ``j = 0..H``: a full-contact solution's
+        :attr:`PeriodicSolution.krylov_product` (the neighbouring speed's). GMRES then starts
+        without a product (the operator's speed enters through ``h`` alone).
 
     Returns
     -------
@@ -673,7 +704,8 @@ def solve_periodic_krylov(
         Over harmonics ``0..H``; ``status`` 0 converged, 1 GMRES or Newton did not
         converge (``max_iter``, ``max_newton`` or a failed line search), 4 contact loss
         not solved (``contact_loss=False``); ``iterations`` counts
-        GMRES iterations over all solves.
+        GMRES iterations over all solves; ``krylov_product`` is set in full contact (for
+        the next speed's ``initial_product``).
     """
     from gearuq.rotor._spectral_kernels import apply_class_factors  # numba: for cost
 
@@ -699,12 +731,15 @@ def solve_periodic_krylov(
     def to_real(x):
         return np.concatenate([x.real, x.imag[1:]])
 
+    last: list[tuple[np.ndarray, np.ndarray]] = []
+
     def operator(weight):  # v -> v + h (weight v)_j, weight(t) on the grid
         def apply(v):
             x = to_complex(v)
-            p = _fft.rfft(_fft.irfft(x * N, n=N) * weight)[:H + 1] / N
-            y = x + h * p
-            return to_real(y)
+            t = _fft.irfft(x * N, n=N)
+            p = _fft.rfft(t * weight)[:H + 1] / N
+            last[:] = [(t, p)]  # linear in v: GMRES combines them into the solution's
+            return to_real(x + h * p)
         return apply
 
     h_two = np.concatenate([np.conj(h[:0:-1]), h])
@@ -717,28 +752,40 @@ def solve_periodic_krylov(
 
     count = [0]
 
-    def solve(weight, b, x0=None, rtol=tol):
+    def solve(weight, b, x0=None, rtol=tol, **kw):
         # one budget for the whole steady state: what is left of it bounds this solve
-        v, ok, its = _gmres(operator(weight), precondition, b, x0, rtol, GMRES_RESTART,
-                            max(max_iter - count[0], 0))
+        v, ok, its, parts = _gmres(operator(weight), precondition, b, x0, rtol,
+                                   GMRES_RESTART, max(max_iter - count[0], 0), **kw)
         count[0] += its
-        return v, ok
+        return v, ok, parts
 
-    def residual(x):
-        delta_t = _fft.irfft(x * N, n=N)
+    def residual(x, product=None):
+        # product: (delta(t), ((k - k_bar) delta)_j) of x when known (the full-contact
+        # solve's, combined by GMRES): in full contact r = ((k - k_bar) delta)_j - (k e)_j
+        # (k e is band-limited to 2 H), so the residual needs no FFT
+        delta_t = _fft.irfft(x * N, n=N) if product is None else product[0]
         F = prep.k_grid * delta_t - prep.ke_grid
-        force = np.maximum(F, 0.0)
-        r = _fft.rfft(force - kbar * delta_t)[:H + 1] / N
+        if product is not None and F.min() > 0.0:
+            r = product[1] - prep.stiffness_error
+        else:
+            r = _fft.rfft(np.maximum(F, 0.0) - kbar * delta_t)[:H + 1] / N
         R = x + h * r
         R[0] -= model.mesh_static
         return R, float(np.abs(R).max() / max(np.abs(x).max(), 1e-300)), F, r
 
     rhs = h * prep.stiffness_error
     rhs[0] += model.mesh_static
-    v, ok = solve(prep.k_grid - kbar, to_real(rhs),
-                  None if initial is None else to_real(np.asarray(initial, dtype=complex)))
+    x0 = x0_product = None
+    if initial is not None:
+        start = np.asarray(initial, dtype=complex)
+        x0 = to_real(start)
+        if initial_product is not None:
+            x0_product = (to_real(start + h * initial_product[1]),
+                          (initial_product[0], initial_product[1]))
+    v, ok, product = solve(prep.k_grid - kbar, to_real(rhs), x0,
+                           by_products=lambda: last[0], x0_product=x0_product)
     x = to_complex(v)
-    R, res, F, r = residual(x)
+    R, res, F, r = residual(x, product)
     status = STATUS_CONVERGED if ok else STATUS_NOT_CONVERGED
     n_newton, eta, res_before = 0, NEWTON_FORCING_MAX, res
     if ok and F.min() <= 0.0:
@@ -770,7 +817,7 @@ def solve_periodic_krylov(
             eta = min(NEWTON_FORCING_MAX, max(0.9 * (res / res_before) ** 2,
                                               floor if floor > 0.1 else 0.0))
             res_before = res
-            step, ok = solve(weight, -to_real(R), rtol=max(tol, eta))
+            step, ok, _ = solve(weight, -to_real(R), rtol=max(tol, eta))
             if not ok:
                 status = STATUS_NOT_CONVERGED
                 break
@@ -793,7 +840,9 @@ def solve_periodic_krylov(
         status=status, iterations=count[0], residual=res, contact_loss_fraction=n_sep,
         back_contact_fraction=0.0, min_force=float(force.min()),
         branch="contact_loss" if n_sep > 0 else "full_contact", start="linear",
-        min_approach=float(np.min((F + prep.ke_grid) / prep.k_grid)))
+        min_approach=float(np.min((F + prep.ke_grid) / prep.k_grid)),
+        krylov_product=product if status == STATUS_CONVERGED and n_newton == 0
+        and n_sep == 0.0 else None)
     for name in names:
         y = -receptance[name] * r
         y[0] += model.static_value(name)
