@@ -358,6 +358,28 @@ def test_receptances_equal_the_reduced_model_solved_frequency_by_frequency(probl
                                    atol=1e-11 * np.abs(want[name]).max(), err_msg=name)
 
 
+def test_pole_sums_pair_conjugate_poles_and_keep_real_ones():
+    """The compiled pole sums, conjugate pairs summed as one term (first ``n_pairs``
+    poles) and real or unpaired poles singly, against the complex sum over every pole
+    written out in numpy."""
+    from gearuq.rotor._spectral_kernels import pole_sums
+
+    rng = np.random.default_rng(5)
+    pairs = -rng.uniform(10.0, 900.0, 6) + 1j * rng.uniform(50.0, 3e4, 6)
+    real = -rng.uniform(1e2, 1e4, 3)
+    wp = rng.normal(size=(6, 4)) + 1j * rng.normal(size=(6, 4))
+    wr = rng.normal(size=(3, 4)) + 0j
+    w = np.concatenate([[0.0], np.sort(rng.uniform(0.0, 4e4, 300)), pairs.imag])
+    poles = np.concatenate([pairs, np.conj(pairs), real])
+    weights = np.concatenate([wp, np.conj(wp), wr])
+    want = (weights[None, :, :] / (1j * w[:, None, None] - poles[None, :, None])).sum(axis=1)
+    got = pole_sums(w, np.concatenate([pairs, real]), np.concatenate([wp, wr]), 6)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.abs(want).max())
+    # with no pair declared every pole is summed singly
+    np.testing.assert_allclose(pole_sums(w, poles, weights, 0), want, rtol=0,
+                               atol=1e-13 * np.abs(want).max())
+
+
 def test_gmres_meets_its_tolerance_with_restarts():
     """Right-preconditioned GMRES against a dense solve: the true residual is below the
     tolerance, also when it restarts (restart 4, Krylov buffers grown past their first

@@ -18,11 +18,15 @@ from numba import njit
 
 
 @njit(cache=True)
-def pole_sums(w: np.ndarray, poles: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def pole_sums(w: np.ndarray, poles: np.ndarray, weights: np.ndarray,
+              n_pairs: int) -> np.ndarray:
     """``out[f, c] = sum_k weights[k, c] / (i w[f] - poles[k])`` in real arithmetic.
 
-    ``1 / (i w - p) = (a - i b) / (a^2 + b^2)`` with ``a = -Re p``, ``b = w - Im p``: one
-    real division per frequency and pole instead of numpy's complex division and its
+    The first ``n_pairs`` poles stand each for itself and its conjugate with the conjugate
+    weight (a real system's poles and residues): ``w / (i W - p) + conj(w) / (i W -
+    conj(p)) = (-2 Re(w conj(p)) + 2 i W Re w) / (|p|^2 - W^2 + 2 i a W)``, ``a = -Re p``,
+    one real division per pair and frequency and half the products. The other poles
+    singly: ``1 / (i W - p) = (a - i b) / (a^2 + b^2)`` with ``b = W - Im p``. No
     ``(n_w, n_poles)`` temporary.
     """
     nf, nk, nc = w.size, poles.size, weights.shape[1]
@@ -30,7 +34,22 @@ def pole_sums(w: np.ndarray, poles: np.ndarray, weights: np.ndarray) -> np.ndarr
     acc_i = np.zeros((nc, nf))
     rr = np.empty(nf)
     ri = np.empty(nf)
-    for k in range(nk):  # frequencies innermost: contiguous, vectorised
+    for k in range(n_pairs):  # frequencies innermost: contiguous, vectorised
+        a = -poles[k].real
+        b = poles[k].imag
+        for f in range(nf):
+            dr = a * a + (b - w[f]) * (b + w[f])  # |p|^2 - W^2 without cancelling at W ~ b
+            di = 2.0 * a * w[f]
+            d = 1.0 / (dr * dr + di * di)
+            rr[f] = dr * d
+            ri[f] = di * d
+        for c in range(nc):
+            n0 = 2.0 * (a * weights[k, c].real - b * weights[k, c].imag)
+            n1 = 2.0 * weights[k, c].real
+            for f in range(nf):
+                acc_r[c, f] += n0 * rr[f] + n1 * w[f] * ri[f]
+                acc_i[c, f] += n1 * w[f] * rr[f] - n0 * ri[f]
+    for k in range(n_pairs, nk):
         a = -poles[k].real
         pi = poles[k].imag
         for f in range(nf):

@@ -148,8 +148,16 @@ class ModalModel:
                 rows.append(ch["a"] @ disp)
                 if ch["b"] is not None:
                     rows.append(ch["b"] @ vel)
-            sums = pole_sums(np.ascontiguousarray(w.ravel()), lam, np.ascontiguousarray(
-                (u * np.array(rows)).T)).reshape(w.shape + (len(rows),))
+            weights = (u * np.array(rows)).T
+            # a real system's poles pair with their conjugates (LAPACK returns exact
+            # conjugate eigenvectors, so the residues pair too): one term per pair
+            upper, lower = lam.imag > 0.0, lam.imag < 0.0
+            n_pairs = int(upper.sum()) if upper.sum() == lower.sum() else 0
+            order = (np.concatenate([np.flatnonzero(upper), np.flatnonzero(~upper & ~lower)])
+                     if n_pairs else np.arange(lam.size))
+            sums = pole_sums(np.ascontiguousarray(w.ravel()), np.ascontiguousarray(lam[order]),
+                             np.ascontiguousarray(weights[order]), n_pairs
+                             ).reshape(w.shape + (len(rows),))
             out["mesh"] = sums[..., 0] + self.mesh_residual
             col = 1
             for name in names:
