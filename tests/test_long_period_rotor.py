@@ -269,6 +269,56 @@ def test_krylov_contact_loss_is_bounded_by_its_iteration_budget(problem):
     np.testing.assert_array_equal(worse.delta, sol.delta)
 
 
+def test_periodic_state_by_integration_against_an_independent_integrator(problem):
+    """The reduced rotor integrated long period by long period (classical Runge-Kutta, the
+    contact law at each stage) until its state returns to itself, against the adaptive
+    integrator with located switches (``integrate_reduced``, dop853 at rtol 1e-10) run five
+    long periods from rest: the same contact-loss share, the approach within the step's
+    error, which falls as h^2 with contact loss (switches inside steps) and as h^4 in full
+    contact; Newton on the balance agrees to its harmonic truncation."""
+    from gearuq.rotor.sideband_balance import solve_periodic_by_integration
+    from gearuq.rotor.time_integration import integrate_reduced
+
+    prep = prepare_krylov(problem.excitation, 3, n_time=problem.prep.n_time)
+    N, H = prep.n_time, prep.n_harmonics
+    for rpm, order in ((3500.0, 2), (6000.0, 4)):
+        model, T = problem.reduced(rpm), problem.period(rpm)
+        om = 2 * math.pi * rpm / 60
+        ref = integrate_reduced(model, problem.prep, [om], [T], 5 * T + np.arange(N) * T / N,
+                                rtol=1e-10, atol_scale=1e-9)
+        assert ref.status[0] == 0
+        d_ref = np.fft.irfft(np.fft.rfft(ref.delta[0])[:H + 1], n=N)  # harmonics 0..H
+        errors = []
+        for steps in (2, 4):
+            sol = solve_periodic_by_integration(model, prep, T, om, channels=["dte"],
+                                                steps_per_instant=steps)
+            assert sol.status == 0 and sol.start == "time_integration" and sol.residual < 1e-8
+            assert sol.iterations <= 8
+            assert abs(sol.contact_loss_fraction - np.mean(ref.force[0] <= 0.0)) <= 2.0 / N
+            errors.append(np.abs(np.fft.irfft(sol.delta * N, n=N) - d_ref).max()
+                          / np.ptp(ref.delta[0]))
+        assert errors[0] < 5e-3 and errors[0] / errors[1] > 0.7 * 2.0 ** order, errors
+        full = _full(problem, rpm)
+        assert full.status == 0 and sol.branch == full.branch
+        # the balance keeps harmonics 0..H of the response, the integration every mode
+        scale = np.abs(full.delta[1:]).max()
+        assert np.abs(sol.delta - full.delta).max() < (2e-2 if order == 2 else 1e-3) * scale
+        np.testing.assert_allclose(sol.channels["dte"][1:], full.channels["dte"][1:], rtol=0,
+                                   atol=2e-2 * np.abs(full.channels["dte"][1:]).max())
+    # started from the balance's solution it is periodic at once (2 periods: the check)
+    started = solve_periodic_by_integration(model, prep, T, om, channels=["dte"], start=full)
+    assert started.status == 0 and started.iterations <= 3
+    # a state that has not returned to itself within max_periods: said so (status 3)
+    model = problem.reduced(3500.0)
+    args = (model, prep, problem.period(3500.0), 2 * math.pi * 3500.0 / 60)
+    short = solve_periodic_by_integration(*args, max_periods=2, tol=1e-15)
+    assert short.status == 3 and short.iterations == 2
+    for bad, match in (({"tol": 0.0}, "tol=0.0"), ({"max_periods": 1}, "max_periods=1"),
+                       ({"steps_per_instant": 0}, "steps_per_instant=0")):
+        with pytest.raises(ValueError, match=match):
+            solve_periodic_by_integration(*args, **bad)
+
+
 def test_backtracking_line_search_follows_the_armijo_rule():
     """The one line search of the three semi-smooth Newton solvers, against the rule by hand:
     halve from the full step until the norm falls by the fraction 1e-4 lam."""

@@ -38,6 +38,7 @@ import scipy.linalg as sla
 
 from gearuq.rotor.excitation import MeshExcitation
 from gearuq.rotor.harmonic_balance import (
+    STATUS_APERIODIC,
     STATUS_CONVERGED,
     STATUS_NOT_CONVERGED,
     STATUS_SINGULAR,
@@ -49,8 +50,8 @@ from gearuq.rotor.reduction import ModalModel
 
 __all__ = ["KrylovExcitation", "OrderExcitation", "excitation_from_long_period",
            "mesh_force_on_grid", "prepare_krylov", "prepare_orders", "sideband_orders",
-           "solve_periodic_krylov", "solve_periodic_orders", "spectral_orders",
-           "synthesize_orders"]
+           "solve_periodic_by_integration", "solve_periodic_krylov", "solve_periodic_orders",
+           "spectral_orders", "synthesize_orders"]
 
 
 def sideband_orders(z1: int, z2: int, n_mesh_harmonics: int, n_sidebands: int) -> np.ndarray:
@@ -847,4 +848,157 @@ def solve_periodic_krylov(
         y = -receptance[name] * r
         y[0] += model.static_value(name)
         sol.channels[name] = y
+    return sol
+
+
+# ------------------------------------------------------------- the periodic state in time
+#: Long periods :func:`solve_periodic_by_integration` integrates at most (from a start near
+#: the steady state the return map settled in 3-5 on the 27/79 stage, to 1e-11).
+INTEGRATION_PERIODS = 30
+
+#: Relative change of the state over one long period (energy norm) taken as periodic.
+INTEGRATION_TOL = 1e-8
+
+
+def _modal_state_at_zero(model: ModalModel, speed: float, remainder: np.ndarray,
+                         period: float) -> np.ndarray:
+    """Modal state ``[eta, eta']`` at ``t = 0`` of the response to ``r`` (one-sided harmonics).
+
+    ``y_j = (i w_j - A)^-1 B f_j`` with ``f_j = load [j = 0] - psi r_j`` through the state
+    matrix's eigen-solution: one pass over (pole, harmonic) where a solve per harmonic
+    (:func:`gearuq.rotor.time_integration.initial_state`) took 0.2-0.7 s for 6400 of them.
+    """
+    n = model.n_modes
+    lam, X = np.linalg.eig(model.state_matrix(speed))
+    u = np.linalg.solve(X, np.concatenate([np.zeros(n), model.mesh]))
+    w = 2.0 * np.pi / period * np.arange(1, remainder.size)
+    # sum_j -r_j / (i w_j - lam_k), j >= 1, for every pole at once
+    s = np.array([np.sum(-remainder[1:] / (1j * w - p)) for p in lam])
+    y = 2.0 * np.real(X @ (u * s))
+    y[:n] += (model.load - model.mesh * remainder[0].real) / model.omega ** 2  # j = 0
+    return y
+
+
+def solve_periodic_by_integration(
+    model: ModalModel,
+    prep: KrylovExcitation,
+    period: float,
+    speed: float,
+    *,
+    start: PeriodicSolution | None = None,
+    tol: float = INTEGRATION_TOL,
+    max_periods: int = INTEGRATION_PERIODS,
+    steps_per_instant: int = 2,
+    receptance: dict[str, np.ndarray] | None = None,
+    channels: list[str] | None = None,
+) -> PeriodicSolution:
+    """Periodic steady state of the reduced rotor by integrating it in time, long period by
+    long period, until its state returns to itself (front flank or apart, no back flank).
+
+    Where semi-smooth Newton on the balance stagnates under heavy contact loss (each of its
+    GMRES solves then takes thousands of iterations), the reduced model integrated from
+    Newton's best iterate settles on a periodic response within a few long periods, at
+    about a tenth of a second each for a 27/79 stage (docs/theory/geared_rotor.md).
+    Classical Runge-Kutta with ``steps_per_instant x n_time`` steps per long period, the
+    stiffness and ``k e``
+    of ``prep`` (band-limited to ``2 H``) resampled on the steps' ends and midpoints, the
+    contact law exact at each stage (its switching inside a step is not located). The
+    returned harmonics ``0..H`` are those of the last period's approach and force on the
+    ``n_time`` instants, so that the outputs (K_v from the force series, the DTE) are read
+    as the balance's are.
+
+    Parameters
+    ----------
+    model : ModalModel
+        Reduced rotor (mean stiffness equal to ``prep.mean_stiffness``).
+    prep : KrylovExcitation
+        From :func:`prepare_krylov`.
+    period, speed : float
+        Long period [s] and reference speed [rad/s].
+    start : PeriodicSolution, optional
+        Harmonics to start from (e.g. Newton's best iterate: its branch); default the
+        static state under the load.
+    tol : float
+        Largest relative change of the state over one long period (energy norm
+        ``sqrt(sum w^2 eta^2 + eta'^2)``) taken as periodic, in (0, 1).
+    max_periods : int
+        Long periods integrated at most (>= 2).
+    steps_per_instant : int
+        Runge-Kutta steps per instant of the ``n_time`` grid (>= 1; its error:
+        docs/theory/geared_rotor.md).
+    receptance, channels
+        As :func:`solve_periodic_krylov`.
+
+    Returns
+    -------
+    PeriodicSolution
+        Over harmonics ``0..H``, ``start`` "time_integration"; ``status`` 0 when the state
+        returned to itself within ``tol``, 3 when it did not within ``max_periods`` (no
+        periodic response on the long period was found: subharmonic, quasi-periodic or
+        chaotic), 1 when the state left the finite numbers; ``iterations`` the long periods
+        integrated, ``residual`` the last period's relative change.
+    """
+    from gearuq.rotor._spectral_kernels import rk4_long_period  # numba: imported for cost
+
+    if not (math.isfinite(period) and period > 0):
+        raise ValueError(f"period={period!r} is outside its valid range (0, inf) s")
+    if not 0.0 < tol < 1.0:
+        raise ValueError(f"tol={tol!r} is outside its valid range (0, 1)")
+    if isinstance(max_periods, bool) or int(max_periods) != max_periods or max_periods < 2:
+        raise ValueError(f"max_periods={max_periods!r} is outside its valid range: integers "
+                         ">= 2")
+    if (isinstance(steps_per_instant, bool) or int(steps_per_instant) != steps_per_instant
+            or steps_per_instant < 1):
+        raise ValueError(f"steps_per_instant={steps_per_instant!r} is outside its valid range: "
+                         "integers >= 1")
+    if abs(prep.mean_stiffness - model.mean_stiffness) > 1e-9 * model.mean_stiffness:
+        raise ValueError("the model's mean mesh stiffness differs from the excitation's")
+    H, N = prep.n_harmonics, prep.n_time
+    names = list(model.channels) if channels is None else channels
+    if receptance is None:
+        receptance = model.receptances(speed, 2.0 * np.pi / period * np.arange(H + 1), names)
+    n_fine = 2 * int(steps_per_instant) * N  # step ends and midpoints
+
+    def fine(grid):  # band-limited (2 H < N / 2): exact on the fine instants by zero padding
+        c = np.zeros(n_fine // 2 + 1, dtype=complex)
+        c[:N // 2] = _fft.rfft(grid)[:N // 2]
+        return _fft.irfft(c, n=n_fine) * (n_fine / N)
+
+    k_fine, ke_fine = fine(prep.k_grid), fine(prep.ke_grid)
+    w2 = model.omega ** 2
+    D = np.ascontiguousarray(model.damping + speed * model.gyroscopic)
+    dres = model.mesh_static - model.mesh @ (model.load / w2)
+    y = (np.concatenate([model.load / w2, np.zeros(model.n_modes)]) if start is None
+         else _modal_state_at_zero(model, speed, np.asarray(start.remainder), period))
+    weight = np.concatenate([np.sqrt(w2), np.ones(model.n_modes)])
+    delta_t, force_t = np.empty(N), np.empty(N)
+    status, change, done = STATUS_APERIODIC, math.inf, 0
+    while done < int(max_periods):
+        done += 1
+        before = y.copy()
+        rk4_long_period(y, k_fine, ke_fine, float(period), w2, D, model.mesh, model.load,
+                        float(dres), float(model.mean_stiffness), float(model.mesh_residual),
+                        delta_t, force_t)
+        if not np.all(np.isfinite(y)):
+            status = STATUS_NOT_CONVERGED
+            break
+        change = float(np.linalg.norm(weight * (y - before))
+                       / max(np.linalg.norm(weight * y), 1e-300))
+        if change <= tol:
+            status = STATUS_CONVERGED
+            break
+    x = _fft.rfft(delta_t)[:H + 1] / N
+    force_hat = _fft.rfft(force_t)[:H + 1] / N
+    r = force_hat - model.mean_stiffness * x
+    n_sep = float(np.mean(force_t <= 0.0))
+    sol = PeriodicSolution(
+        period=period, delta=x, force=force_hat, remainder=r, status=status,
+        iterations=done, residual=change, contact_loss_fraction=n_sep,
+        back_contact_fraction=0.0, min_force=float(force_t.min()),
+        branch="contact_loss" if n_sep > 0 else "full_contact", start="time_integration",
+        min_approach=float(delta_t.min()))
+    for name in names:
+        out = -receptance[name] * r
+        out[0] += model.static_value(name)
+        sol.channels[name] = out
     return sol

@@ -58,6 +58,17 @@ SWEEP_GMRES_BUDGET = 20_000
 #: GMRES iterations a steady state gets once the sweep's budget is spent.
 SPENT_SWEEP_GMRES = 200
 
+#: GMRES iterations Newton's method may spend on a contact-loss steady state before the
+#: reduced rotor is integrated in time from its best iterate instead (about 1.3 s for a
+#: 27/79 stage; converging contact-loss steady states took 77-550, stagnating ones ran to
+#: 3000 and beyond while the integration settles in 0.3-0.6 s).
+NEWTON_GMRES_BEFORE_INTEGRATION = 300
+
+#: What one long period of that time integration costs, in GMRES iterations of the sweep's
+#: account (27/79: 0.1 s against about 1.2 ms per iteration): the account bounds both, and
+#: once it is spent a steady state is no longer integrated, it is flagged.
+INTEGRATION_PERIOD_GMRES = 100
+
 #: Local maxima of the sampled mesh force polished by Newton's method for K_v.
 PEAK_CANDIDATES = 4
 
@@ -148,6 +159,7 @@ class LongPeriodProblem(GearedRotorProblem):
         self._blas_limited = False  # inside dynamics_over_speeds, BLAS is limited once
         self._previous: np.ndarray | None = None  # last GMRES delta: the next solve's start
         self._previous_product: tuple | None = None  # its FFT product (full contact)
+        self._previous_timed: PeriodicSolution | None = None  # a time-integrated previous
         self._continued = False  # GMRES starts from _previous (inside dynamics_over_speeds)
         self._spent = 0  # GMRES iterations of the current dynamics_over_speeds call
         if solver == "gmres":
@@ -220,7 +232,7 @@ class LongPeriodProblem(GearedRotorProblem):
                 return super().dynamics_over_speeds(speeds_rpm, **kw)
             finally:
                 self._blas_limited = self._continued = False
-                self._previous = self._previous_product = None
+                self._previous = self._previous_product = self._previous_timed = None
 
     def peak_mesh_force(self, sol: PeriodicSolution) -> float:
         """Largest mesh force [N] from its harmonics on the kept orders.
@@ -240,20 +252,46 @@ class LongPeriodProblem(GearedRotorProblem):
         """One steady state on the kept orders by the chosen solver."""
         from gearuq.rotor.sideband_balance import (
             GMRES_BUDGET,
+            STATUS_CONTACT_LOSS,
+            solve_periodic_by_integration,
             solve_periodic_krylov,
             solve_periodic_orders,
         )
 
         if self.solver == "gmres":
             start = self._previous if self._continued else None
-            budget = min(GMRES_BUDGET, max(SWEEP_GMRES_BUDGET - self._spent, SPENT_SWEEP_GMRES))
-            sol = solve_periodic_krylov(
-                model, self.krylov, T, omega, newton_tol=tol, tol=self.gmres_tol,
-                receptance=rec, channels=names, initial=start, newton_start=start,
-                max_iter=budget, initial_product=self._previous_product if start is not None
-                else None)
+            budget = min(GMRES_BUDGET, NEWTON_GMRES_BEFORE_INTEGRATION,
+                         max(SWEEP_GMRES_BUDGET - self._spent, SPENT_SWEEP_GMRES))
+            # after a speed that needed the time integration, Newton is not tried again
+            # while the flanks separate: the integration starts from that speed's state
+            account = not self._blas_limited or self._spent < SWEEP_GMRES_BUDGET
+            timed_before = self._previous_timed if start is not None and account else None
+            kw = {"newton_tol": tol, "tol": self.gmres_tol, "receptance": rec,
+                  "channels": names, "initial": start, "newton_start": start,
+                  "initial_product": self._previous_product if start is not None else None}
+            sol = solve_periodic_krylov(model, self.krylov, T, omega, max_iter=budget,
+                                        contact_loss=timed_before is None, **kw)
             if self._blas_limited:  # inside dynamics_over_speeds: the sweep's account
                 self._spent += sol.iterations
+            lost = sol.status == STATUS_CONTACT_LOSS
+            if lost or (account and sol.status == STATUS_NOT_CONVERGED
+                        and sol.contact_loss_fraction > 0):
+                # Newton stagnated under contact loss (near a resonance, where a periodic
+                # response exists but each GMRES solve takes thousands of iterations): the
+                # reduced rotor integrated in time from Newton's best iterate
+                timed = solve_periodic_by_integration(model, self.krylov, T, omega,
+                                                      start=timed_before if lost else sol,
+                                                      receptance=rec, channels=names)
+                if self._blas_limited:
+                    self._spent += INTEGRATION_PERIOD_GMRES * timed.iterations
+                if timed.status != STATUS_NOT_CONVERGED:  # periodic (0) or not (3): said so
+                    timed.iterations = sol.iterations  # the GMRES count, as the account's
+                    sol = timed
+                elif lost:  # the integration left the finite numbers: Newton after all
+                    sol = solve_periodic_krylov(model, self.krylov, T, omega,
+                                                max_iter=budget, **kw)
+            self._previous_timed = sol if sol.start == "time_integration" and \
+                sol.status == 0 else None
             # the next speed starts GMRES here (a nearby speed: fewer iterations)
             self._previous = sol.delta if sol.status == 0 else None
             # a full-contact start's FFT product: GMRES starts without one (2 of ~11 FFTs)
