@@ -427,6 +427,53 @@ def test_speed_range_gmres_account_bounds_a_sample(rotor_13_17, monkeypatch):
     np.testing.assert_array_equal(again.kv, full.kv)
 
 
+def test_stagnating_newton_falls_back_to_the_time_integration(monkeypatch):
+    """Where Newton's method under contact loss runs out of its GMRES iterations, the
+    speed's steady state comes from the reduced rotor integrated in time (status 0, not 1),
+    and the next speeds that separate start there without Newton: a synthetic 7/11 pattern
+    losing contact over up to 36 % of the long period, forced onto that path, against the
+    same sweep solved by Newton: K_v within 3e-3, DTE RMS within 1e-3 (the Runge-Kutta
+    step's error, docs/theory/geared_rotor.md), the same contact-loss shares to 2 grid
+    instants."""
+    import gearuq.rotor.sideband_balance as sb
+    from gearuq.rotor.examples import seed002_rotor
+    from gearuq.rotor.excitation import MeshExcitation as RotorExcitation
+    from gearuq_plugins.geared_rotor import long_period
+    from gearuq_plugins.geared_rotor.long_period import LongPeriodProblem
+
+    L = 77
+    exc = RotorExcitation.synthetic(
+        6e8, 1.5e4, n_cycles=L, positions_per_cycle=12,
+        stiffness_harmonics={L: 0.15, 2 * L: 0.05j},
+        error_harmonics={7: 3e-6, 11: 2e-6j, L: 12e-6, L - 7: 3e-6, L + 11: 2e-6},
+        mean_error=1e-6)
+    problem = LongPeriodProblem(lambda k: seed002_rotor(k), exc, pinion_teeth=30,
+                                mesh_harmonics=3)
+    speeds = np.linspace(3000.0, 5200.0, 12)
+    kw = {"peaks_refined": 0, "refine": ()}
+    newton = problem.dynamics_over_speeds(speeds, **kw)
+    assert np.all(newton.status == 0) and newton.contact_loss_fraction.max() > 0.3
+    calls = []
+    original = sb.solve_periodic_by_integration
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["start"].start)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(sb, "solve_periodic_by_integration", counted)
+    monkeypatch.setattr(long_period, "NEWTON_GMRES_BEFORE_INTEGRATION", 5)
+    timed = problem.dynamics_over_speeds(speeds, **kw)
+    assert np.all(timed.status == 0)
+    lost = int(np.sum(newton.contact_loss_fraction > 0))
+    # the first separating speed from Newton's iterate, the others from the previous state
+    assert len(calls) == lost and calls[0] != "time_integration"
+    assert calls[1:] == ["time_integration"] * (lost - 1)
+    assert np.abs(timed.kv / newton.kv - 1.0).max() < 3e-3
+    assert np.abs(timed.dte_rms / newton.dte_rms - 1.0).max() < 1e-3
+    N = problem.krylov.n_time
+    assert np.abs(timed.contact_loss_fraction - newton.contact_loss_fraction).max() <= 2.0 / N
+
+
 def test_series_maximum_against_a_fine_search():
     """The polished maximum of a sparse trigonometric series, against an independent
     brute-force search (direct cosine sums on 200 000 instants, then a bounded scalar
