@@ -311,10 +311,25 @@ def test_periodic_state_by_integration_against_an_independent_integrator(problem
     # a state that has not returned to itself within max_periods: said so (status 3)
     model = problem.reduced(3500.0)
     args = (model, prep, problem.period(3500.0), 2 * math.pi * 3500.0 / 60)
+    # the back flank, met over a fifth of the period with the backlash half the smallest
+    # approach without it: as the adaptive integrator with located switches
+    free = solve_periodic_by_integration(*args)
+    backlash = -0.5 * free.min_approach
+    back = solve_periodic_by_integration(*args, backlash=backlash)
+    ref = integrate_reduced(model, problem.prep, [args[3]], [args[2]],
+                            args[2] * (5 + np.arange(N) / N), rtol=1e-10, atol_scale=1e-9,
+                            backlash=backlash)
+    assert back.status == 0 and back.branch == "back_flank_contact"
+    assert back.back_contact_fraction > 0.2
+    assert abs(back.back_contact_fraction - np.mean(ref.force[0] < 0.0)) <= 2.0 / N
+    assert abs(back.contact_loss_fraction - np.mean(ref.force[0] == 0.0)) <= 2.0 / N
+    d_ref = np.fft.irfft(np.fft.rfft(ref.delta[0])[:H + 1], n=N)
+    assert np.abs(np.fft.irfft(back.delta * N, n=N) - d_ref).max() < 5e-3 * np.ptp(d_ref)
     short = solve_periodic_by_integration(*args, max_periods=2, tol=1e-15)
     assert short.status == 3 and short.iterations == 2
     for bad, match in (({"tol": 0.0}, "tol=0.0"), ({"max_periods": 1}, "max_periods=1"),
-                       ({"steps_per_instant": 0}, "steps_per_instant=0")):
+                       ({"steps_per_instant": 0}, "steps_per_instant=0"),
+                       ({"backlash": 0.0}, "backlash=0.0")):
         with pytest.raises(ValueError, match=match):
             solve_periodic_by_integration(*args, **bad)
 

@@ -217,21 +217,26 @@ def polish_maxima(harmonics: np.ndarray, orders: np.ndarray, t: np.ndarray, peri
 @njit(cache=True)
 def _modal_rates(y: np.ndarray, k: float, ke: float, w2: np.ndarray, D: np.ndarray,
                  psi: np.ndarray, load: np.ndarray, dres: float, kbar: float, hres: float,
-                 out: np.ndarray) -> tuple[float, float]:
-    """Rates of the reduced rotor and its mesh force and approach (front flank or apart).
+                 backlash: float, out: np.ndarray) -> tuple[float, float]:
+    """Rates of the reduced rotor and its mesh force and approach.
 
     ``eta'' = f - w^2 eta - D eta' - psi r``, the approach algebraic (the dropped modes'
-    static flexibility ``hres``): as :mod:`gearuq.rotor._kernels`, branch by the state.
+    static flexibility ``hres``), front flank, apart or back flank (``backlash`` [m], inf:
+    none): as :mod:`gearuq.rotor._kernels`, the branch by the state.
     """
     n = w2.size
     dm = dres
     for i in range(n):
         dm += psi[i] * y[i]
-    if k * dm - ke * (1.0 - hres * kbar) > 0.0:  # in contact
+    one = 1.0 - hres * kbar
+    if k * dm - ke * one > 0.0:  # front flank
         d = (dm + hres * ke) / (1.0 + hres * (k - kbar))
         force = k * d - ke
+    elif k * dm - (ke - k * backlash) * one < 0.0:  # back flank (never for inf)
+        d = (dm + hres * (ke - k * backlash)) / (1.0 + hres * (k - kbar))
+        force = k * d - ke + k * backlash
     else:
-        d = dm / (1.0 - hres * kbar)
+        d = dm / one
         force = 0.0
     r = force - kbar * d
     for i in range(n):
@@ -246,9 +251,10 @@ def _modal_rates(y: np.ndarray, k: float, ke: float, w2: np.ndarray, D: np.ndarr
 @njit(cache=True)
 def rk4_long_period(y: np.ndarray, k_fine: np.ndarray, ke_fine: np.ndarray, period: float,
                     w2: np.ndarray, D: np.ndarray, psi: np.ndarray, load: np.ndarray,
-                    dres: float, kbar: float, hres: float, delta_out: np.ndarray,
-                    force_out: np.ndarray) -> None:
-    """One long period of the reduced rotor by the classical Runge-Kutta rule, ``y`` in place.
+                    dres: float, kbar: float, hres: float, backlash: float,
+                    delta_out: np.ndarray, force_out: np.ndarray) -> None:
+    """One long period of the reduced rotor by the classical Runge-Kutta rule, ``y`` in place
+    (the contact law of :func:`_modal_rates` at each stage).
 
     ``K = k_fine.size // 2`` steps; ``k`` and ``k e`` on ``2 K`` instants (step ends and
     midpoints: no interpolation). The approach and force at the start of every
@@ -267,20 +273,21 @@ def rk4_long_period(y: np.ndarray, k_fine: np.ndarray, ke_fine: np.ndarray, peri
         i0 = 2 * s
         i2 = (i0 + 2) % k_fine.size
         force, d = _modal_rates(y, k_fine[i0], ke_fine[i0], w2, D, psi, load, dres, kbar,
-                                hres, k1)
+                                hres, backlash, k1)
         if s % every == 0 and s // every < delta_out.size:
             delta_out[s // every] = d
             force_out[s // every] = force
         for i in range(n2):
             tmp[i] = y[i] + 0.5 * h * k1[i]
         _modal_rates(tmp, k_fine[i0 + 1], ke_fine[i0 + 1], w2, D, psi, load, dres, kbar, hres,
-                     k2)
+                     backlash, k2)
         for i in range(n2):
             tmp[i] = y[i] + 0.5 * h * k2[i]
         _modal_rates(tmp, k_fine[i0 + 1], ke_fine[i0 + 1], w2, D, psi, load, dres, kbar, hres,
-                     k3)
+                     backlash, k3)
         for i in range(n2):
             tmp[i] = y[i] + h * k3[i]
-        _modal_rates(tmp, k_fine[i2], ke_fine[i2], w2, D, psi, load, dres, kbar, hres, k4)
+        _modal_rates(tmp, k_fine[i2], ke_fine[i2], w2, D, psi, load, dres, kbar, hres,
+                     backlash, k4)
         for i in range(n2):
             y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])

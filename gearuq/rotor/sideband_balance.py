@@ -886,6 +886,7 @@ def solve_periodic_by_integration(
     speed: float,
     *,
     start: PeriodicSolution | None = None,
+    backlash: float = math.inf,
     tol: float = INTEGRATION_TOL,
     max_periods: int = INTEGRATION_PERIODS,
     steps_per_instant: int = 2,
@@ -893,7 +894,7 @@ def solve_periodic_by_integration(
     channels: list[str] | None = None,
 ) -> PeriodicSolution:
     """Periodic steady state of the reduced rotor by integrating it in time, long period by
-    long period, until its state returns to itself (front flank or apart, no back flank).
+    long period, until its state returns to itself (front flank, apart, back flank).
 
     Where semi-smooth Newton on the balance stagnates under heavy contact loss (each of its
     GMRES solves then takes thousands of iterations), the reduced model integrated from
@@ -918,6 +919,8 @@ def solve_periodic_by_integration(
     start : PeriodicSolution, optional
         Harmonics to start from (e.g. Newton's best iterate: its branch); default the
         static state under the load.
+    backlash : float
+        Normal backlash [m] (``inf``: no back-flank contact).
     tol : float
         Largest relative change of the state over one long period (energy norm
         ``sqrt(sum w^2 eta^2 + eta'^2)``) taken as periodic, in (0, 1).
@@ -944,6 +947,8 @@ def solve_periodic_by_integration(
         raise ValueError(f"period={period!r} is outside its valid range (0, inf) s")
     if not 0.0 < tol < 1.0:
         raise ValueError(f"tol={tol!r} is outside its valid range (0, 1)")
+    if not backlash > 0.0:
+        raise ValueError(f"backlash={backlash!r} is outside its valid range (0, inf] m")
     if isinstance(max_periods, bool) or int(max_periods) != max_periods or max_periods < 2:
         raise ValueError(f"max_periods={max_periods!r} is outside its valid range: integers "
                          ">= 2")
@@ -978,7 +983,7 @@ def solve_periodic_by_integration(
         before = y.copy()
         rk4_long_period(y, k_fine, ke_fine, float(period), w2, D, model.mesh, model.load,
                         float(dres), float(model.mean_stiffness), float(model.mesh_residual),
-                        delta_t, force_t)
+                        float(backlash), delta_t, force_t)
         if not np.all(np.isfinite(y)):
             status = STATUS_NOT_CONVERGED
             break
@@ -990,12 +995,13 @@ def solve_periodic_by_integration(
     x = _fft.rfft(delta_t)[:H + 1] / N
     force_hat = _fft.rfft(force_t)[:H + 1] / N
     r = force_hat - model.mean_stiffness * x
-    n_sep = float(np.mean(force_t <= 0.0))
+    n_sep, n_back = float(np.mean(force_t == 0.0)), float(np.mean(force_t < 0.0))
     sol = PeriodicSolution(
         period=period, delta=x, force=force_hat, remainder=r, status=status,
         iterations=done, residual=change, contact_loss_fraction=n_sep,
-        back_contact_fraction=0.0, min_force=float(force_t.min()),
-        branch="contact_loss" if n_sep > 0 else "full_contact", start="time_integration",
+        back_contact_fraction=n_back, min_force=float(force_t.min()),
+        branch=("back_flank_contact" if n_back > 0 else "contact_loss" if n_sep > 0 else
+                "full_contact"), start="time_integration",
         min_approach=float(delta_t.min()))
     for name in names:
         out = -receptance[name] * r

@@ -69,6 +69,11 @@ NEWTON_GMRES_BEFORE_INTEGRATION = 300
 #: once it is spent a steady state is no longer integrated, it is flagged.
 INTEGRATION_PERIOD_GMRES = 100
 
+#: GMRES iterations Newton's method gets at a speed next to one that needed the time
+#: integration, before the integration continues from there (where the separation fades,
+#: Newton takes it back in 5-60).
+NEWTON_GMRES_AFTER_INTEGRATION = 60
+
 #: Local maxima of the sampled mesh force polished by Newton's method for K_v.
 PEAK_CANDIDATES = 4
 
@@ -252,7 +257,6 @@ class LongPeriodProblem(GearedRotorProblem):
         """One steady state on the kept orders by the chosen solver."""
         from gearuq.rotor.sideband_balance import (
             GMRES_BUDGET,
-            STATUS_CONTACT_LOSS,
             solve_periodic_by_integration,
             solve_periodic_krylov,
             solve_periodic_orders,
@@ -262,41 +266,39 @@ class LongPeriodProblem(GearedRotorProblem):
             start = self._previous if self._continued else None
             budget = min(GMRES_BUDGET, NEWTON_GMRES_BEFORE_INTEGRATION,
                          max(SWEEP_GMRES_BUDGET - self._spent, SPENT_SWEEP_GMRES))
-            # after a speed that needed the time integration, Newton is not tried again
-            # while the flanks separate: the integration starts from that speed's state
             account = not self._blas_limited or self._spent < SWEEP_GMRES_BUDGET
+            # next to a speed that needed the time integration Newton gets a short try, then
+            # the integration continues from that speed's state
             timed_before = self._previous_timed if start is not None and account else None
-            kw = {"newton_tol": tol, "tol": self.gmres_tol, "receptance": rec,
-                  "channels": names, "initial": start, "newton_start": start,
-                  "initial_product": self._previous_product if start is not None else None}
-            sol = solve_periodic_krylov(model, self.krylov, T, omega, max_iter=budget,
-                                        contact_loss=timed_before is None, **kw)
+            if timed_before is not None:
+                budget = min(budget, NEWTON_GMRES_AFTER_INTEGRATION)
+            sol = solve_periodic_krylov(
+                model, self.krylov, T, omega, newton_tol=tol, tol=self.gmres_tol,
+                receptance=rec, channels=names, initial=start, newton_start=start,
+                max_iter=budget, initial_product=self._previous_product if start is not None
+                else None)
             if self._blas_limited:  # inside dynamics_over_speeds: the sweep's account
                 self._spent += sol.iterations
-            lost = sol.status == STATUS_CONTACT_LOSS
-            if lost or (account and sol.status == STATUS_NOT_CONVERGED
-                        and sol.contact_loss_fraction > 0):
+            if account and sol.status == STATUS_NOT_CONVERGED and sol.contact_loss_fraction > 0:
                 # Newton stagnated under contact loss (near a resonance, where a periodic
                 # response exists but each GMRES solve takes thousands of iterations): the
                 # reduced rotor integrated in time from Newton's best iterate
-                timed = solve_periodic_by_integration(model, self.krylov, T, omega,
-                                                      start=timed_before if lost else sol,
-                                                      receptance=rec, channels=names)
+                timed = solve_periodic_by_integration(
+                    model, self.krylov, T, omega, start=timed_before or sol,
+                    backlash=self.backlash, receptance=rec, channels=names)
                 if self._blas_limited:
                     self._spent += INTEGRATION_PERIOD_GMRES * timed.iterations
                 if timed.status != STATUS_NOT_CONVERGED:  # periodic (0) or not (3): said so
                     timed.iterations = sol.iterations  # the GMRES count, as the account's
                     sol = timed
-                elif lost:  # the integration left the finite numbers: Newton after all
-                    sol = solve_periodic_krylov(model, self.krylov, T, omega,
-                                                max_iter=budget, **kw)
             self._previous_timed = sol if sol.start == "time_integration" and \
                 sol.status == 0 else None
             # the next speed starts GMRES here (a nearby speed: fewer iterations)
             self._previous = sol.delta if sol.status == 0 else None
             # a full-contact start's FFT product: GMRES starts without one (2 of ~11 FFTs)
             self._previous_product = sol.krylov_product if sol.status == 0 else None
-            if math.isinf(self.backlash) or sol.min_approach > -self.backlash:
+            if (math.isinf(self.backlash) or sol.min_approach > -self.backlash
+                    or sol.start == "time_integration"):  # the integration has the back flank
                 return sol
             # the flanks would meet on the back: the order balance, which has the back flank
             return self._back_flank(model, T, omega, rec, names, tol, sol)
