@@ -281,8 +281,16 @@ class LongPeriodProblem(GearedRotorProblem):
                 self._spent += sol.iterations
             if account and sol.status == STATUS_NOT_CONVERGED and sol.contact_loss_fraction > 0:
                 # Newton stagnated under contact loss (near a resonance, where a periodic
-                # response exists but each GMRES solve takes thousands of iterations): the
-                # reduced rotor integrated in time from Newton's best iterate
+                # response exists but each GMRES solve takes thousands of iterations)
+                if (sol.min_approach <= -self.backlash
+                        and self.kept.size <= MAX_DENSE_FALLBACK_ORDERS):
+                    # toward the back flank, where the dense fallback is affordable: it
+                    dense = self._back_flank(model, T, omega, rec, names, tol, sol)
+                    if dense.status == 0:
+                        self._previous = self._previous_timed = None
+                        self._previous_product = None
+                        return dense
+                # the reduced rotor integrated in time from Newton's best iterate
                 timed = solve_periodic_by_integration(
                     model, self.krylov, T, omega, start=timed_before or sol,
                     backlash=self.backlash, receptance=rec, channels=names)
