@@ -170,11 +170,6 @@ class PeriodicSolution:
         (continuation from a previous solution), "amplitude_continuation" (from the static
         state, the excitation amplitude raised in steps) or "smoothed_contact" (contact law
         smoothed and sharpened in steps).
-    krylov_product : tuple of ndarray or None
-        Of a full-contact solution of
-        :func:`gearuq.rotor.sideband_balance.solve_periodic_krylov`: its approach on the
-        FFT grid and ``((k - k_bar) delta)_j``, the next speed's ``initial_product`` (None
-        otherwise).
     """
 
     period: float
@@ -193,7 +188,6 @@ class PeriodicSolution:
     stable: bool | None = None
     drift: float = math.nan
     min_approach: float = math.nan
-    krylov_product: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def n_harmonics(self) -> int:

@@ -545,7 +545,6 @@ def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
            apply_m: Callable[[np.ndarray], np.ndarray], b: np.ndarray, x0: np.ndarray | None,
            rtol: float, restart: int, max_iterations: int, *,
            by_products: Callable[[], tuple[np.ndarray, ...]] | None = None,
-           x0_product: tuple[np.ndarray, tuple[np.ndarray, ...]] | None = None,
            ) -> tuple[np.ndarray, bool, int, tuple[np.ndarray, ...] | None]:
     """Right-preconditioned restarted GMRES: ``||b - A x|| <= rtol ||b||``.
 
@@ -560,19 +559,14 @@ def _gmres(apply_a: Callable[[np.ndarray], np.ndarray],
     ``by_products``, when given, returns what the last call of ``apply_a`` computed on the
     way that is linear in its argument (e.g. the vector's FFT); they are combined as the
     vectors are, so that ``x``'s come without another product (None when ``x`` is zero).
-    ``x0_product``: ``(A x0, by-products of x0)``, known to the caller (no product).
     """
     n = b.size
     target = rtol * float(np.linalg.norm(b))
     x = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
     parts = None  # by-products of x (None: x is zero)
     if x0 is not None and np.any(x):
-        if x0_product is None:
-            image = apply_a(x)
-            parts = None if by_products is None else by_products()
-        else:
-            image, parts = x0_product
-        r = b - image
+        r = b - apply_a(x)
+        parts = None if by_products is None else by_products()
     else:
         r = b.copy()
     total = 0
@@ -647,7 +641,6 @@ def solve_periodic_krylov(
     channels: list[str] | None = None,
     initial: np.ndarray | None = None,
     newton_start: np.ndarray | None = None,
-    initial_product: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> PeriodicSolution:
     """Steady state on every harmonic ``0..H`` of the long period, by preconditioned GMRES.
 
@@ -693,11 +686,6 @@ def solve_periodic_krylov(
     newton_start : ndarray, complex (H + 1,), optional
         Start of Newton's method when the flanks separate (e.g. the neighbouring speed's
         contact-loss ``delta``), taken when its residual is below the linear solution's.
-    initial_product : tuple of ndarray, optional
-        ``initial``'s approach on the grid of ``prep`` and its product with the stiffness
-        fluctuation, ``((k - k_bar) delta)_j`` for ``j = 0..H``: a full-contact solution's
-        :attr:`PeriodicSolution.krylov_product` (the neighbouring speed's). GMRES then starts
-        without a product (the operator's speed enters through ``h`` alone).
 
     Returns
     -------
@@ -705,8 +693,7 @@ def solve_periodic_krylov(
         Over harmonics ``0..H``; ``status`` 0 converged, 1 GMRES or Newton did not
         converge (``max_iter``, ``max_newton`` or a failed line search), 4 contact loss
         not solved (``contact_loss=False``); ``iterations`` counts
-        GMRES iterations over all solves; ``krylov_product`` is set in full contact (for
-        the next speed's ``initial_product``).
+        GMRES iterations over all solves.
     """
     from gearuq.rotor._spectral_kernels import apply_class_factors  # numba: for cost
 
@@ -776,15 +763,9 @@ def solve_periodic_krylov(
 
     rhs = h * prep.stiffness_error
     rhs[0] += model.mesh_static
-    x0 = x0_product = None
-    if initial is not None:
-        start = np.asarray(initial, dtype=complex)
-        x0 = to_real(start)
-        if initial_product is not None:
-            x0_product = (to_real(start + h * initial_product[1]),
-                          (initial_product[0], initial_product[1]))
-    v, ok, product = solve(prep.k_grid - kbar, to_real(rhs), x0,
-                           by_products=lambda: last[0], x0_product=x0_product)
+    v, ok, product = solve(prep.k_grid - kbar, to_real(rhs), None if initial is None else
+                           to_real(np.asarray(initial, dtype=complex)),
+                           by_products=lambda: last[0])
     x = to_complex(v)
     R, res, F, r = residual(x, product)
     status = STATUS_CONVERGED if ok else STATUS_NOT_CONVERGED
@@ -841,9 +822,7 @@ def solve_periodic_krylov(
         status=status, iterations=count[0], residual=res, contact_loss_fraction=n_sep,
         back_contact_fraction=0.0, min_force=float(force.min()),
         branch="contact_loss" if n_sep > 0 else "full_contact", start="linear",
-        min_approach=float(np.min((F + prep.ke_grid) / prep.k_grid)),
-        krylov_product=product if status == STATUS_CONVERGED and n_newton == 0
-        and n_sep == 0.0 else None)
+        min_approach=float(np.min((F + prep.ke_grid) / prep.k_grid)))
     for name in names:
         y = -receptance[name] * r
         y[0] += model.static_value(name)
