@@ -321,6 +321,24 @@ def test_periodic_state_by_integration_against_an_independent_integrator(problem
             solve_periodic_by_integration(*args, **bad)
 
 
+def test_dense_balance_restarted_from_the_time_integration(problem):
+    """At 3400 rpm Newton's method on the dense balance fails from the linear start (its
+    iterate 17 % apart); ``dynamics_at`` integrates the reduced rotor from that iterate to
+    its periodic response and restarts Newton there: converged, over 30 % apart, and the
+    adaptive integration from the solution (``verify``: dop853 with located switches, eight
+    long periods) stays on it."""
+    rpm = 3400.0
+    model, T = problem.reduced(rpm), problem.period(rpm)
+    plain = solve_periodic(model, problem.prep, T, 2 * math.pi * rpm / 60, channels=["dte"])
+    assert plain.status == 1 and plain.branch == "contact_loss"
+    values, sol = problem.dynamics_at(rpm)
+    assert values["status"] == 0 and sol.start == "time_integration"
+    assert sol.residual < 1e-9 and sol.contact_loss_fraction > 0.3
+    checked = problem.verify(sol, rpm)
+    assert checked.status == 0 and checked.stable, checked.drift
+    assert checked.drift < 0.05
+
+
 def test_backtracking_line_search_follows_the_armijo_rule():
     """The one line search of the three semi-smooth Newton solvers, against the rule by hand:
     halve from the full step until the norm falls by the fraction 1e-4 lam."""
