@@ -531,13 +531,14 @@ def test_rotor_bench_table_renders_every_kind_of_row():
             {"pair": "30/30", "plugin": True, "n_speeds": 160, "cpu_s": 2.0, "kv_max": 4.57,
              "dte_rms_max": 1.1e-5},
             {"pair": "27/79", "plugin": True, "n_speeds": 160, "cpu_s": 1.4, "kv_max": 1.369,
-             "dte_rms_max": 1.8e-5, "cpu_ref_s": 2.0, "kv_max_rel": 4e-8,
+             "dte_rms_max": 1.8e-5, "cpu_ref_s": 2.0, "kv_max_rel": 4e-8, "status": 0,
              "dte_rms_max_rel": 4e-11, "kv_over_speed_rel": 1.3e-6}]
     lines: list[str] = []
     _rotor_table(rows, lines)
     plugin = [ln for ln in lines if ln.startswith("| 27/79 | 1.40 | 2.00 |")]
     assert len(plugin) == 1 and "1.3e-06" in plugin[0]
-    assert plugin[0].count("|") == 9  # eight cells: dte_rms_max and its error apart
+    # nine cells (status after the CPU columns): dte_rms_max and its error apart
+    assert plugin[0].count("|") == 10 and "| 2.00 | 0 | 1.369000 |" in plugin[0]
     assert any(ln.startswith("| every harmonic, GMRES 1e-06 | 8533 | 9.0 | 1.44 |")
                for ln in lines)
     assert sum(ln.startswith("| 30/30 | 2.00 | - |") for ln in lines) == 1

@@ -503,14 +503,15 @@ def _rotor_table(rows: list[dict], lines: list[str]) -> None:
                           "the dense balance, 25-8000 rpm; stages 13/17 and 27/79: the "
                           "long-period route, GMRES 1e-6 continued, 500-16000 rpm), against "
                           "the same sample with `gmres_tol` 1e-10.", "",
-                          "| pair | CPU per sample [s] | reference CPU [s] | kv_max | "
+                          "| pair | CPU per sample [s] | reference CPU [s] | status | kv_max | "
                           "dte_rms_max [m] | kv_max rel. | dte_rms_max rel. | kv_over_speed "
-                          "rel. (worst speed) |", "|---|---|---|---|---|---|---|---|"]
+                          "rel. (worst speed) |", "|---|---|---|---|---|---|---|---|---|"]
             errs = ("| | | |" if "kv_max_rel" not in r else
                     f"| {r['kv_max_rel']:.1e} | {r['dte_rms_max_rel']:.1e} | "
                     f"{r['kv_over_speed_rel']:.1e} |")
             ref_cpu = f"{r['cpu_ref_s']:.2f}" if "cpu_ref_s" in r else "-"
-            lines.append(f"| {r['pair']} | {r['cpu_s']:.2f} | {ref_cpu} | {r['kv_max']:.6f} | "
+            lines.append(f"| {r['pair']} | {r['cpu_s']:.2f} | {ref_cpu} | {r.get('status', '-')} "
+                         f"| {r['kv_max']:.6f} | "
                          f"{r['dte_rms_max']:.4e} {errs}")
             continue
         if r.get("pair") == "27/79" and not eaxle_header:
