@@ -24,6 +24,11 @@ truncation, measured against the full harmonic balance in docs/theory/geared_rot
 FFT products and GMRES preconditioned by the mesh-order stiffness (one small block per
 residue class ``j mod L``), semi-smooth Newton on the contact law when the flanks separate;
 the long-period reference for pairs whose dense balance is out of reach.
+
+:func:`solve_periodic_by_integration` integrates the reduced rotor in time, long period by
+long period, until its state returns to itself: the periodic response where Newton's method
+on the balance stagnates under heavy contact loss (docs/theory/geared_rotor.md, "Speed of
+the long-period route").
 """
 
 from __future__ import annotations

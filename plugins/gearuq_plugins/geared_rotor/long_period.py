@@ -12,8 +12,8 @@ sideband_balance.solve_periodic_orders`). What each costs and loses: docs/theory
 geared_rotor.md, "Hunting-tooth stages in the plugin" and "Speed of the long-period route"
 (GMRES to ``gmres_tol``, started from the previous speed of a sweep; K_v from the force
 series' maximum polished by Newton's method; the GMRES iterations of a steady state and of a
-speed-range call bounded, so that a sample whose contact-loss steady states stagnate ends,
-flagged).
+speed-range call bounded; where Newton's method stagnates under contact loss, the reduced
+rotor integrated in time to its periodic response, which exists there: fifth round).
 """
 
 from __future__ import annotations
