@@ -279,7 +279,7 @@ def test_periodic_state_by_integration_against_an_independent_integrator(problem
         for steps in (2, 4):
             sol = solve_periodic_by_integration(model, prep, T, om, channels=["dte"],
                                                 steps_per_instant=steps)
-            assert sol.status == 0 and sol.start == "time_integration" and sol.residual < 1e-8
+            assert sol.status == 0 and sol.start == "time_integration" and sol.residual < 1e-6
             assert sol.iterations <= 8
             assert abs(sol.contact_loss_fraction - np.mean(ref.force[0] <= 0.0)) <= 2.0 / N
             errors.append(np.abs(np.fft.irfft(sol.delta * N, n=N) - d_ref).max()
