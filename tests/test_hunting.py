@@ -365,12 +365,19 @@ def test_back_flank_beyond_the_dense_fallback_is_flagged(rotor_13_17, monkeypatc
 @pytest.mark.e2e  # over 10 s: CI runs it with the e2e marker
 def test_back_flank_fallback_too_large_is_refused_and_flagged(rotor_13_17, monkeypatch):
     """Spectral orders beyond the fallback's limit are not solved densely (minutes per steady
-    state for a 27/79 sample): GMRES's front-flank solution comes back with status 1."""
-    _, _, _, problem, (_, sol) = _rattle_truncated(rotor_13_17, monkeypatch,
-                                                   largest_spectral_set=10)
-    assert problem.orders.orders.size > 10 and sol.status == 1
-    assert sol.back_contact_fraction == 0.0 and sol.min_approach < -0.5e-6  # front only
+    state for a 27/79 sample): the reduced rotor integrated in time, which has the back
+    flank, gives the steady state (37 long periods to return to itself at damping ratio
+    0.01); its K_v within 3 % of the dense balance's (1.5 % measured: with impacts on the
+    back flank the balance's three mesh orders miss what the integration's every mode
+    holds)."""
+    _, _, rattle, problem, (got, sol) = _rattle_truncated(rotor_13_17, monkeypatch,
+                                                          largest_spectral_set=10)
+    assert problem.orders.orders.size > 10  # the spectral fallback was asked, and refused
+    assert sol.status == 0 and sol.start == "time_integration"
+    assert sol.branch == "back_flank_contact" and sol.back_contact_fraction > 0.1
     assert sol.delta.size == problem.n_harmonics + 1
+    ref, _ = _dense_twin(problem).dynamics_at(8000.0)
+    assert got["kv"] == pytest.approx(ref["kv"], rel=0.03)
 
 
 def test_table_route_in_threads_gives_the_serial_numbers(routes_13_17):

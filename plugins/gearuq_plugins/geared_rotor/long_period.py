@@ -288,14 +288,14 @@ class LongPeriodProblem(GearedRotorProblem):
             if account and sol.status == STATUS_NOT_CONVERGED and sol.contact_loss_fraction > 0:
                 # Newton stagnated under contact loss (near a resonance, where a periodic
                 # response exists but each GMRES solve takes thousands of iterations)
-                if (sol.min_approach <= -self.backlash
-                        and self.kept.size <= MAX_DENSE_FALLBACK_ORDERS):
-                    # toward the back flank, where the dense fallback is affordable: it
-                    dense = self._back_flank(model, T, omega, rec, names, tol, sol)
-                    if dense.status == 0:
+                if sol.min_approach <= -self.backlash:
+                    # toward the back flank: the order balance where it is affordable
+                    # (refused beyond MAX_SPECTRAL_FALLBACK_ORDERS, then the integration)
+                    ordered = self._back_flank(model, T, omega, rec, names, tol, sol)
+                    if ordered.status in (0, STATUS_BACK_FLANK_TRUNCATED):
                         self._previous = self._previous_timed = None
                         self._previous_remainder = None
-                        return dense
+                        return ordered
                 # the reduced rotor integrated in time from Newton's best iterate
                 timed = solve_periodic_by_integration(
                     model, self.krylov, T, omega, start=timed_before or sol,
