@@ -321,11 +321,15 @@ def given_acceptance(rep: Any, p_pass: tuple[float, float]) -> dict[str, Any]:
 
 
 @functools.lru_cache(maxsize=4)
-def accepted_probability(grade: int) -> tuple[float, float]:
-    """P(pass) of the paper's pair at class ``grade`` and its standard error: the share of
-    two million germ pairs (seed 0) that :func:`germ_acceptance_margin` accepts (about 5 CPU
-    s, once a process). Every rare path of the study divides by this one count."""
-    return gate_probability(lambda u: germ_acceptance_margin(u, grade) >= 0.0, 58, seed=0)
+def accepted_probability(grade: int, stage: GearStage | None = None,
+                         n: int = 2_000_000) -> tuple[float, float]:
+    """P(pass) of the paper's pair at class ``grade`` (or of ``stage``) and its standard
+    error: the share of ``n`` germ pairs (seed 0) that :func:`germ_acceptance_margin`
+    accepts (two million: about 5 CPU s on the paper's pair, 12 on the e-axle; once a
+    process). Every rare path of the study divides by this one count."""
+    dim = 58 if stage is None else sum(stage.teeth) - 2
+    return gate_probability(lambda u: germ_acceptance_margin(u, grade, stage) >= 0.0, dim,
+                            n=n, seed=0)
 
 
 def subset_given_acceptance(x: float, seed: int, grade: int, n_per_level: int,
@@ -423,21 +427,31 @@ def harmonic_planes(harmonics: tuple[int, ...] = RARE_HARMONICS
     return np.array(cols).T, groups
 
 
-def germ_acceptance_margin(u: np.ndarray, grade: int) -> np.ndarray:
+def germ_acceptance_margin(u: np.ndarray, grade: int,
+                           stage: GearStage | None = None) -> np.ndarray:
     """``pitch_acceptance_margin`` of the rotor from the germs alone, vectorised.
 
     ``u``: draws ``(n, >= 58)`` in the study space's order (``pitch_xi_p_1..29``,
-    ``pitch_xi_g_1..29`` first). The same formula as the plugin's output (min over both
-    gears of ``1 - F_p / F_pT``, the capable process of ``OPTIONS``), without the rotor: a
-    million pairs in seconds, so the accepted law is sampled exactly by rejection.
+    ``pitch_xi_g_1..29`` first; on a ``stage``, its ``z1 - 1`` then ``z2 - 1`` germ
+    normals, each gear at its own class, ``grade`` unused). The same formula as the plugin's
+    output (min over both gears of ``1 - F_p / F_pT``, the capable process of ``OPTIONS``),
+    without the rotor: a million pairs in seconds, so the accepted law is sampled exactly by
+    rejection.
     """
-    pair = seed002_pair()
-    margins = []
-    for gear, (z, d) in enumerate(((pair.z1, pair.d1), (pair.z2, pair.d2))):
-        f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
+    pair = seed002_pair() if stage is None else stage.pair
+    grades = (grade, grade) if stage is None else (stage.pinion.iso_grade,
+                                                   stage.wheel.iso_grade)
+    if stage is not None and any(g.single_pitch_deviations is not None
+                                 for g in (stage.pinion, stage.wheel)):
+        raise ValueError(f"stage={stage.name!r} declares measured pitch deviations: its "
+                         "margin is not a function of the germ alone; valid: a stage without")
+    margins, start = [], 0
+    for z, d, g in ((pair.z1, pair.d1, grades[0]), (pair.z2, pair.d2, grades[1])):
+        f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, g)
         amp, sigma = capable_pitch_scatter(z, f_pT, F_pT, OPTIONS["process_share_beyond"])
         scales = pitch_germ_scales(z, amplitude=amp, sigma=sigma)
-        xi = u[:, gear * scales.size:(gear + 1) * scales.size]
+        xi = u[:, start:start + scales.size]
+        start += scales.size
         fp = (xi * scales) @ pitch_germ_basis(z, scales.size)
         margins.append(1.0 - total_cumulative_pitch_deviation(fp) / F_pT)
     return np.minimum(*margins)
@@ -826,7 +840,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             ss = given_acceptance(failure_probability(
                 study_model(stage=stage), study_space(stage), system, method="subset",
                 rng=seed + 1, n_per_level=int(n_per_level), model_options=stage_options(stage),
-                **run_on))
+                **run_on), accepted_probability(0, stage))
             stages["subset"] = tuple(np.subtract(clock(), (t1, c1)))
     modes = mesh_mode_speeds(0, stage)
     paths = figures(out, ds, x, modes, None, 0, stage)
