@@ -126,7 +126,10 @@ def _moments(v: np.ndarray, omega: np.ndarray, min_std: float,
     """Weighted mean and covariance of the projected points, shrunk towards ``I_k`` by
     ``k + 1`` pseudo-points and kept within ``[min_std^2, 3^2]`` in every direction; in each
     group of ``centred`` coordinates, mean 0 and covariance ``s I`` uncoupled from the rest
-    (``s``: the weighted mean square there, shrunk alike)."""
+    (``s``: the weighted mean square there, pooled over the group's ``g`` coordinates, so
+    shrunk towards 1 by 2 pseudo-points against ``g ess`` values: a full shrinkage would
+    pull an inflated variance halfway back to 1 at every level of a dozen failing points,
+    and cross-entropy would not progress)."""
     k = v.shape[1]
     total = omega.sum()
     ess = total**2 / np.sum(omega**2)
@@ -136,12 +139,14 @@ def _moments(v: np.ndarray, omega: np.ndarray, min_std: float,
     mu[grouped] = 0.0
     c = v - mu
     s = (c * omega[:, None]).T @ c / total
+    s = (1.0 - lam) * s + lam * np.eye(k)
     for group in centred:
         idx = list(group)
-        square = float(np.mean(s[idx, idx]))
+        square = float(np.mean(np.sum(v[:, idx] ** 2, axis=1) * omega) / np.mean(omega))
+        square /= len(idx)
+        lam_g = 2.0 / (ess * len(idx) + 2.0)
         s[idx, :], s[:, idx] = 0.0, 0.0
-        s[idx, idx] = square
-    s = (1.0 - lam) * s + lam * np.eye(k)
+        s[idx, idx] = (1.0 - lam_g) * square + lam_g
     val, vec = np.linalg.eigh(0.5 * (s + s.T))
     return mu, (vec * np.clip(val, min_std**2, 9.0)) @ vec.T
 
