@@ -554,7 +554,8 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
     density, fit = fit_subspace_density(
         _kv_on_normals(model, cheap_options, execution, x - settings["widen"]), basis,
         n_per_level=settings["n_per_level"], seed=seed, gate=gate, p0=settings["p0"],
-        defensive=settings["defensive"], min_std=settings["min_std"], centred=groups)
+        defensive=settings["defensive"], min_std=settings["min_std"], centred=groups,
+        keep_levels=bool(settings.get("keep_levels", False)))
     p_pass, se_pass = accepted_probability(grade)
     out: dict[str, Any] = {"X": x, "p_pass": p_pass, "directions": directions,
                            "fit": {"levels": fit["levels"], "runs": fit["runs"],
@@ -1053,8 +1054,8 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     print(f"X = {x:.4g} (90 % of accepted kv_max); accepted {ok.sum()} of {ok.size}")
     print(f"  crude MC : P(kv_max >= X | pass) = {count['pf']:.3g} [{count['lower']:.3g}, "
           f"{count['upper']:.3g}] ({count['failures']} of {count['accepted']})")
-    print(f"  subset   : {ss['pf']:.3g} [{ss['lower']:.3g}, {ss['upper']:.3g}], status "
-          f"{ss['status']}, {ss['runs']} rotor runs")
+    print(f"  subset   : {ss['pf']:.3g} [{ss['lower']:.3g}, {ss['upper']:.3g}], "
+          f"{ss['message']}, {ss['runs']} rotor runs")
     print("  kv_max 5/50/95 %: " + ", ".join(f"{v:.3f}" for v in info["kv_max_quantiles"])
           + "; ISO Method B: " + ", ".join(f"{v:.3f}" for v in info["kv_iso_max_quantiles"]))
     for method, r in rare.items():
