@@ -401,6 +401,7 @@ RARE_HARMONICS = (12, 13, 14, 15)
 #: :data:`RARE_SUBSPACE` without the gradient directions, cross-entropy at 150 a level.
 RARE_HARMONIC: dict[str, Any] = {**RARE_SUBSPACE, "harmonics": RARE_HARMONICS,
                                  "n_per_level": 150, "n_cheap": 400, "n_rotor": 250}
+#: The same in ``--quick`` (``rare_methods=("harmonic",)``): the code path, a few dozen runs.
 QUICK_HARMONIC: dict[str, Any] = {**QUICK_SUBSPACE, "harmonics": RARE_HARMONICS}
 
 
