@@ -189,3 +189,23 @@ def test_quick_dynamic_factor_study_on_the_stage(tmp_path):
     assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
                                                        "campbell_map.png"}
     assert set(info["kv_rank_correlations"]) >= {"damping_ratio", "torque"}
+
+
+def test_germ_acceptance_margin_on_the_stage_is_the_plugins_output():
+    """The vectorised margin on the e-axle (26 + 78 germ normals, classes 6 and 7) equals
+    the rotor's own ``pitch_acceptance_margin`` (pitch outputs run no dynamics), and the
+    counted P(pass) is near the declared (1 - 0.05)^2."""
+    stage = GearStage.example(STAGE)
+    space = study.study_space(stage)
+    names = space.names
+    assert names[:104] == [f"pitch_xi_p_{k}" for k in range(1, 27)] + [
+        f"pitch_xi_g_{k}" for k in range(1, 79)]
+    u = np.random.default_rng(8).standard_normal((30, len(names)))
+    design = {n: space.marginal(n).from_normal(u[:, j]) for j, n in enumerate(names)}
+    ds = study.study_model(stage=stage).response(
+        design, None, outputs=["pitch_acceptance_margin"], **study.stage_options(stage))
+    np.testing.assert_allclose(study.germ_acceptance_margin(u, 0, stage),
+                               ds["pitch_acceptance_margin"].values, atol=1e-12)
+    p, se = study.accepted_probability(0, stage, n=100_000)
+    assert se == pytest.approx(math.sqrt(p * (1 - p) / 1e5))
+    assert p == pytest.approx(0.95**2, abs=0.004)

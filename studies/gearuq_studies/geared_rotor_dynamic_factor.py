@@ -65,10 +65,21 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    our reading, not vouched for, puts the truth between about 1e-7 and 3e-6
    (docs/benchmarks.md, "The dynamic question").
    :func:`mfis_given_acceptance` and :func:`subset_given_acceptance` stay available
-   (``--rare-methods``).
+   (``--rare-methods``), and so does ``harmonic``: the same sampler with the density kept
+   centred and isotropic in the (cos, sin) plane of each tooth-to-tooth harmonic 12-15 of
+   the pinion-plus-wheel germ sum (:func:`harmonic_planes`), since K_v depends on a
+   harmonic's amplitude, not its phase, and a mean shift reaches one phase of that annulus
+   only. At X = 1.79 (``--rare-x 1.79 --rare-methods harmonic,subspace``, seed 2031) the two
+   densities give 7.9e-7 and 3.8e-7 on the rotor (8.2e-8 and 1.0e-6 on the cheap model),
+   every one of them with one draw carrying 30-64 % of its estimate (status 3); at 1.77
+   (seed 2032, both densities wider, ``min_std`` 1.5) 2.5e-6 and 1.3e-7, status 3 again.
+   Pf near 1e-6 sits at X of about 1.77 (:data:`RARE_X`, 1.83 until this round), and no
+   interval there is vouched for yet (docs/benchmarks.md, "Third round").
 
-``--quick`` runs a few dozen rotor runs (a few minutes of CPU), the rare stage at the
-moderate X with 12 rotor runs, and marks every figure "quick: N runs, not a result".
+``--quick`` runs 12 rotor runs, subset simulation with 16 per level on the coarsest speed
+grid (:data:`QUICK_OPTIONS`), the rare stage at the moderate X with :data:`CHEAP_OPTIONS` as
+its rotor (12 runs) and :data:`QUICK_OPTIONS` as its cheap model, all in under a minute of
+CPU, and marks every figure "quick: N runs, not a result".
 
 **On a gear stage** (``--stage e_axle_27_79`` or a stage TOML file; :func:`run_on_stage`):
 the population stage on the stage's own rotor and speed range. Inputs: the pitch germ of its
@@ -154,10 +165,18 @@ DEFAULT_EXECUTION: dict[str, Any] = {"executor": "processes", "chunk_size": 25}
 #: misses the resonance near 7800 rpm that the rare event lives on, by up to 0.24.
 CHEAP_OPTIONS: dict[str, Any] = {**OPTIONS, "n_speeds": 20, "range_mesh_harmonics": 2,
                                  "peaks_refined": 1, "peak_speed_tol": 10.0}
-#: X of the rare stage. Pilots on the cheap model put P(kv_max >= X | pass) near 1e-6 here;
-#: importance sampling in a few directions puts it near 1e-7 on both models, with edge
-#: draws that keep its interval unvouched (docs/benchmarks.md, "The dynamic question").
-RARE_X = 1.83
+#: The coarsest fidelity, for ``--quick`` only: 6 speeds, one mesh harmonic, no peak located
+#: (about 0.06 CPU s a run against 0.39 for :data:`CHEAP_OPTIONS` and 0.84 for
+#: :data:`OPTIONS`, measured side by side). ``--quick`` runs its subset simulation on it and
+#: its rare stage with it as the cheap model and :data:`CHEAP_OPTIONS` as the rotor: the code
+#: paths, not their answers.
+QUICK_OPTIONS: dict[str, Any] = {**OPTIONS, "n_speeds": 6, "range_mesh_harmonics": 1,
+                                 "peaks_refined": 0}
+#: X of the rare stage, where P(kv_max >= X | pass) is about 1e-6 on the rotor by our
+#: reading: six importance-sampling runs of four densities put it at 6.6e-8 .. 2.5e-6 here
+#: (mean 8e-7), each with one draw carrying 26-85 % of its estimate, so no interval is
+#: vouched for (docs/benchmarks.md, "Third round"). It was 1.83 (about 1e-7) until then.
+RARE_X = 1.77
 #: MFIS of the rare stage (``rare_methods=("mfis",)``): subset simulation on the cheap
 #: model at 250 per level (about 1600 cheap runs, 460 CPU s), the Gaussian mixture fitted
 #: to its last level (10 % defensive), the rotor in batches of 125 up to 500 runs (about
@@ -192,11 +211,20 @@ STAGE_SOLVER: dict[str, Any] = {"long_period_solver": "spectral_orders",
                                 "spectral_energy": 0.98}
 
 
-def stage_options(stage: GearStage) -> dict[str, Any]:
+#: Speeds of ``--quick --stage`` (80 otherwise), whose peaks are not located (grid maxima):
+#: its eight runs check the code path. Locating the peaks is what costs: on the two
+#: light-load draws of seed 2028 (63 and 70 N m, one losing its steady state) 33 and 20 CPU s
+#: a run with them located, 4 and 6 without (docs/benchmarks.md).
+QUICK_STAGE_SPEEDS = 20
+
+
+def stage_options(stage: GearStage, quick: bool = False) -> dict[str, Any]:
     """:data:`OPTIONS` on the stage's own speed range (its ``[operation] speed``), with
-    :data:`STAGE_SOLVER` (used only when the stage's long period is a hunting tooth's)."""
+    :data:`STAGE_SOLVER` (used only when the stage's long period is a hunting tooth's); on
+    :data:`QUICK_STAGE_SPEEDS` speeds, peaks not located, when ``quick``."""
     low, high = stage.operation.speed
-    return {**OPTIONS, **STAGE_SOLVER, "speed_min": float(low), "speed_max": float(high)}
+    return {**OPTIONS, **STAGE_SOLVER, "speed_min": float(low), "speed_max": float(high),
+            **({"n_speeds": QUICK_STAGE_SPEEDS, "peaks_refined": 0} if quick else {})}
 
 
 def study_model(grade: int = 6, stage: GearStage | None = None) -> gearuq.Model:
@@ -259,11 +287,14 @@ def kv_exceeds(x: float) -> LimitState:
 
 
 def population(n: int, seed: int, grade: int, out: Path,
-               execution: dict[str, Any], stage: GearStage | None = None) -> Any:
+               execution: dict[str, Any], stage: GearStage | None = None,
+               quick: bool = False) -> Any:
     """``n`` rotor runs of the untruncated process, stored (a rerun reuses them); on a
-    ``stage``, its rotor, inputs and speed range (store ``mc_store_<stage name>``)."""
+    ``stage``, its rotor, inputs and speed range (store ``mc_store_<stage name>``), on
+    :data:`QUICK_STAGE_SPEEDS` speeds when ``quick``."""
     store, options = ((f"mc_store_grade{grade}", OPTIONS) if stage is None
-                      else (f"mc_store_{stage.name}", stage_options(stage)))
+                      else (f"mc_store_{stage.name}", stage_options(stage, quick)))
+    store += "_quick" if quick else ""
     return gearuq.monte_carlo(study_model(grade, stage), study_space(stage), None,
                               n_samples=n, rng=seed, outputs=OUTPUTS, store=out / store,
                               progress=False, model_options=options, **execution)
@@ -280,22 +311,36 @@ def conditional_count(ds: Any, x: float) -> dict[str, float]:
             "accepted": n, "runs": int(ok.size), "invalid": int((~ok).sum())}
 
 
-def given_acceptance(rep: Any) -> dict[str, Any]:
-    """A report of P(fail and pass) turned into P(fail | pass), its interval divided alike.
+def given_acceptance(rep: Any, p_pass: tuple[float, float]) -> dict[str, Any]:
+    """A report of P(fail and pass) turned into P(fail | pass) by :func:`given_gate`.
 
-    P(pass) is the law's declared one, ``(1 - process_share_beyond)^2`` (the two gears are
-    independent). The capable process's F_p quantile is itself estimated once, from 200 000
-    germs of a fixed seed, so the share it actually puts beyond F_pT differs a little: 4.93 %
-    on the paper's rotor, P(pass) = 0.9037 counted on two million germ pairs
-    (:func:`germ_acceptance_margin`) against 0.9025 declared. Every estimate divided here is
-    about 0.13 % high for it, far inside its interval; :func:`subspace_given_acceptance` divides by
-    the counted value instead.
+    ``p_pass``: P(pass) and its standard error as counted (:func:`accepted_probability` on
+    the paper's rotor), not the declared ``(1 - process_share_beyond)^2``: the capable
+    process's F_p quantile is itself estimated once (200 000 germs of a fixed seed), so the
+    share it puts beyond F_pT is not exactly 5 %: on the paper's rotor P(pass) = 0.9033
+    (standard error 2e-4) against 0.9025 declared. The interval's ends are divided by
+    P(pass)'s upper and lower ends.
     """
-    p_pass = (1.0 - OPTIONS["process_share_beyond"]) ** 2
-    return {"pf": float(rep["pf"]) / p_pass, "lower": float(rep["pf_lower"]) / p_pass,
-            "upper": float(rep["pf_upper"]) / p_pass, "status": int(rep["status"]),
-            "message": describe_status(rep), "runs": int(rep["n_model_runs"]),
-            "wall": float(rep["wall_time"]), "p_pass": p_pass}
+    cov = float(rep["cov_pf"]) if "cov_pf" in rep else math.nan
+    est = {"pf": float(rep["pf"]), "lower": float(rep["pf_lower"]),
+           "upper": float(rep["pf_upper"]), "cov": cov}
+    out = given_gate(est, *p_pass)
+    return {"pf": out["pf"], "lower": out["lower"], "upper": out["upper"],
+            "status": int(rep["status"]), "message": describe_status(rep),
+            "runs": int(rep["n_model_runs"]), "wall": float(rep["wall_time"]),
+            "p_pass": p_pass[0], "p_pass_se": p_pass[1]}
+
+
+@functools.lru_cache(maxsize=4)
+def accepted_probability(grade: int, stage: GearStage | None = None,
+                         n: int = 2_000_000) -> tuple[float, float]:
+    """P(pass) of the paper's pair at class ``grade`` (or of ``stage``) and its standard
+    error: the share of ``n`` germ pairs (seed 0) that :func:`germ_acceptance_margin`
+    accepts (two million: about 5 CPU s on the paper's pair, 12 on the e-axle; once a
+    process). Every rare path of the study divides by this one count."""
+    dim = 58 if stage is None else sum(stage.teeth) - 2
+    return gate_probability(lambda u: germ_acceptance_margin(u, grade, stage) >= 0.0, dim,
+                            n=n, seed=0)
 
 
 def subset_given_acceptance(x: float, seed: int, grade: int, n_per_level: int,
@@ -307,7 +352,7 @@ def subset_given_acceptance(x: float, seed: int, grade: int, n_per_level: int,
     rep = failure_probability(model, space, system, method="subset", rng=seed,
                               n_per_level=n_per_level, model_options=options or OPTIONS,
                               **execution)
-    return given_acceptance(rep)
+    return given_acceptance(rep, accepted_probability(grade))
 
 
 def mfis_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, Any],
@@ -325,7 +370,8 @@ def mfis_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, A
                               low_fidelity=model,
                               low_fidelity_options=cheap_options or CHEAP_OPTIONS,
                               model_options=options or OPTIONS, **settings, **execution)
-    return {**given_acceptance(rep), "cheap_runs": int(rep["n_low_fidelity_runs"]),
+    return {**given_acceptance(rep, accepted_probability(grade)),
+            "cheap_runs": int(rep["n_low_fidelity_runs"]),
             "discrepancy_measured": float(rep["discrepancy_measured"]),
             "discrepancy_bound": float(rep["discrepancy_bound"]),
             "widened": bool(rep["widened"]), "cov": float(rep["cov_pf"])}
@@ -348,23 +394,76 @@ QUICK_SUBSPACE: dict[str, Any] = {**RARE_SUBSPACE, "n_per_level": 40, "n_cheap":
                                   "n_pitch_directions": 1}
 #: Inputs of the study space other than the 58 pitch germs, in its order.
 _OTHER = ("tip_relief_amount", "torque", "damping_ratio")
+#: Tooth-to-tooth pitch harmonics whose pinion-plus-wheel sums carry the rare K_v: the cheap
+#: K_v's gradients at the low-damping, light-load corner lean on them (docs/benchmarks.md,
+#: "The dynamic question").
+RARE_HARMONICS = (12, 13, 14, 15)
+#: The rare stage's importance sampling centred in the harmonic planes
+#: (``rare_methods=("harmonic",)``, :func:`harmonic_planes`): the settings of
+#: :data:`RARE_SUBSPACE` without the gradient directions, cross-entropy at 150 a level.
+RARE_HARMONIC: dict[str, Any] = {**RARE_SUBSPACE, "harmonics": RARE_HARMONICS,
+                                 "n_per_level": 150, "n_cheap": 400, "n_rotor": 250}
+#: The same in ``--quick`` (``rare_methods=("harmonic",)``): the code path, a few dozen runs.
+QUICK_HARMONIC: dict[str, Any] = {**QUICK_SUBSPACE, "harmonics": RARE_HARMONICS}
 
 
-def germ_acceptance_margin(u: np.ndarray, grade: int) -> np.ndarray:
+def harmonic_planes(harmonics: tuple[int, ...] = RARE_HARMONICS
+                    ) -> tuple[np.ndarray, list[list[int]]]:
+    """Directions (61 x k, orthonormal) of the rare density and its centred groups.
+
+    Relief, torque and damping, in which the density may shift; then, for each tooth-to-tooth
+    harmonic ``m`` of ``harmonics``, the cosine and sine of the pinion-plus-wheel germ sum
+    ``(xi_p + xi_g) / sqrt 2`` (the cosine alone at ``m = z / 2 = 15``). Each harmonic's
+    columns form a group in which the density stays centred and isotropic
+    (:func:`gearuq.failure.methods.subspace.fit_subspace_density`, ``centred``): K_v depends
+    on a harmonic's amplitude, not its phase, so its failure set in that plane is an annulus
+    that a mean shift would reach at one phase only.
+    """
+    names = study_space().names
+    n_germ = len(pitch_germ_names(seed002_pair().z1, 1))
+    if any(int(m) != m or not 1 <= m <= (n_germ + 1) // 2 for m in harmonics):
+        raise ValueError(f"harmonics={harmonics!r} is outside its valid range: integers "
+                         f"1..{(n_germ + 1) // 2}")
+    cols, groups = [], []
+    for name in _OTHER:
+        cols.append(np.eye(len(names))[names.index(name)])
+    for m in harmonics:
+        group = []
+        for c in (2 * m - 2, 2 * m - 1):
+            if c < n_germ:
+                col = np.zeros(len(names))
+                col[c] = col[n_germ + c] = math.sqrt(0.5)
+                group.append(len(cols))
+                cols.append(col)
+        groups.append(group)
+    return np.array(cols).T, groups
+
+
+def germ_acceptance_margin(u: np.ndarray, grade: int,
+                           stage: GearStage | None = None) -> np.ndarray:
     """``pitch_acceptance_margin`` of the rotor from the germs alone, vectorised.
 
     ``u``: draws ``(n, >= 58)`` in the study space's order (``pitch_xi_p_1..29``,
-    ``pitch_xi_g_1..29`` first). The same formula as the plugin's output (min over both
-    gears of ``1 - F_p / F_pT``, the capable process of ``OPTIONS``), without the rotor: a
-    million pairs in seconds, so the accepted law is sampled exactly by rejection.
+    ``pitch_xi_g_1..29`` first; on a ``stage``, its ``z1 - 1`` then ``z2 - 1`` germ
+    normals, each gear at its own class, ``grade`` unused). The same formula as the plugin's
+    output (min over both gears of ``1 - F_p / F_pT``, the capable process of ``OPTIONS``),
+    without the rotor: a million pairs in seconds, so the accepted law is sampled exactly by
+    rejection.
     """
-    pair = seed002_pair()
-    margins = []
-    for gear, (z, d) in enumerate(((pair.z1, pair.d1), (pair.z2, pair.d2))):
-        f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, grade)
+    pair = seed002_pair() if stage is None else stage.pair
+    grades = (grade, grade) if stage is None else (stage.pinion.iso_grade,
+                                                   stage.wheel.iso_grade)
+    if stage is not None and any(g.single_pitch_deviations is not None
+                                 for g in (stage.pinion, stage.wheel)):
+        raise ValueError(f"stage={stage.name!r} declares measured pitch deviations: its "
+                         "margin is not a function of the germ alone; valid: a stage without")
+    margins, start = [], 0
+    for z, d, g in ((pair.z1, pair.d1, grades[0]), (pair.z2, pair.d2, grades[1])):
+        f_pT, F_pT = iso1328_pitch_tolerances(d, pair.mn, g)
         amp, sigma = capable_pitch_scatter(z, f_pT, F_pT, OPTIONS["process_share_beyond"])
         scales = pitch_germ_scales(z, amplitude=amp, sigma=sigma)
-        xi = u[:, gear * scales.size:(gear + 1) * scales.size]
+        xi = u[:, start:start + scales.size]
+        start += scales.size
         fp = (xi * scales) @ pitch_germ_basis(z, scales.size)
         margins.append(1.0 - total_cumulative_pitch_deviation(fp) / F_pT)
     return np.minimum(*margins)
@@ -453,8 +552,13 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
         cross-entropy levels and runs; ``"directions"``; ``"p_pass"``.
     """
     cheap_options = cheap_options or CHEAP_OPTIONS
-    model, dim = study_model(grade), len(study_space().names)
-    basis, directions = rare_directions(grade, seed, settings, execution, cheap_options)
+    model = study_model(grade)
+    if settings.get("harmonics"):
+        basis, groups = harmonic_planes(tuple(settings["harmonics"]))
+        directions: dict[str, Any] = {"harmonics": list(settings["harmonics"]), "runs": 0}
+    else:
+        basis, directions = rare_directions(grade, seed, settings, execution, cheap_options)
+        groups = None
 
     def gate(u: np.ndarray) -> np.ndarray:
         return germ_acceptance_margin(u, grade) >= 0.0
@@ -462,19 +566,46 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
     density, fit = fit_subspace_density(
         _kv_on_normals(model, cheap_options, execution, x - settings["widen"]), basis,
         n_per_level=settings["n_per_level"], seed=seed, gate=gate, p0=settings["p0"],
-        defensive=settings["defensive"], min_std=settings["min_std"])
-    p_pass, se_pass = gate_probability(gate, dim, seed=seed)
+        defensive=settings["defensive"], min_std=settings["min_std"], centred=groups,
+        keep_levels=bool(settings.get("keep_levels", False)))
+    p_pass, se_pass = accepted_probability(grade)
     out: dict[str, Any] = {"X": x, "p_pass": p_pass, "directions": directions,
                            "fit": {"levels": fit["levels"], "runs": fit["runs"],
                                    "reached": fit["reached"]}}
     for name, opts, n in (("cheap", cheap_options, settings["n_cheap"]),
                           ("rotor", options or OPTIONS, settings["n_rotor"])):
-        est = subspace_estimate(_kv_on_normals(model, opts, execution, x), density, n=n,
-                                seed=seed + (1 if name == "cheap" else 2), gate=gate)
+        seen: list[tuple[np.ndarray, np.ndarray]] = []
+        est = subspace_estimate(_recorded(_kv_on_normals(model, opts, execution, x), seen),
+                                density, n=n, seed=seed + (1 if name == "cheap" else 2),
+                                gate=gate)
         out[name] = {**given_gate(est, p_pass, se_pass),
                      **{k: est[k] for k in ("status", "message", "runs", "ess", "max_share",
-                                            "n_fail", "pareto_k")}}
+                                            "n_fail", "pareto_k")},
+                     "pf_over_x": _pf_over_x(seen, density, n, x, p_pass)}
     return out
+
+
+def _recorded(limit: Any, seen: list[tuple[np.ndarray, np.ndarray]]) -> Any:
+    """``limit`` that also keeps each batch's draws and ``kv_max`` (NaN where invalid)."""
+    def record(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        g, ok = limit(u)
+        seen.append((u, g))
+        return g, ok
+
+    return record
+
+
+def _pf_over_x(seen: list[tuple[np.ndarray, np.ndarray]], density: Any, n: int, x: float,
+               p_pass: float) -> dict[str, float]:
+    """P(kv_max >= x' | pass) at x' = x - 0.06 .. x + 0.06 from the same weighted draws (the
+    level where P is near a target, read off one run; not vouched for away from ``x``)."""
+    if not seen:
+        return {}
+    u = np.concatenate([a for a, _ in seen])
+    kv = x - np.concatenate([g for _, g in seen])
+    w = np.exp(density.log_weights(u))
+    return {f"{xp:.3f}": float(np.sum(w * (kv >= xp)) / n / p_pass)
+            for xp in x + np.arange(-0.06, 0.0601, 0.02)}
 
 
 def grouped_sobol(n_base: int, seed: int, grade: int,
@@ -660,9 +791,10 @@ def peak_sites(ds: Any, modes: list[tuple[float, float]]) -> list[dict[str, floa
 
 
 @plot.quick_mode(
-    lambda a: f"{QUICK_STAGE_RUNS} rotor runs on the stage",
-    left_out=("the population of n_runs rotor runs and subset simulation on the stage: "
-              "no quantile, probability or ranking here is resolved"))
+    lambda a: f"{QUICK_STAGE_RUNS} rotor runs on the stage at {QUICK_STAGE_SPEEDS} speeds",
+    left_out=("the population of n_runs rotor runs on 80 speeds with the K_v peaks located, "
+              "and subset simulation on the stage: no quantile, probability or ranking here "
+              "is resolved"))
 def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = False,
                  seed: int = 2028, executor: Any = DEFAULT_EXECUTION["executor"],
                  chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
@@ -710,7 +842,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
         run_on = {"executor": pool, "chunk_size": chunk_size}
         clock = functools.partial(wall_and_cpu, pool)
         t0, c0 = clock()
-        ds = population(n_mc, seed, 0, out, run_on, stage)
+        ds = population(n_mc, seed, 0, out, run_on, stage, quick)
         t1, c1 = clock()
         stages["population"] = (t1 - t0, c1 - c0)
         ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
@@ -721,7 +853,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             ss = given_acceptance(failure_probability(
                 study_model(stage=stage), study_space(stage), system, method="subset",
                 rng=seed + 1, n_per_level=int(n_per_level), model_options=stage_options(stage),
-                **run_on))
+                **run_on), accepted_probability(0, stage))
             stages["subset"] = tuple(np.subtract(clock(), (t1, c1)))
     modes = mesh_mode_speeds(0, stage)
     paths = figures(out, ds, x, modes, None, 0, stage)
@@ -739,7 +871,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             "speed_at_kv_max_quantiles": np.quantile(ds["speed_at_kv_max"].values[ok],
                                                      [0.05, 0.5, 0.95]),
             "kv_rank_correlations": kv_drivers(ds), "mesh_mode_speeds": modes,
-            "peak_sites": peak_sites(ds, modes), "options": stage_options(stage),
+            "peak_sites": peak_sites(ds, modes), "options": stage_options(stage, quick),
             "space": [m for m in study_space(stage).to_dict()["parameters"]
                       if not m["name"].startswith("pitch_xi_")],
             "population_cpu_s_per_run": stages["population"][1] / n_mc,
@@ -808,8 +940,8 @@ def _stage_route(run_paper: Any) -> Any:
 
 @_stage_route
 @plot.quick_mode(
-    "12 rotor runs, subset simulation with 16 per level, the rare stage's importance "
-    "sampling at the moderate X with 12 rotor runs",
+    "12 rotor runs; subset simulation with 16 per level and the rare stage's importance "
+    "sampling at the moderate X (12 runs) on coarser speed grids",
     left_out=("the 400-run population, subset simulation at 200 per level, the grouped "
               "Sobol' indices and the rare level (X near P = 1e-6, importance sampling in a "
               "few directions on the cheap model and the rotor): no probability or ranking "
@@ -844,8 +976,10 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         Samples per level of subset simulation in the rare stage.
     rare_methods : tuple of str
         Methods of the rare stage, of ``"subspace"`` (:func:`subspace_given_acceptance`: the
-        cheap model's and the rotor's estimates), ``"mfis"`` (:func:`mfis_given_acceptance`,
-        the Gaussian mixture over all inputs) and ``"subset"``
+        cheap model's and the rotor's estimates), ``"harmonic"`` (the same, its density
+        centred in the harmonic planes of :func:`harmonic_planes`), ``"mfis"``
+        (:func:`mfis_given_acceptance`, the Gaussian mixture over all inputs) and
+        ``"subset"``
         (:func:`subset_given_acceptance` on the rotor).
     stage : str, optional
         A built-in stage name (``e_axle_27_79``) or a stage TOML path: the population
@@ -858,10 +992,10 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     """
     if grade not in range(1, 13):
         raise ValueError(f"grade={grade!r} is outside its valid range: integers 1..12")
-    unknown = set(rare_methods) - {"subspace", "mfis", "subset"}
+    unknown = set(rare_methods) - {"harmonic", "subspace", "mfis", "subset"}
     if unknown or not rare_methods:
         raise ValueError(f"rare_methods={rare_methods!r} is outside its valid set: a non-empty "
-                         "tuple of 'subspace', 'mfis', 'subset'")
+                         "tuple of 'harmonic', 'subspace', 'mfis', 'subset'")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     execution = {"executor": executor, "chunk_size": chunk_size}
@@ -873,8 +1007,9 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     n_mc, n_level = (12, 16) if quick else (int(n_runs), int(n_per_level))
     stages = {}
     if quick:
-        print(f"quick run: {n_mc} rotor runs, subset simulation with 16 per level, no "
-              "Sobol' indices: a check, not the answer", flush=True)
+        print(f"quick run: {n_mc} rotor runs, subset simulation with 16 per level on 6 "
+              "speeds, the rare stage on 20 and 6 speeds, no Sobol' indices: a check, not "
+              "the answer", flush=True)
     # one pool of workers for every stage (each fresh worker costs seconds of imports and
     # compiled kernels); a stage's CPU is this process's plus its workers'
     with workers_for_run(executor) as pool:
@@ -887,7 +1022,8 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         ok = (ds["status"].values == 0) & (ds["pitch_acceptance_margin"].values >= 0)
         x = float(np.quantile(ds["kv_max"].values[ok], 0.9))
         count = conditional_count(ds, x)
-        ss = subset_given_acceptance(x, seed + 1, grade, n_level, run_on)
+        ss = subset_given_acceptance(x, seed + 1, grade, n_level, run_on,
+                                     QUICK_OPTIONS if quick else None)
         t2, c2 = clock()
         stages["subset"] = (t2 - t1, c2 - c1)
         sobol = None
@@ -898,19 +1034,24 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         rare: dict[str, Any] = {}
         # quick: the stage's code path at the moderate X, a few dozen runs
         rare["X"] = x if quick else float(rare_x)
+        # quick: the rotor is the cheap fidelity and the cheap one the coarsest
+        fidelities = ({"options": CHEAP_OPTIONS, "cheap_options": QUICK_OPTIONS} if quick
+                      else {})
         for method in rare_methods:
             t4, c4 = clock()
-            if method == "subspace":
-                rare[method] = subspace_given_acceptance(
-                    rare["X"], seed + 3, grade, QUICK_SUBSPACE if quick else RARE_SUBSPACE,
-                    run_on)
+            if method in ("subspace", "harmonic"):
+                settings = {"subspace": (RARE_SUBSPACE, QUICK_SUBSPACE),
+                            "harmonic": (RARE_HARMONIC, QUICK_HARMONIC)}[method][int(quick)]
+                rare[method] = subspace_given_acceptance(rare["X"], seed + 3, grade, settings,
+                                                         run_on, **fidelities)
             elif method == "mfis":
                 rare[method] = mfis_given_acceptance(rare["X"], seed + 3, grade,
-                                                     QUICK_MFIS if quick else RARE_MFIS, run_on)
+                                                     QUICK_MFIS if quick else RARE_MFIS, run_on,
+                                                     **fidelities)
             else:
                 rare[method] = subset_given_acceptance(rare["X"], seed + 4, grade,
                                                        16 if quick else int(rare_per_level),
-                                                       run_on)
+                                                       run_on, fidelities.get("cheap_options"))
             stages[f"rare_{method}"] = tuple(np.subtract(clock(), (t4, c4)))
     modes = mesh_mode_speeds(grade)
     paths = figures(out, ds, x, modes, sobol, grade)
@@ -927,15 +1068,15 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     print(f"X = {x:.4g} (90 % of accepted kv_max); accepted {ok.sum()} of {ok.size}")
     print(f"  crude MC : P(kv_max >= X | pass) = {count['pf']:.3g} [{count['lower']:.3g}, "
           f"{count['upper']:.3g}] ({count['failures']} of {count['accepted']})")
-    print(f"  subset   : {ss['pf']:.3g} [{ss['lower']:.3g}, {ss['upper']:.3g}], status "
-          f"{ss['status']}, {ss['runs']} rotor runs")
+    print(f"  subset   : {ss['pf']:.3g} [{ss['lower']:.3g}, {ss['upper']:.3g}], "
+          f"{ss['message']}, {ss['runs']} rotor runs")
     print("  kv_max 5/50/95 %: " + ", ".join(f"{v:.3f}" for v in info["kv_max_quantiles"])
           + "; ISO Method B: " + ", ".join(f"{v:.3f}" for v in info["kv_iso_max_quantiles"]))
     for method, r in rare.items():
         if method == "X":
             continue
         parts = ([(f"{method}, {k} model", r[k]) for k in ("cheap", "rotor")]
-                 if method == "subspace" else [(method, r)])
+                 if method in ("subspace", "harmonic") else [(method, r)])
         for label, e in parts:
             print(f"  rare level, {label}: P(kv_max >= {rare['X']:.4g} | pass) = {e['pf']:.3g} "
                   f"[{e['lower']:.3g}, {e['upper']:.3g}], {e['runs']} runs"
@@ -973,7 +1114,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rare-per-level", type=int, default=200,
                         help="subset-simulation samples per level of the rare stage")
     parser.add_argument("--rare-methods", default="subspace",
-                        help="comma-separated methods of the rare stage: subspace, mfis, subset")
+                        help="comma-separated methods of the rare stage: subspace, harmonic, "
+                        "mfis, subset")
     parser.add_argument("--stage", default=None, help="a built-in stage name or a stage "
                         "TOML path: the population stage on it (default: the paper's rotor)")
     args = parser.parse_args(argv)

@@ -24,6 +24,16 @@ run, and ``P(F | gate) = P(F and gate) / P(gate)`` with ``P(gate)`` counted on m
 vectorised standard normal draws (:func:`gate_probability`), whose error is carried into the
 interval. The input law conditioned on the gate is thus sampled exactly, whatever the
 density does in the gated coordinates.
+
+**Centred groups.** A failure set may depend on the *length* of a few coordinates only (an
+amplitude, whatever its phase: the rotor's tooth-to-tooth pitch harmonics, each a (cos, sin)
+plane of the germ): in that plane the failure set is an annulus, and a mean shift reaches one
+phase of it (a missing-mode bias: the draws never see the others). Since the input law and
+such a failure set are both invariant under rotations in the group, so is the ideal biasing
+density, and the cross-entropy fit may be restricted to it: in each group of ``centred``
+coordinates the moved component has mean 0 and covariance ``s I`` (its variance inflated
+equally in every direction of the group, uncoupled from the others), ``s`` the weighted mean
+square of the failing points' coordinates there. The weights keep their bound ``1 / a``.
 """
 
 from __future__ import annotations
@@ -111,26 +121,51 @@ def gated_batch(limit: Limit, density: Mixture, n: int, seed: Any,
             "invalid": ~ok, "gap": np.zeros(len(u), bool), "runs": np.int64(inside.sum())}
 
 
-def _moments(v: np.ndarray, omega: np.ndarray, min_std: float) -> tuple[np.ndarray, np.ndarray]:
+def _moments(v: np.ndarray, omega: np.ndarray, min_std: float,
+             centred: tuple[tuple[int, ...], ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Weighted mean and covariance of the projected points, shrunk towards ``I_k`` by
-    ``k + 1`` pseudo-points and kept within ``[min_std^2, 3^2]`` in every direction."""
+    ``k + 1`` pseudo-points and kept within ``[min_std^2, 3^2]`` in every direction; in each
+    group of ``centred`` coordinates, mean 0 and covariance ``s I`` uncoupled from the rest
+    (``s``: the weighted mean square there, pooled over the group's ``g`` coordinates, so
+    shrunk towards 1 by 2 pseudo-points against ``g ess`` values: a full shrinkage would
+    pull an inflated variance halfway back to 1 at every level of a dozen failing points,
+    and cross-entropy would not progress)."""
     k = v.shape[1]
     total = omega.sum()
     ess = total**2 / np.sum(omega**2)
     mu = omega @ v / total
+    lam = (k + 1.0) / (ess + k + 1.0)
+    grouped = [i for group in centred for i in group]
+    mu[grouped] = 0.0
     c = v - mu
     s = (c * omega[:, None]).T @ c / total
-    lam = (k + 1.0) / (ess + k + 1.0)
     s = (1.0 - lam) * s + lam * np.eye(k)
+    for group in centred:
+        idx = list(group)
+        square = float(np.mean(np.sum(v[:, idx] ** 2, axis=1) * omega) / np.mean(omega))
+        square /= len(idx)
+        lam_g = 2.0 / (ess * len(idx) + 2.0)
+        s[idx, :], s[:, idx] = 0.0, 0.0
+        s[idx, idx] = (1.0 - lam_g) * square + lam_g
     val, vec = np.linalg.eigh(0.5 * (s + s.T))
     return mu, (vec * np.clip(val, min_std**2, 9.0)) @ vec.T
+
+
+def _check_groups(centred: Any, k: int) -> tuple[tuple[int, ...], ...]:
+    groups = tuple(tuple(int(i) for i in group) for group in (centred or ()))
+    flat = [i for group in groups for i in group]
+    if any(not 0 <= i < k for i in flat) or len(set(flat)) != len(flat) or not all(groups):
+        raise ValueError(f"centred={centred!r} is outside its valid range: disjoint non-empty "
+                         f"groups of column indices 0..{k - 1} of the basis")
+    return groups
 
 
 def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, seed: int,
                          gate: Gate | None = None, p0: float = 0.1, defensive: float = 0.1,
                          min_std: float = 0.3, max_levels: int = 12,
                          start: tuple[np.ndarray, np.ndarray] | None = None,
-                         keep_levels: bool = False) -> tuple[Mixture, dict[str, Any]]:
+                         keep_levels: bool = False,
+                         centred: Any = None) -> tuple[Mixture, dict[str, Any]]:
     """Multi-level cross-entropy in ``span(basis)``: the density that reaches ``g <= 0``.
 
     Level ``l`` draws ``n_per_level`` points of the current density, sets ``gamma_l`` to
@@ -169,6 +204,10 @@ def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, s
         by ``1 / defensive`` and depend on ``B^T u`` only. Off by default: on the geared
         rotor's K_v it spread the draws over the levels and lowered the effective sample
         size (1.2 against 4.9 of the last level alone; docs/benchmarks.md).
+    centred : sequence of sequences of int, optional
+        Groups of columns of ``basis`` in which the moved component stays centred and
+        isotropic (module docstring, "Centred groups"): for a failure set that depends on
+        the length of those coordinates, not their direction.
 
     Returns
     -------
@@ -178,6 +217,7 @@ def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, s
     """
     basis = _check_basis(basis)
     k = basis.shape[1]
+    groups = _check_groups(centred, k)
     if int(n_per_level) != n_per_level or n_per_level < 20:
         raise ValueError(f"n_per_level={n_per_level!r} is outside its valid range: integers "
                          ">= 20")
@@ -197,7 +237,7 @@ def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, s
                                "passed the gate with a valid run; no level can be set")
         levels.append(gamma)
         omega = np.where(g <= gamma, bt["w"], 0.0)
-        mean, cov = _moments(bt["u"] @ basis, omega, min_std)
+        mean, cov = _moments(bt["u"] @ basis, omega, min_std, groups)
         fitted.append((mean, cov))
         density = subspace_density(basis, mean, cov, defensive)
         if gamma == 0.0:
