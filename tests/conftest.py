@@ -119,12 +119,15 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     import numpy as np
 
     import gearuq
+    from gearuq._firstcall import kernels_route
     from gearuq.bench.core import MODEL_FIRST_CALLS
 
     for name in warm_up_share(int(worker[2:]), n_workers):
         spec = MODEL_FIRST_CALLS[name]
         t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
         try:
-            gearuq.get_model(name).response({}, t, outputs=spec["outputs"])
+            # compiled: a small first call would otherwise run interpreted and compile nothing
+            with kernels_route("compiled"):
+                gearuq.get_model(name).response({}, t, outputs=spec["outputs"])
         except Exception as err:  # the model's own tests report it; the warm-up only times
             print(f"conftest warm-up of {name} failed: {err!r}", file=sys.stderr)

@@ -354,16 +354,25 @@ import json, sys, time
 cpu0, wall0 = time.process_time(), time.perf_counter()
 import numpy as np
 import gearuq
+from numba.core import event
+compiled = []
+class _Count(event.Listener):
+    def on_start(self, ev):
+        compiled.append(1)
+    def on_end(self, ev):
+        pass
+event.register("numba:compile", _Count())
 name, spec = sys.argv[1], json.loads(sys.argv[2])
 t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
 model = gearuq.get_model(name)
 ds = model.response({}, t, outputs=spec["outputs"])
 first = (time.process_time() - cpu0, time.perf_counter() - wall0)
+n_compiled = len(compiled)
 c, w = time.process_time(), time.perf_counter()
 model.response({}, t, outputs=spec["outputs"])
 print(json.dumps({"first_cpu": first[0], "first_wall": first[1],
                   "again_cpu": time.process_time() - c, "again_wall": time.perf_counter() - w,
-                  "status": int(np.max(ds["status"].values))}))
+                  "status": int(np.max(ds["status"].values)), "compiled": n_compiled}))
 """
 
 
@@ -381,7 +390,9 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
     -------
     dict
         ``rows`` (one per model: ``cold_cpu``, ``cold_wall``, ``warm_cpu``, ``warm_wall``,
-        ``again_cpu``, the call's outputs and instants) and ``machine``.
+        ``again_cpu``, ``cold_compiled``: the number of numba compilations in the cold call,
+        0 when it ran its kernels interpreted or needs none; the call's outputs and
+        instants) and ``machine``.
     """
     import os
     import subprocess
@@ -407,7 +418,8 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
                      "cold_cpu": cold["first_cpu"], "cold_wall": cold["first_wall"],
                      "warm_cpu": warm["first_cpu"], "warm_wall": warm["first_wall"],
                      "again_cpu": warm["again_cpu"], "status": max(cold["status"],
-                                                                  warm["status"])})
+                                                                  warm["status"]),
+                     "cold_compiled": cold["compiled"]})
     return {"rows": rows, "machine": machine_description()}
 
 
@@ -416,11 +428,13 @@ def render_model_first_calls(result: dict[str, Any]) -> str:
     lines = [
         f"Machine: {result['machine']}. One nominal sample per model, default options; each "
         "cell a fresh interpreter, imports included; CPU (wall) seconds. Cold: an empty numba "
-        "cache (a fresh install); warm: the cache the cold run filled.",
+        "cache (a fresh install); warm: the cache the cold run filled. Compiled: numba "
+        "compilations in the cold call (0: its kernels ran as plain Python, gearuq._firstcall, "
+        "or it has none).",
         "",
         "| model | call | cold first call | warm first call | cold / warm CPU | "
-        "same call again |",
-        "|---|---|---|---|---|---|",
+        "same call again | compiled |",
+        "|---|---|---|---|---|---|---|",
     ]
     for r in result["rows"]:
         t = "no instants" if r["t"] is None else f"{r['t'][2]} instants"
@@ -429,7 +443,8 @@ def render_model_first_calls(result: dict[str, Any]) -> str:
         lines.append(
             f"| {r['model']} | {outs}, {t} | {r['cold_cpu']:.2f} ({r['cold_wall']:.2f}) | "
             f"{r['warm_cpu']:.2f} ({r['warm_wall']:.2f}) | "
-            f"{r['cold_cpu'] / r['warm_cpu']:.1f} | {r['again_cpu']:.3f} |")
+            f"{r['cold_cpu'] / r['warm_cpu']:.1f} | {r['again_cpu']:.3f} | "
+            f"{r.get('cold_compiled', '-')} |")
     return "\n".join(lines)
 
 

@@ -1,0 +1,224 @@
+"""Small first calls without compiling: a numba kernel run as plain Python while it pays.
+
+A fresh install has no compiled kernels: the first call of a model compiles them (10-30 s of
+CPU), even when the call asks for one sample that the same code, interpreted by Python, answers
+in a fraction of a second. :class:`FirstCallRoute` chooses per call, the way one rents before
+buying (the ski-rental rule, whose total cost is at most twice the better choice's): while the
+kernel is neither compiled in this process nor in numba's on-disk cache, calls whose predicted
+interpreted CPU fits into a per-process allowance run the kernel's own Python source
+(:func:`interpreted`: the same functions with every kernel they call also interpreted); the
+first call that would overrun the allowance compiles, and every later one runs compiled.
+The interpreted route computes the same operations in the same order in IEEE double
+precision, so its results agree with the compiled kernel's to rounding (the kernels' tests
+compare the two); the cost is Python's speed, about 100 times slower per call, which is why the
+allowance is small.
+
+The environment variable ``GEARUQ_KERNELS`` forces a route: ``compiled`` (always compile, as
+before) or ``interpreted`` (never compile: for tests and debugging); unset or ``auto`` chooses
+as above.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import os
+import sys
+import threading
+import time
+import types
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+#: Interpreted CPU seconds a process may spend on one kernel before the kernel is compiled.
+DEFAULT_ALLOWANCE_CPU = 2.0
+_ROUTES = ("auto", "compiled", "interpreted")
+_forced: contextvars.ContextVar[str | None] = contextvars.ContextVar("gearuq_kernels",
+                                                                   default=None)
+
+
+@contextlib.contextmanager
+def kernels_route(route: str) -> Iterator[None]:
+    """Force the route of every :class:`FirstCallRoute` chosen inside the block (over
+    ``GEARUQ_KERNELS``): ``"compiled"`` for a precompile step, ``"interpreted"`` for tests."""
+    if route not in _ROUTES:
+        raise ValueError(f"route={route!r} is not a route; valid: {', '.join(_ROUTES)}")
+    token = _forced.set(route)
+    try:
+        yield
+    finally:
+        _forced.reset(token)
+
+
+def _is_dispatcher(obj: Any) -> bool:
+    return hasattr(obj, "py_func") and hasattr(obj, "overloads")
+
+
+def interpreted(kernel: Any, overrides: dict[str, Callable] | None = None) -> Callable:
+    """Plain-Python twin of a numba kernel: its ``py_func``, with every numba kernel it reaches
+    through its module globals (and those kernels' callees, recursively) replaced by theirs.
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+        An ``@njit`` function.
+    overrides : dict, optional
+        Python functions to use instead of named kernels (by ``__name__``), e.g. a numpy
+        version of an inner loop that is slow in Python.
+
+    Returns
+    -------
+    callable
+        The twin; floating-point warnings are silenced as in compiled code.
+    """
+    if not _is_dispatcher(kernel):
+        raise TypeError(f"kernel: expected a numba @njit function, got {type(kernel).__name__}")
+    overrides = dict(overrides or {})
+    twins: dict[int, Callable] = {}
+    spaces: dict[int, dict[str, Any]] = {}
+
+    def twin(disp: Any) -> Callable:
+        f = disp.py_func
+        if id(f) in twins:
+            return twins[id(f)]
+        if f.__name__ in overrides:
+            twins[id(f)] = overrides[f.__name__]
+            return twins[id(f)]
+        # one copy of each module's globals, shared by the twins of that module's kernels
+        space = spaces.get(id(f.__globals__))
+        fill = space is None
+        if fill:
+            space = spaces[id(f.__globals__)] = dict(f.__globals__)
+        cells = None
+        if f.__closure__:
+            cells = tuple(types.CellType(twin(c.cell_contents)
+                                         if _is_dispatcher(c.cell_contents)
+                                         else c.cell_contents) for c in f.__closure__)
+        new = types.FunctionType(f.__code__, space, f.__name__, f.__defaults__, cells)
+        twins[id(f)] = new
+        if fill:
+            for name, value in list(space.items()):
+                if _is_dispatcher(value):
+                    space[name] = twin(value)
+        return new
+
+    body = twin(kernel)
+
+    def call(*args: Any) -> Any:
+        with np.errstate(all="ignore"):
+            return body(*args)
+
+    call.__name__ = f"interpreted_{kernel.py_func.__name__}"
+    call.__doc__ = kernel.py_func.__doc__
+    return call
+
+
+def kernel_ready(kernel: Any, args: tuple) -> bool:
+    """True when calling ``kernel(*args)`` will not compile: the signature of ``args`` is
+    compiled in this process or stored in numba's on-disk cache (looked up in the cache's
+    index, without loading it)."""
+    try:
+        sig = tuple(kernel.typeof_pyval(a) for a in args)
+        if kernel.overloads.get(sig) is not None:
+            return True
+        cache = kernel._cache
+        if not hasattr(cache, "_index_key"):  # caching off: only in-process overloads count
+            return False
+        key = cache._index_key(sig, kernel.targetctx.codegen())
+        return key in cache._cache_file._load_index()
+    except Exception:  # numba's private cache layout changed: assume it would compile
+        return False
+
+
+class FirstCallRoute:
+    """Compiled or interpreted, per call, for one kernel (see the module docstring).
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+        The kernel.
+    label : str
+        What the kernel is, in words, for the one-line notice ("the mesh oscillator's
+        continuation").
+    unit_cpu : float
+        Interpreted CPU seconds per unit of work before any has been measured (the caller
+        says what a unit is: a sample, a sample times a frequency...); later calls use the
+        measured mean.
+    compile_cpu : float
+        Typical CPU seconds of the compile, quoted in the notice.
+    allowance_cpu : float
+        Interpreted CPU seconds this process may spend before the kernel is compiled.
+    overrides : dict, optional
+        Passed to :func:`interpreted`.
+    """
+
+    def __init__(self, kernel: Any, label: str, *, unit_cpu: float, compile_cpu: float,
+                 allowance_cpu: float = DEFAULT_ALLOWANCE_CPU,
+                 overrides: dict[str, Callable] | None = None) -> None:
+        if not unit_cpu > 0.0:
+            raise ValueError(f"unit_cpu={unit_cpu!r} must be > 0 (CPU seconds per unit)")
+        if not allowance_cpu >= 0.0:
+            raise ValueError(f"allowance_cpu={allowance_cpu!r} must be >= 0 (CPU seconds)")
+        self.kernel = kernel
+        self.label = label
+        self.compile_cpu = compile_cpu
+        self.allowance_cpu = allowance_cpu
+        self._overrides = overrides
+        self._twin: Callable | None = None
+        self._unit_cpu = unit_cpu
+        self._spent_cpu = 0.0
+        self._units = 0.0
+        self._calls = 0
+        self._lock = threading.Lock()
+
+    @property
+    def spent_cpu(self) -> float:
+        """Interpreted CPU seconds spent so far in this process."""
+        return self._spent_cpu
+
+    @property
+    def interpreted_calls(self) -> int:
+        """Calls that ran interpreted so far in this process."""
+        return self._calls
+
+    def choose(self, units: float, args: tuple) -> tuple[Callable, str]:
+        """The callable to run ``args`` with (``units`` of work) and its route, ``"compiled"``
+        or ``"interpreted"``; an interpreted callable charges its CPU to the allowance."""
+        route = _forced.get() or os.environ.get("GEARUQ_KERNELS", "auto") or "auto"
+        if route not in _ROUTES:
+            raise ValueError(f"GEARUQ_KERNELS={route!r} is not a route; valid: "
+                             f"{', '.join(_ROUTES)}")
+        if route == "compiled" or (route == "auto" and (
+                kernel_ready(self.kernel, args)
+                or self._spent_cpu + units * self._unit_cpu > self.allowance_cpu)):
+            return self.kernel, "compiled"
+        if self._twin is None:
+            self._twin = interpreted(self.kernel, self._overrides)
+        if self._calls == 0 and route == "auto":
+            self._notice(units)
+        return self._charged(units), "interpreted"
+
+    def _charged(self, units: float) -> Callable:
+        def run(*args: Any) -> Any:
+            cpu = time.thread_time()
+            try:
+                return self._twin(*args)
+            finally:
+                spent = time.thread_time() - cpu
+                with self._lock:
+                    self._spent_cpu += spent
+                    self._units += units
+                    self._calls += 1
+                    self._unit_cpu = self._spent_cpu / max(self._units, 1e-300)
+        return run
+
+    def _notice(self, units: float) -> None:
+        if os.environ.get("GEARUQ_QUIET_COMPILE"):
+            return
+        print(f"gearuq: {self.label} is not compiled yet: this small call runs it as plain "
+              f"Python (about {units * self._unit_cpu:.1f} s of CPU; up to "
+              f"{self.allowance_cpu:.0f} s per process); a larger call compiles it (about "
+              f"{self.compile_cpu:.0f} s of CPU, once per install; `gearuq compile` does it "
+              "ahead)", file=sys.stderr, flush=True)

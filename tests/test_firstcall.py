@@ -1,0 +1,117 @@
+"""Small first calls run the kernels' own Python source until compiling pays
+(gearuq._firstcall): the interpreted twin agrees with the compiled kernel, the route follows
+the allowance, and a compiled or cached kernel is always used."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from gearuq._firstcall import FirstCallRoute, interpreted, kernel_ready, kernels_route
+
+
+@njit
+def _inner(x, k):
+    return math.sin(k * x) / (1.0 + x * x)
+
+
+@njit
+def _kernel(xs, k, out):
+    """Trapezoidal integral of sin(k x) / (1 + x^2) over xs, and an overflow to inf."""
+    s = 0.0
+    for i in range(xs.shape[0] - 1):
+        s += 0.5 * (xs[i + 1] - xs[i]) * (_inner(xs[i], k) + _inner(xs[i + 1], k))
+    out[0] = s
+    out[1] = 1e308 * 10.0  # compiled code gives inf silently; so must the twin
+
+
+def test_interpreted_twin_runs_the_callees_in_python_and_matches_the_compiled_kernel():
+    xs = np.linspace(0.0, 3.0, 301)
+    twin = interpreted(_kernel)
+    got = np.zeros(2)
+    twin(xs, 2.0, got)
+    # independent value: numpy's trapezoid of the same integrand
+    f = np.sin(2.0 * xs) / (1.0 + xs**2)
+    assert got[0] == pytest.approx(np.trapezoid(f, xs), rel=1e-13)
+    assert got[1] == math.inf
+    assert not _kernel.signatures  # nothing was compiled by the twin
+    ref = np.zeros(2)
+    _kernel(xs, 2.0, ref)
+    np.testing.assert_allclose(got, ref, rtol=1e-14)
+    with pytest.raises(TypeError, match="kernel: expected a numba @njit function"):
+        interpreted(np.sin)
+
+
+def test_the_route_rents_while_the_allowance_lasts_then_compiles():
+    @njit
+    def twice(x, out):
+        out[0] = _inner(x, 1.0) * 2.0
+
+    route = FirstCallRoute(twice, "a test kernel", unit_cpu=1e-3, compile_cpu=1.0,
+                           allowance_cpu=0.5)
+    out = np.zeros(1)
+    assert not kernel_ready(twice, (0.3, out))
+    with kernels_route("auto"):
+        kernel, how = route.choose(10, (0.3, out))
+        assert how == "interpreted"
+        kernel(0.3, out)
+        assert out[0] == pytest.approx(2.0 * math.sin(0.3) / 1.09, rel=1e-15)
+        assert route.interpreted_calls == 1 and route.spent_cpu >= 0.0
+        # a call predicted to overrun the allowance compiles; afterwards every call is compiled
+        kernel, how = route.choose(1e6, (0.3, out))
+        assert how == "compiled" and kernel is twice
+        kernel(0.3, out)
+        assert kernel_ready(twice, (0.3, out))
+        assert route.choose(1, (0.3, out))[1] == "compiled"
+    with kernels_route("interpreted"):
+        assert route.choose(1e9, (0.3, out))[1] == "interpreted"
+    with pytest.raises(ValueError, match="route='fast' is not a route"):
+        with kernels_route("fast"):
+            pass
+    with pytest.raises(ValueError, match="unit_cpu=0"):
+        FirstCallRoute(twice, "x", unit_cpu=0, compile_cpu=1.0)
+
+
+def test_bad_route_in_the_environment_is_named(monkeypatch):
+    route = FirstCallRoute(_kernel, "x", unit_cpu=1.0, compile_cpu=1.0)
+    monkeypatch.setenv("GEARUQ_KERNELS", "jit")
+    with pytest.raises(ValueError, match="GEARUQ_KERNELS='jit' is not a route"):
+        route.choose(1, (np.zeros(2), 1.0, np.zeros(2)))
+
+
+def _random_oscillators(n: int, seed: int) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(seed)
+
+    def u(lo: float, hi: float) -> np.ndarray:
+        return rng.uniform(lo, hi, n)
+
+    return {"damping_ratio": u(0.005, 0.03), "alpha_0_1": u(0.01, 0.04), "e_1": u(0.0, 0.2),
+            "alpha_2_0": u(0.0, 0.4), "alpha_3_0": u(-0.1, 0.1), "alpha_1_1": u(0.0, 0.2),
+            "phi_1_1": u(-3.0, 3.0), "alpha_1_2": u(0.0, 0.05), "phi_1_2": u(-3.0, 3.0),
+            "alpha_0_0": u(0.4, 1.0), "q_1": u(0.0, 0.02), "rho_1": u(-3.0, 3.0)}
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_mesh_oscillator_interpreted_continuation_equals_the_compiled_one(order):
+    import gearuq
+
+    model = gearuq.get_model("mesh_oscillator")
+    params = _random_oscillators(3, seed=11 + order)
+    outs = ["amplitude_up", "amplitude_down", "branch_amplitude", "branch_phase",
+            "branch_stable", "separation_up", "region_up", "peak_frequency_ratio"]
+    grid = np.linspace(0.8, 1.2, 41)
+    res = {}
+    for route in ("compiled", "interpreted"):
+        with kernels_route(route):
+            res[route] = model.response(params, outputs=outs, frequencies=grid, order=order)
+    a, b = res["compiled"], res["interpreted"]
+    np.testing.assert_array_equal(a["status"], b["status"])
+    for name in outs:
+        x, y = a[name].values, b[name].values
+        np.testing.assert_array_equal(np.isnan(x), np.isnan(y), err_msg=name)
+        np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-13, err_msg=name)
+    # the comparison covers the nonlinear regime: several branches at some frequency
+    assert (a["branch_stable"].values >= 0).sum(axis=-1).max() >= 3
