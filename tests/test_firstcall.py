@@ -115,3 +115,60 @@ def test_mesh_oscillator_interpreted_continuation_equals_the_compiled_one(order)
         np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-13, err_msg=name)
     # the comparison covers the nonlinear regime: several branches at some frequency
     assert (a["branch_stable"].values >= 0).sum(axis=-1).max() >= 3
+
+
+def test_numpy_line_solve_equals_the_compiled_cholesky_and_refuses_the_same_blocks():
+    from gearuq.gears.ltca_kernel import _line_solve, line_solve_numpy
+
+    rng = np.random.default_rng(5)
+    n = 9
+    for trial in range(20):
+        a = rng.normal(size=(n, n))
+        D = a @ a.T / n + (0.05 if trial % 4 else -1.5) * np.eye(n)  # some not SPD
+        diag = rng.uniform(0.0, 0.1, n)
+        r = rng.normal(size=n)
+        active = rng.uniform(size=n) < 0.7
+        res = []
+        for solve in (_line_solve, line_solve_numpy):
+            x, y = np.full(n, 7.0), np.full(n, 7.0)
+            ok = solve(D, diag, r, active, n, np.empty((n, n)), x, y)
+            res.append((ok, x, y))
+        (ok_c, x_c, y_c), (ok_p, x_p, y_p) = res
+        assert ok_c == ok_p
+        if ok_c:
+            # independent check: the active block's equations hold, inactive entries are 0
+            m = (D + np.diag(diag))[np.ix_(active, active)]
+            np.testing.assert_allclose(m @ x_p[active], 1.0, rtol=1e-9, atol=1e-9)
+            np.testing.assert_allclose(m @ y_p[active], -r[active], rtol=1e-9, atol=1e-9)
+            assert np.all(x_p[~active] == 0.0) and np.all(y_p[~active] == 0.0)
+            np.testing.assert_allclose(x_p, x_c, rtol=1e-9, atol=1e-12)
+            np.testing.assert_allclose(y_p, y_c, rtol=1e-9, atol=1e-12)
+
+
+def test_ltca_interpreted_equals_compiled_with_pitch_deviations():
+    from gearuq.gears.deviations import FlankDeviations, random_cumulative_pitch_deviations
+    from gearuq.gears.geometry import seed002_pair
+    from gearuq.gears.ltca import ltca
+
+    pair = seed002_pair()
+    rng = np.random.default_rng(2020)
+    dev = FlankDeviations(Fp1=random_cumulative_pitch_deviations(pair.z1, seed=rng),
+                          Fp2=random_cumulative_pitch_deviations(pair.z2, seed=rng))
+    res = {}
+    for route in ("compiled", "interpreted"):
+        with kernels_route(route):
+            res[route] = ltca(pair, torque=350.0, deviations=dev, positions_per_cycle=4,
+                              n_pts=8)
+    a, b = res["compiled"], res["interpreted"]
+    compared = 0
+    for name, var in a.data_vars.items():
+        if name == "complementarity_residual":  # rounding-level in both: compare its size
+            assert var.max() < 1e-12 and b[name].max() < 1e-12
+        elif var.dtype.kind == "f":
+            scale = float(np.nanmax(np.abs(var.values))) or 1.0
+            np.testing.assert_allclose(b[name].values, var.values, rtol=1e-9,
+                                       atol=1e-9 * scale, err_msg=name)
+            compared += 1
+        else:
+            np.testing.assert_array_equal(b[name].values, var.values, err_msg=name)
+    assert compared >= 3
