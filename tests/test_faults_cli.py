@@ -60,3 +60,28 @@ def test_compile_reports_per_model_what_it_did(capsys, monkeypatch):
     # a precompile() that returns nothing is run and timed, not a crash
     assert models["silent"].called == 1
     assert any(line.startswith("silent") and "precompile() done in" in line for line in lines)
+
+
+class _ProbedModel:
+    """A model named like one with a first-call probe and no precompile(): records the
+    route its call was forced to."""
+
+    name = "mesh_excitation"
+
+    def __init__(self) -> None:
+        self.routes: list[str | None] = []
+
+    def response(self, params, t, outputs=None):
+        from gearuq import _firstcall
+
+        self.routes.append(_firstcall._forced.get())
+
+
+def test_compile_makes_the_nominal_first_call_compiled_for_models_without_precompile(
+        capsys, monkeypatch):
+    model = _ProbedModel()
+    monkeypatch.setattr(registry, "get_model", {"mesh_excitation": model}.__getitem__)
+    assert cli.main(["compile", "mesh_excitation"]) == 0
+    # small first calls run interpreted; `gearuq compile` must compile all the same
+    assert model.routes == ["compiled"]
+    assert "its nominal first call, compiled, done in" in capsys.readouterr().out
