@@ -107,6 +107,9 @@ def interpreted(kernel: Any, overrides: dict[str, Callable] | None = None) -> Ca
     body = twin(kernel)
 
     def call(*args: Any) -> Any:
+        # a kernel that takes numba functions as arguments (an ODE right-hand side) gets
+        # their twins, so that nothing compiles
+        args = tuple(twin(a) if _is_dispatcher(a) else a for a in args)
         with np.errstate(all="ignore"):
             return body(*args)
 
@@ -123,8 +126,17 @@ def kernel_ready(kernel: Any, args: tuple) -> bool:
         sig = tuple(kernel.typeof_pyval(a) for a in args)
         if kernel.overloads.get(sig) is not None:
             return True
+    except Exception:  # numba's private layout changed: assume it would compile
+        return False
+    return signature_cached(kernel, sig)
+
+
+def signature_cached(kernel: Any, sig: Any) -> bool:
+    """True when numba's on-disk cache holds ``kernel`` compiled for ``sig`` (an argument
+    type tuple, as a lazy call compiles it, or the signature object given to ``njit``)."""
+    try:
         cache = kernel._cache
-        if not hasattr(cache, "_index_key"):  # caching off: only in-process overloads count
+        if not hasattr(cache, "_index_key"):  # caching off
             return False
         key = cache._index_key(sig, kernel.targetctx.codegen())
         return key in cache._cache_file._load_index()
@@ -152,11 +164,18 @@ class FirstCallRoute:
         Interpreted CPU seconds this process may spend before the kernel is compiled.
     overrides : dict, optional
         Passed to :func:`interpreted`.
+    ready : callable, optional
+        ``ready(args) -> bool``: whether the compiled route would not compile (default
+        :func:`kernel_ready`); for a kernel that is not a lazy dispatcher.
+    twin : callable, optional
+        Makes the plain-Python callable (default ``interpreted(kernel, overrides)``).
     """
 
     def __init__(self, kernel: Any, label: str, *, unit_cpu: float, compile_cpu: float,
                  allowance_cpu: float = DEFAULT_ALLOWANCE_CPU,
-                 overrides: dict[str, Callable] | None = None) -> None:
+                 overrides: dict[str, Callable] | None = None,
+                 ready: Callable[[tuple], bool] | None = None,
+                 twin: Callable[[], Callable] | None = None) -> None:
         if not unit_cpu > 0.0:
             raise ValueError(f"unit_cpu={unit_cpu!r} must be > 0 (CPU seconds per unit)")
         if not allowance_cpu >= 0.0:
@@ -165,7 +184,8 @@ class FirstCallRoute:
         self.label = label
         self.compile_cpu = compile_cpu
         self.allowance_cpu = allowance_cpu
-        self._overrides = overrides
+        self._ready = ready or (lambda args: kernel_ready(kernel, args))
+        self._make_twin = twin or (lambda: interpreted(kernel, overrides))
         self._twin: Callable | None = None
         self._unit_cpu = unit_cpu
         self._spent_cpu = 0.0
@@ -191,11 +211,11 @@ class FirstCallRoute:
             raise ValueError(f"GEARUQ_KERNELS={route!r} is not a route; valid: "
                              f"{', '.join(_ROUTES)}")
         if route == "compiled" or (route == "auto" and (
-                kernel_ready(self.kernel, args)
-                or self._spent_cpu + units * self._unit_cpu > self.allowance_cpu)):
+                self._spent_cpu + units * self._unit_cpu > self.allowance_cpu
+                or self._ready(args))):
             return self.kernel, "compiled"
         if self._twin is None:
-            self._twin = interpreted(self.kernel, self._overrides)
+            self._twin = self._make_twin()
         if self._calls == 0 and route == "auto":
             self._notice(units)
         return self._charged(units), "interpreted"
