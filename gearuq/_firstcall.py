@@ -13,6 +13,12 @@ precision, so its results agree with the compiled kernel's to rounding (the kern
 compare the two); the cost is Python's speed, about 100 times slower per call, which is why the
 allowance is small.
 
+What a machine spends interpreting is also counted across processes, in a small ledger
+beside numba's cache (``gearuq_firstcall.json`` in ``NUMBA_CACHE_DIR``, else in the user's
+cache folder; ``GEARUQ_FIRSTCALL_LEDGER`` names another file): once the interpreted CPU of
+all processes together would pass the compile's cost, the next call compiles, so that a
+machine running many small first calls pays at most the compile twice, never forever.
+
 The environment variable ``GEARUQ_KERNELS`` forces a route: ``compiled`` (always compile, as
 before) or ``interpreted`` (never compile: for tests and debugging); unset or ``auto`` chooses
 as above.
@@ -22,12 +28,14 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import json
 import os
 import sys
 import threading
 import time
 import types
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -50,6 +58,40 @@ def kernels_route(route: str) -> Iterator[None]:
         yield
     finally:
         _forced.reset(token)
+
+
+def ledger_path() -> Path:
+    """The file that counts interpreted CPU seconds per kernel across processes."""
+    named = os.environ.get("GEARUQ_FIRSTCALL_LEDGER")
+    if named:
+        return Path(named)
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+        "gearuq")
+    return Path(base) / "gearuq_firstcall.json"
+
+
+def _read_ledger() -> dict[str, float]:
+    try:
+        data = json.loads(ledger_path().read_text(encoding="utf-8"))
+        return {str(k): float(v) for k, v in data.items()}
+    except (OSError, ValueError, AttributeError, TypeError):  # none yet, or unreadable
+        return {}
+
+
+def _charge_ledger(label: str, seconds: float) -> None:
+    """Add ``seconds`` to ``label``'s count (atomic replace; a read-only folder is skipped:
+    each process then keeps to its own allowance)."""
+    path = ledger_path()
+    data = _read_ledger()
+    data[label] = data.get(label, 0.0) + seconds
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(data), encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError:
+        pass
 
 
 def _is_dispatcher(obj: Any) -> bool:
@@ -159,7 +201,8 @@ class FirstCallRoute:
         says what a unit is: a sample, a sample times a frequency...); later calls use the
         measured mean.
     compile_cpu : float
-        Typical CPU seconds of the compile, quoted in the notice.
+        Typical CPU seconds of the compile, quoted in the notice, and the most the
+        interpreted calls of all processes together may spend (the ledger) before compiling.
     allowance_cpu : float
         Interpreted CPU seconds this process may spend before the kernel is compiled.
     overrides : dict, optional
@@ -210,8 +253,10 @@ class FirstCallRoute:
         if route not in _ROUTES:
             raise ValueError(f"GEARUQ_KERNELS={route!r} is not a route; valid: "
                              f"{', '.join(_ROUTES)}")
+        predicted = units * self._unit_cpu
         if route == "compiled" or (route == "auto" and (
-                self._spent_cpu + units * self._unit_cpu > self.allowance_cpu
+                self._spent_cpu + predicted > self.allowance_cpu
+                or _read_ledger().get(self.label, 0.0) + predicted > self.compile_cpu
                 or self._ready(args))):
             return self.kernel, "compiled"
         if self._twin is None:
@@ -232,6 +277,7 @@ class FirstCallRoute:
                     self._units += units
                     self._calls += 1
                     self._unit_cpu = self._spent_cpu / max(self._units, 1e-300)
+                    _charge_ledger(self.label, spent)
         return run
 
     def _notice(self, units: float) -> None:

@@ -57,6 +57,14 @@ def _serialise_numba_cache_saves() -> None:
 
 _serialise_numba_cache_saves()
 
+# Interpreted first calls (gearuq._firstcall) are counted in a ledger across processes; the
+# suite keeps its own, so that its runs neither read nor fill the user's.
+if "GEARUQ_FIRSTCALL_LEDGER" not in os.environ:
+    import tempfile
+
+    os.environ["GEARUQ_FIRSTCALL_LEDGER"] = os.path.join(
+        tempfile.mkdtemp(prefix="gearuq-ledger-"), "gearuq_firstcall.json")
+
 
 def _cpu_seconds() -> float:
     t = os.times()

@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 from numba import njit
 
-from gearuq._firstcall import FirstCallRoute, interpreted, kernel_ready, kernels_route
+from gearuq._firstcall import (
+    FirstCallRoute,
+    interpreted,
+    kernel_ready,
+    kernels_route,
+    ledger_path,
+)
 
 
 @njit
@@ -45,7 +51,8 @@ def test_interpreted_twin_runs_the_callees_in_python_and_matches_the_compiled_ke
         interpreted(np.sin)
 
 
-def test_the_route_rents_while_the_allowance_lasts_then_compiles():
+def test_the_route_rents_while_the_allowance_lasts_then_compiles(monkeypatch, tmp_path):
+    monkeypatch.setenv("GEARUQ_FIRSTCALL_LEDGER", str(tmp_path / "ledger.json"))
     @njit
     def twice(x, out):
         out[0] = _inner(x, 1.0) * 2.0
@@ -73,6 +80,33 @@ def test_the_route_rents_while_the_allowance_lasts_then_compiles():
             pass
     with pytest.raises(ValueError, match="unit_cpu=0"):
         FirstCallRoute(twice, "x", unit_cpu=0, compile_cpu=1.0)
+
+
+def test_the_ledger_counts_interpreted_cpu_across_processes(monkeypatch, tmp_path):
+    import json
+
+    ledger = tmp_path / "sub" / "ledger.json"
+    monkeypatch.setenv("GEARUQ_FIRSTCALL_LEDGER", str(ledger))
+    assert ledger_path() == ledger
+    fresh = njit(_kernel.py_func)  # never compiled in this process, whatever ran before
+    route = FirstCallRoute(fresh, "ledger kernel", unit_cpu=0.4, compile_cpu=1.0,
+                           allowance_cpu=10.0)
+    xs, out = np.linspace(0.0, 1.0, 5), np.zeros(2)
+    with kernels_route("auto"):
+        kernel, how = route.choose(1, (xs, 1.0, out))
+        assert how == "interpreted"
+        kernel(xs, 1.0, out)
+        spent = json.loads(ledger.read_text())["ledger kernel"]
+        assert spent == pytest.approx(route.spent_cpu) and spent > 0.0
+        # other processes spent the compile's cost interpreting this kernel: compile now
+        ledger.write_text(json.dumps({"ledger kernel": 1.0}))
+        assert route.choose(1, (xs, 1.0, out))[1] == "compiled"
+        # an unreadable ledger counts as empty
+        ledger.write_text("not json")
+        assert route.choose(1, (xs, 1.0, out))[1] == "interpreted"
+    monkeypatch.delenv("GEARUQ_FIRSTCALL_LEDGER")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "nc"))
+    assert ledger_path() == tmp_path / "nc" / "gearuq_firstcall.json"
 
 
 def test_bad_route_in_the_environment_is_named(monkeypatch):
