@@ -234,6 +234,8 @@ class FirstCallRoute:
         self._spent_cpu = 0.0
         self._units = 0.0
         self._calls = 0
+        self._settled = False
+        self._pending_cpu = 0.0
         self._lock = threading.Lock()
 
     @property
@@ -248,24 +250,32 @@ class FirstCallRoute:
 
     def choose(self, units: float, args: tuple) -> tuple[Callable, str]:
         """The callable to run ``args`` with (``units`` of work) and its route, ``"compiled"``
-        or ``"interpreted"``; an interpreted callable charges its CPU to the allowance."""
+        or ``"interpreted"``; an interpreted callable is to be called once: it charges its
+        CPU to the allowance and the ledger."""
         route = _forced.get() or os.environ.get("GEARUQ_KERNELS", "auto") or "auto"
         if route not in _ROUTES:
             raise ValueError(f"GEARUQ_KERNELS={route!r} is not a route; valid: "
                              f"{', '.join(_ROUTES)}")
+        if route == "compiled" or (route == "auto" and self._settled):
+            return self.kernel, "compiled"
         predicted = units * self._unit_cpu
-        if route == "compiled" or (route == "auto" and (
-                self._spent_cpu + predicted > self.allowance_cpu
-                or _read_ledger().get(self.label, 0.0) + predicted > self.compile_cpu
-                or self._ready(args))):
+        if route == "auto" and (
+                self._ready(args)
+                # calls still running in other threads count with their prediction
+                or self._spent_cpu + self._pending_cpu + predicted > self.allowance_cpu
+                or _read_ledger().get(self.label, 0.0) + predicted > self.compile_cpu):
+            # compiled or about to be: later calls need not look at the cache or the ledger
+            self._settled = True
             return self.kernel, "compiled"
         if self._twin is None:
             self._twin = self._make_twin()
         if self._calls == 0 and route == "auto":
             self._notice(units)
-        return self._charged(units), "interpreted"
+        with self._lock:
+            self._pending_cpu += predicted
+        return self._charged(units, predicted), "interpreted"
 
-    def _charged(self, units: float) -> Callable:
+    def _charged(self, units: float, predicted: float) -> Callable:
         def run(*args: Any) -> Any:
             cpu = time.thread_time()
             try:
@@ -273,6 +283,7 @@ class FirstCallRoute:
             finally:
                 spent = time.thread_time() - cpu
                 with self._lock:
+                    self._pending_cpu -= predicted
                     self._spent_cpu += spent
                     self._units += units
                     self._calls += 1

@@ -52,6 +52,7 @@ def test_interpreted_twin_runs_the_callees_in_python_and_matches_the_compiled_ke
 
 
 def test_the_route_rents_while_the_allowance_lasts_then_compiles(monkeypatch, tmp_path):
+    """Ski rental: interpreted while the allowance lasts, then compiled for good."""
     monkeypatch.setenv("GEARUQ_FIRSTCALL_LEDGER", str(tmp_path / "ledger.json"))
     @njit
     def twice(x, out):
@@ -75,6 +76,14 @@ def test_the_route_rents_while_the_allowance_lasts_then_compiles(monkeypatch, tm
         assert route.choose(1, (0.3, out))[1] == "compiled"
     with kernels_route("interpreted"):
         assert route.choose(1e9, (0.3, out))[1] == "interpreted"
+    # a call still running in another thread counts with its prediction: 0.3 + 0.3 > 0.5
+    busy = FirstCallRoute(njit(twice.py_func), "busy kernel", unit_cpu=0.1,
+                          compile_cpu=100.0, allowance_cpu=0.5)
+    with kernels_route("auto"):
+        first, how = busy.choose(3, (0.3, out))
+        assert how == "interpreted"
+        assert busy.choose(3, (0.3, out))[1] == "compiled"
+        first(0.3, out)
     with pytest.raises(ValueError, match="route='fast' is not a route"):
         with kernels_route("fast"):
             pass
@@ -101,9 +110,12 @@ def test_the_ledger_counts_interpreted_cpu_across_processes(monkeypatch, tmp_pat
         # other processes spent the compile's cost interpreting this kernel: compile now
         ledger.write_text(json.dumps({"ledger kernel": 1.0}))
         assert route.choose(1, (xs, 1.0, out))[1] == "compiled"
-        # an unreadable ledger counts as empty
+        # an unreadable ledger counts as empty (for a route that has not decided yet; one
+        # that chose to compile stays compiled)
         ledger.write_text("not json")
-        assert route.choose(1, (xs, 1.0, out))[1] == "interpreted"
+        assert route.choose(1, (xs, 1.0, out))[1] == "compiled"
+        again = FirstCallRoute(fresh, "ledger kernel", unit_cpu=0.4, compile_cpu=1.0)
+        assert again.choose(1, (xs, 1.0, out))[1] == "interpreted"
     monkeypatch.delenv("GEARUQ_FIRSTCALL_LEDGER")
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "nc"))
     assert ledger_path() == tmp_path / "nc" / "gearuq_firstcall.json"
