@@ -87,7 +87,9 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
 
 #: Test files (name prefixes) run on one worker each under ``-n``: they share kernels that are
 #: slow to compile.
-COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator"}
+COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator",
+                  # compares the mesh oscillator's compiled continuation with its Python twin
+                  "test_firstcall": "mesh_oscillator"}
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
