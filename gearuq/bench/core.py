@@ -376,7 +376,7 @@ print(json.dumps({"first_cpu": first[0], "first_wall": first[1],
 """
 
 
-def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
+def model_first_calls(models: list[str] | None = None, route: str = "auto") -> dict[str, Any]:
     """First call of each model in a fresh interpreter, imports included: from an empty numba
     cache (a fresh install: everything compiles) and from the cache that run filled (every
     later process), side by side; plus the same call again in the warm process.
@@ -385,6 +385,10 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
     ----------
     models : list of str, optional
         Names from :data:`MODEL_FIRST_CALLS` (default: all of them).
+    route : {"auto", "compiled", "interpreted"}
+        ``GEARUQ_KERNELS`` of the measured processes: ``"auto"`` (the default rule of
+        :mod:`gearuq._firstcall`), ``"compiled"`` (compile from the first call, the behaviour
+        before it) or ``"interpreted"``.
 
     Returns
     -------
@@ -399,6 +403,8 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
     import sys
     import tempfile
 
+    if route not in ("auto", "compiled", "interpreted"):
+        raise ValueError(f"route={route!r}; valid: 'auto', 'compiled', 'interpreted'")
     names = list(MODEL_FIRST_CALLS) if models is None else list(models)
     unknown = [n for n in names if n not in MODEL_FIRST_CALLS]
     if unknown:
@@ -408,7 +414,9 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
     for name in names:
         spec = MODEL_FIRST_CALLS[name]
         with tempfile.TemporaryDirectory() as cache:
-            env = dict(os.environ, NUMBA_CACHE_DIR=cache, GEARUQ_QUIET_COMPILE="1")
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache, GEARUQ_QUIET_COMPILE="1",
+                       GEARUQ_KERNELS=route,
+                       GEARUQ_FIRSTCALL_LEDGER=os.path.join(cache, "gearuq_firstcall.json"))
             runs = [json.loads(subprocess.run(
                 [sys.executable, "-c", _MODEL_CALL_SCRIPT, name, json.dumps(spec)],
                 capture_output=True, text=True, env=env, check=True).stdout.splitlines()[-1])
