@@ -49,8 +49,27 @@ _forced: contextvars.ContextVar[str | None] = contextvars.ContextVar("gearuq_ker
 
 @contextlib.contextmanager
 def kernels_route(route: str) -> Iterator[None]:
-    """Force the route of every :class:`FirstCallRoute` chosen inside the block (over
-    ``GEARUQ_KERNELS``): ``"compiled"`` for a precompile step, ``"interpreted"`` for tests."""
+    """Force the route of every first call made inside the block (over ``GEARUQ_KERNELS``).
+
+    A small first call of a model runs its uncompiled kernels as plain Python and compiles
+    nothing (see :mod:`gearuq._firstcall`). A warm-up call before a timing, or before worker
+    processes start, must compile instead, or the compile falls into the timed call or into
+    every worker: make it inside ``kernels_route("compiled")``. The route holds in this thread
+    (and the tasks it starts with a copy of its context), not in other processes; these load
+    what the warm-up left in numba's on-disk cache.
+
+    Parameters
+    ----------
+    route : {"compiled", "interpreted", "auto"}
+        ``"compiled"`` for a warm-up or precompile step, ``"interpreted"`` for tests and
+        debugging (never compile), ``"auto"`` for the default rule.
+
+    Examples
+    --------
+    >>> import gearuq
+    >>> with gearuq.kernels_route("compiled"):  # doctest: +SKIP
+    ...     model.response(warm_up_sample, t)   # compiles (or loads) the kernels once
+    """
     if route not in _ROUTES:
         raise ValueError(f"route={route!r} is not a route; valid: {', '.join(_ROUTES)}")
     token = _forced.set(route)
