@@ -92,7 +92,11 @@ COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator",
                   "test_firstcall": "mesh_oscillator"}
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    # first: pytest-xdist's own hook reads the xdist_group marks to name each test's group
+    # (a suffix of its id); run after it, the marks added here were ignored and the group's
+    # files ran on both workers
     for item in items:
         for prefix, group in COMPILE_GROUPS.items():
             if item.path.name.startswith(prefix):
