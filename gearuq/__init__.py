@@ -65,6 +65,8 @@ _LAZY = {
     # the gear stage
     "GearStage": "gearuq.gears.stage",
     "export_csv": "gearuq.io",
+    # first calls: compiled or plain-Python kernels
+    "kernels_route": "gearuq._firstcall",
 }
 
 _SUBMODULES = {

@@ -15,9 +15,10 @@ concurrent saves happen one after the other; loads need no lock (a half-saved en
 miss, which compiles).
 
 The mesh oscillator's kernels take the longest to compile (about 40 s of CPU from an empty
-cache); its test files are one xdist group (``--dist loadgroup`` in pyproject's addopts), so
-one worker compiles them while the other runs other tests, instead of both compiling the same
-kernels at once. For the same reason each worker starts by making the first call of its share
+cache); its test files, with those of the batched integrator whose variants it shares, are one
+xdist group (``--dist loadgroup`` in pyproject's addopts; :data:`COMPILE_GROUPS`), so one worker
+compiles them while the other runs other tests, instead of both compiling the same kernels at
+once. For the same reason each worker starts by making the first call of its share
 of the models (:data:`WARM_UP_CPU`, split greedily by compile cost), so that from an empty
 cache the two workers compile different kernels side by side; with a filled cache this loads
 them (about a second).
@@ -57,6 +58,14 @@ def _serialise_numba_cache_saves() -> None:
 
 _serialise_numba_cache_saves()
 
+# Interpreted first calls (gearuq._firstcall) are counted in a ledger across processes; the
+# suite keeps its own, so that its runs neither read nor fill the user's.
+if "GEARUQ_FIRSTCALL_LEDGER" not in os.environ:
+    import tempfile
+
+    os.environ["GEARUQ_FIRSTCALL_LEDGER"] = os.path.join(
+        tempfile.mkdtemp(prefix="gearuq-ledger-"), "gearuq_firstcall.json")
+
 
 def _cpu_seconds() -> float:
     t = os.times()
@@ -79,10 +88,20 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
 
 #: Test files (name prefixes) run on one worker each under ``-n``: they share kernels that are
 #: slow to compile.
-COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator"}
+COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator",
+                  # compares the mesh oscillator's compiled continuation with its Python twin
+                  "test_firstcall": "mesh_oscillator",
+                  # the batched integrator's variants (method x events, 4-7 s of CPU each from
+                  # an empty cache), which test_firstcall and the mesh oscillator's sweeps also
+                  # use: split over two workers, a variant compiled on both at once
+                  "test_ode": "mesh_oscillator"}
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    # first: pytest-xdist's own hook reads the xdist_group marks to name each test's group
+    # (a suffix of its id); run after it, the marks added here were ignored and the group's
+    # files ran on both workers
     for item in items:
         for prefix, group in COMPILE_GROUPS.items():
             if item.path.name.startswith(prefix):
@@ -119,12 +138,15 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     import numpy as np
 
     import gearuq
+    from gearuq._firstcall import kernels_route
     from gearuq.bench.core import MODEL_FIRST_CALLS
 
     for name in warm_up_share(int(worker[2:]), n_workers):
         spec = MODEL_FIRST_CALLS[name]
         t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
         try:
-            gearuq.get_model(name).response({}, t, outputs=spec["outputs"])
+            # compiled: a small first call would otherwise run interpreted and compile nothing
+            with kernels_route("compiled"):
+                gearuq.get_model(name).response({}, t, outputs=spec["outputs"])
         except Exception as err:  # the model's own tests report it; the warm-up only times
             print(f"conftest warm-up of {name} failed: {err!r}", file=sys.stderr)

@@ -364,6 +364,7 @@ except ValueError as exc:
 """
 
 
+@pytest.mark.e2e  # a fresh interpreter starting a process pool (1.7 s of CPU)
 def test_plain_script_without_main_guard_runs(tmp_path):
     out = _run_script(tmp_path, "plain.py", UNGUARDED)
     assert out.returncode == 0, out.stderr[-3000:]

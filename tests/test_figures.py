@@ -215,6 +215,9 @@ def test_equal_support_stiffness_is_what_makes_the_translations_proportional():
     assert np.max(np.abs(z - nz_nx * x)) > 0.05 * np.max(np.abs(z))
 
 
+# end to end: the whole default study (10^3 samples, netCDF written and read back) for its
+# figures, 6.5 s of CPU; CI runs them with -m e2e, beside the demo's summary test sharing the run
+@pytest.mark.e2e
 def test_demo_reliability_figure_lists_every_dof_and_shows_the_band(demo):
     import gearuq
     from gearuq_studies.helical_pair_reliability import (
@@ -242,6 +245,7 @@ def test_demo_reliability_figure_lists_every_dof_and_shows_the_band(demo):
     assert set(DOF_NAMES) | {"system"} <= set(listed)
 
 
+@pytest.mark.e2e  # reads the demo's own result file: the same whole default study
 def test_demo_fits_figure_has_units_on_every_axis(demo):
     import gearuq
     from gearuq_studies.helical_pair_reliability import DOF_NAMES, _fits_figure

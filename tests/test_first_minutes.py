@@ -229,6 +229,7 @@ def test_a_rejected_sample_count_leaves_no_folder(tmp_path, capsys):
 
 
 # =========================================================================== logging
+@pytest.mark.e2e  # two fresh interpreters importing chaospy and gearuq (2.4 s of CPU)
 def test_chaospy_imported_first_leaves_numba_quiet():
     code = ("import logging, chaospy\n"
             "assert logging.getLogger().level == logging.DEBUG  # chaospy's own basicConfig\n"
@@ -380,6 +381,7 @@ def test_every_study_has_a_marked_quick_mode_that_keeps_its_signature():
 
 
 # =========================================================================== compile notice
+@pytest.mark.e2e  # two fresh interpreters, a compile and a cache load (1.9 s of CPU)
 def test_the_first_compile_of_a_gearuq_kernel_says_so_once_and_a_cache_load_does_not(tmp_path):
     from importlib.metadata import entry_points
 
@@ -420,11 +422,18 @@ def test_compile_notice_families():
         "gearuq_plugins.helical_pair"
 
 
-def test_per_model_first_call_table(monkeypatch):
+def test_per_model_first_call_probes_cover_every_model_and_refuse_others():
     from gearuq.bench import core
 
     with pytest.raises(ValueError, match=r"models: \['nope'\] have no first-call probe"):
         core.model_first_calls(["nope"])
+    assert set(core.MODEL_FIRST_CALLS) == set(gearuq.list_models())
+
+
+@pytest.mark.e2e  # two fresh interpreters, cold and warm (2.5 s of CPU)
+def test_per_model_first_call_table(monkeypatch):
+    from gearuq.bench import core
+
     res = core.model_first_calls(["linear_oscillator"])
     (row,) = res["rows"]
     assert row["model"] == "linear_oscillator" and row["status"] == 0

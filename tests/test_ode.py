@@ -626,6 +626,7 @@ def _run_cache_script(tmp_path: Path, env_extra: dict | None = None) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.e2e  # two fresh interpreters (1.9 s of CPU)
 def test_second_process_loads_kernel_from_cache(tmp_path):
     _run_cache_script(tmp_path)  # compiles (or loads) and writes the cache
     second = _run_cache_script(tmp_path)

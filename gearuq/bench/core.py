@@ -354,20 +354,29 @@ import json, sys, time
 cpu0, wall0 = time.process_time(), time.perf_counter()
 import numpy as np
 import gearuq
+from numba.core import event
+compiled = []
+class _Count(event.Listener):
+    def on_start(self, ev):
+        compiled.append(1)
+    def on_end(self, ev):
+        pass
+event.register("numba:compile", _Count())
 name, spec = sys.argv[1], json.loads(sys.argv[2])
 t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
 model = gearuq.get_model(name)
 ds = model.response({}, t, outputs=spec["outputs"])
 first = (time.process_time() - cpu0, time.perf_counter() - wall0)
+n_compiled = len(compiled)
 c, w = time.process_time(), time.perf_counter()
 model.response({}, t, outputs=spec["outputs"])
 print(json.dumps({"first_cpu": first[0], "first_wall": first[1],
                   "again_cpu": time.process_time() - c, "again_wall": time.perf_counter() - w,
-                  "status": int(np.max(ds["status"].values))}))
+                  "status": int(np.max(ds["status"].values)), "compiled": n_compiled}))
 """
 
 
-def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
+def model_first_calls(models: list[str] | None = None, route: str = "auto") -> dict[str, Any]:
     """First call of each model in a fresh interpreter, imports included: from an empty numba
     cache (a fresh install: everything compiles) and from the cache that run filled (every
     later process), side by side; plus the same call again in the warm process.
@@ -376,18 +385,26 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
     ----------
     models : list of str, optional
         Names from :data:`MODEL_FIRST_CALLS` (default: all of them).
+    route : {"auto", "compiled", "interpreted"}
+        ``GEARUQ_KERNELS`` of the measured processes: ``"auto"`` (the default rule of
+        :mod:`gearuq._firstcall`), ``"compiled"`` (compile from the first call, the behaviour
+        before it) or ``"interpreted"``.
 
     Returns
     -------
     dict
         ``rows`` (one per model: ``cold_cpu``, ``cold_wall``, ``warm_cpu``, ``warm_wall``,
-        ``again_cpu``, the call's outputs and instants) and ``machine``.
+        ``again_cpu``, ``cold_compiled``: the number of numba compilations in the cold call,
+        0 when it ran its kernels interpreted or needs none; the call's outputs and
+        instants) and ``machine``.
     """
     import os
     import subprocess
     import sys
     import tempfile
 
+    if route not in ("auto", "compiled", "interpreted"):
+        raise ValueError(f"route={route!r}; valid: 'auto', 'compiled', 'interpreted'")
     names = list(MODEL_FIRST_CALLS) if models is None else list(models)
     unknown = [n for n in names if n not in MODEL_FIRST_CALLS]
     if unknown:
@@ -397,7 +414,9 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
     for name in names:
         spec = MODEL_FIRST_CALLS[name]
         with tempfile.TemporaryDirectory() as cache:
-            env = dict(os.environ, NUMBA_CACHE_DIR=cache, GEARUQ_QUIET_COMPILE="1")
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache, GEARUQ_QUIET_COMPILE="1",
+                       GEARUQ_KERNELS=route,
+                       GEARUQ_FIRSTCALL_LEDGER=os.path.join(cache, "gearuq_firstcall.json"))
             runs = [json.loads(subprocess.run(
                 [sys.executable, "-c", _MODEL_CALL_SCRIPT, name, json.dumps(spec)],
                 capture_output=True, text=True, env=env, check=True).stdout.splitlines()[-1])
@@ -407,7 +426,8 @@ def model_first_calls(models: list[str] | None = None) -> dict[str, Any]:
                      "cold_cpu": cold["first_cpu"], "cold_wall": cold["first_wall"],
                      "warm_cpu": warm["first_cpu"], "warm_wall": warm["first_wall"],
                      "again_cpu": warm["again_cpu"], "status": max(cold["status"],
-                                                                  warm["status"])})
+                                                                  warm["status"]),
+                     "cold_compiled": cold["compiled"]})
     return {"rows": rows, "machine": machine_description()}
 
 
@@ -416,11 +436,13 @@ def render_model_first_calls(result: dict[str, Any]) -> str:
     lines = [
         f"Machine: {result['machine']}. One nominal sample per model, default options; each "
         "cell a fresh interpreter, imports included; CPU (wall) seconds. Cold: an empty numba "
-        "cache (a fresh install); warm: the cache the cold run filled.",
+        "cache (a fresh install); warm: the cache the cold run filled. Compiled: numba "
+        "compilations in the cold call (0: its kernels ran as plain Python, gearuq._firstcall, "
+        "or it has none).",
         "",
         "| model | call | cold first call | warm first call | cold / warm CPU | "
-        "same call again |",
-        "|---|---|---|---|---|---|",
+        "same call again | compiled |",
+        "|---|---|---|---|---|---|---|",
     ]
     for r in result["rows"]:
         t = "no instants" if r["t"] is None else f"{r['t'][2]} instants"
@@ -429,7 +451,8 @@ def render_model_first_calls(result: dict[str, Any]) -> str:
         lines.append(
             f"| {r['model']} | {outs}, {t} | {r['cold_cpu']:.2f} ({r['cold_wall']:.2f}) | "
             f"{r['warm_cpu']:.2f} ({r['warm_wall']:.2f}) | "
-            f"{r['cold_cpu'] / r['warm_cpu']:.1f} | {r['again_cpu']:.3f} |")
+            f"{r['cold_cpu'] / r['warm_cpu']:.1f} | {r['again_cpu']:.3f} | "
+            f"{r.get('cold_compiled', '-')} |")
     return "\n".join(lines)
 
 

@@ -111,6 +111,27 @@ def _line_solve(D, diag, r, active, n, L, x, y):
     return True
 
 
+def line_solve_numpy(D, diag, r, active, n, L, x, y):
+    """:func:`_line_solve` with LAPACK's Cholesky for the plain-Python route of the first
+    calls (:mod:`gearuq._firstcall`): the loops of the compiled version cost 1 ms a call in
+    Python. Same result to rounding (LAPACK sums in another order)."""
+    x[:n] = 0.0
+    y[:n] = 0.0
+    idx = np.flatnonzero(active[:n])
+    if idx.size == 0:
+        return True
+    m = D[np.ix_(idx, idx)] + np.diag(diag[idx])
+    try:
+        chol = np.linalg.cholesky(m)
+    except np.linalg.LinAlgError:  # not positive definite, as the compiled version reports
+        return False
+    rhs = np.stack([np.ones(idx.size), -r[idx]], axis=1)
+    z = np.linalg.solve(chol.T, np.linalg.solve(chol, rhs))
+    x[idx] = z[:, 0]
+    y[idx] = z[:, 1]
+    return True
+
+
 @nb.njit(cache=True, nogil=True)
 def _active_set(D, diag, r, active, P, n_lines, n, F, L, x, y, dirty, max_iter):
     """Exact solution of the linear complementarity problem of one position.

@@ -127,14 +127,18 @@ def _check_numba_function(fn: Any, name: str) -> None:
         )
 
 
-def _probe(fn: Any, name: str, t: float, y: np.ndarray, p: np.ndarray, n_out: int) -> np.ndarray:
-    """Call fn once from Python so that signature problems surface as a clear TypeError."""
+def _probe(fn: Any, name: str, t: float, y: np.ndarray, p: np.ndarray, n_out: int,
+           compiled: bool = True) -> np.ndarray:
+    """Call fn once from Python so that signature problems surface as a clear TypeError
+    (its Python function when the call runs interpreted: nothing compiles then)."""
     from numba.core.errors import TypingError
 
     out = np.zeros(n_out)
+    call = fn if compiled or not hasattr(fn, "py_func") else fn.py_func
     try:
-        ret = fn(float(t), np.ascontiguousarray(y, dtype=np.float64),
-                 np.ascontiguousarray(p, dtype=np.float64), out)
+        with np.errstate(all="ignore"):
+            ret = call(float(t), np.ascontiguousarray(y, dtype=np.float64),
+                       np.ascontiguousarray(p, dtype=np.float64), out)
     except TypingError as exc:
         raise TypeError(
             f"solve_batch: {name} does not compile for "
@@ -303,8 +307,10 @@ def _validate_save(save: Any, n_state: int) -> np.ndarray:
 
 def _validate(rhs: Any, y0: Any, params: Any, t_eval: Any, t0: Any, method: Any, rtol: Any,
               atol: Any, max_step: Any, first_step: Any, max_steps: Any, fixed_step: Any,
-              switch: Any, n_switch: Any, save: Any, freeze_sides: Any) -> _Problem:
-    """Every argument of :func:`solve_batch`, checked once; the user functions probed."""
+              switch: Any, n_switch: Any, save: Any, freeze_sides: Any,
+              compiled: bool = True) -> _Problem:
+    """Every argument of :func:`solve_batch`, checked once; the user functions probed
+    (compiled, or as Python functions when ``compiled`` is False)."""
     _check_numba_function(rhs, "rhs")
     if not isinstance(method, str) or method not in METHODS:
         raise _fail("method", method, f"must be one of {', '.join(METHODS)}")
@@ -321,10 +327,10 @@ def _validate(rhs: Any, y0: Any, params: Any, t_eval: Any, t0: Any, method: Any,
     if switch is not None:
         if freeze_sides:
             p_probe = np.concatenate([pa[0], np.zeros(int(n_switch))])
-        g_probe = _probe(switch, "switch", t0a[0], y0a[0], p_probe, int(n_switch))
+        g_probe = _probe(switch, "switch", t0a[0], y0a[0], p_probe, int(n_switch), compiled)
         if freeze_sides:
             p_probe[pa.shape[1]:] = np.sign(g_probe)
-    _probe(rhs, "rhs", t0a[0], y0a[0], p_probe, n_state)
+    _probe(rhs, "rhs", t0a[0], y0a[0], p_probe, n_state, compiled)
     return _Problem(y0=y0a, params=pa, t_eval=te, te2=te2, t0=t0a, atol_given=atol_a,
                     atol=atol_vec, fixed_h=fixed_h, save=save_a)
 
@@ -348,6 +354,7 @@ def solve_batch(
     save: Any = None,
     parallel: bool = True,
     freeze_sides: bool = False,
+    interpreted_cpu: float | None = None,
 ) -> ODEResult:
     """Integrate many independent ODE samples with an embedded Runge-Kutta method.
 
@@ -409,6 +416,12 @@ def solve_batch(
         picks its branch from them (falling back to the state when the side is 0) sees one
         smooth vector field per step, so no Runge-Kutta stage straddles a surface; see
         docs/ode.md for why this matters most for dop853.
+    interpreted_cpu : float, optional
+        The caller's estimate of the CPU seconds the batch costs with the kernel, ``rhs``
+        and ``switch`` run as plain Python (:mod:`gearuq._firstcall`). When given, and the
+        variant is neither compiled in this process nor in numba's cache, a batch whose
+        estimate fits the per-process allowance (2 s) runs uncompiled, to rounding the same
+        result; later and larger calls compile. None (default): always compiled.
 
     Returns
     -------
@@ -439,12 +452,19 @@ def solve_batch(
     """
     from . import kernel as _kernel
 
+    events = "none" if switch is None else ("frozen" if freeze_sides else "retake")
+    kernel, compiled = None, True
+    if interpreted_cpu is not None and method in METHODS:
+        kernel, route = _kernel.first_call_route(method, events).choose(
+            float(interpreted_cpu), ())
+        compiled = route == "compiled"
     with quiet_numba_logging():  # (compiles rhs, switch and the kernel on first use)
         prob = _validate(rhs, y0, params, t_eval, t0, method, rtol, atol, max_step, first_step,
-                         max_steps, fixed_step, switch, n_switch, save, freeze_sides)
-        events = "none" if switch is None else ("frozen" if freeze_sides else "retake")
-        kernel = _kernel.get_kernel(method, events)
-        no_switch = _kernel.no_switch() if switch is None else None
+                         max_steps, fixed_step, switch, n_switch, save, freeze_sides,
+                         compiled)
+        if compiled:
+            kernel = _kernel.get_kernel(method, events)
+        no_switch = _kernel.no_switch(compiled) if switch is None else None
     n_samples = prob.n_samples
     out = np.full((n_samples, prob.te2.shape[1], prob.save.size), np.nan)
     status = np.zeros(n_samples, dtype=np.int8)
@@ -452,7 +472,8 @@ def solve_batch(
     args = (rhs, switch if switch is not None else no_switch, prob.y0, prob.params,
             prob.t0, prob.te2, prob.save, out, float(rtol), prob.atol, float(max_step),
             float(first_step), int(max_steps), prob.fixed_h, int(n_switch), status, counts)
-    n_threads = _kernel.default_threads(n_samples, parallel)
+    # the plain-Python kernel holds the GIL: threads would only add overhead
+    n_threads = _kernel.default_threads(n_samples, parallel and compiled)
     try:
         if n_threads > 1:
             _kernel.run_threads(kernel, args, n_samples, n_threads)

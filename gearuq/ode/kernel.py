@@ -97,7 +97,14 @@ KERNEL_SIGNATURE = types.void(
 # --------------------------------------------------------------------------------------------
 
 def _make_kernel(METHOD: int, EVENTS: int, DIGEST: int):
-    """The compiled kernel of one variant: every sample integrated in turn, serially.
+    """The compiled kernel of one variant (:func:`kernel_function`, compiled for
+    ``KERNEL_SIGNATURE``: numba compiles it here, eagerly)."""
+    return njit(KERNEL_SIGNATURE, cache=True, nogil=True, error_model="numpy")(
+        kernel_function(METHOD, EVENTS, DIGEST))
+
+
+def kernel_function(METHOD: int, EVENTS: int, DIGEST: int):
+    """The Python function of one variant's kernel: every sample integrated in turn, serially.
 
     ``if METHOD == ...`` and ``if FROZEN`` are pruned by numba before typing (they are
     constants of the closure); ``DIGEST`` only keys the on-disk cache (see
@@ -462,7 +469,7 @@ def _make_kernel(METHOD: int, EVENTS: int, DIGEST: int):
 
     kernel.__qualname__ = kernel.__name__ = (
         f"solve_{_METHOD_NAME[METHOD]}_{_EVENTS_NAME[EVENTS]}")
-    return njit(KERNEL_SIGNATURE, cache=True, nogil=True, error_model="numpy")(kernel)
+    return kernel
 
 
 # --------------------------------------------------------------------------------------------
@@ -547,8 +554,52 @@ def _nothing(t, y, p, g):  # pragma: no cover - never called (n_switch = 0)
 _NO_SWITCH: list[Any] = []
 
 
-def no_switch() -> Any:
-    """A do-nothing ``switch`` for the variants without switching functions (never called)."""
+def no_switch(compiled: bool = True) -> Any:
+    """A do-nothing ``switch`` for the variants without switching functions (never called);
+    its Python function for the plain-Python route (nothing to compile)."""
+    if not compiled:
+        return _nothing
     if not _NO_SWITCH:
         _NO_SWITCH.append(njit(RHS_SIGNATURE, cache=True)(_nothing))
     return _NO_SWITCH[0]
+
+
+#: Plain-Python stand-ins for the raw-pointer views of stages.py (numpy views of the buffer).
+_PYTHON_VIEWS = {"view1": lambda buf, offset, n: buf[offset:offset + n],
+                 "view2": lambda buf, offset, n0, n1: buf[offset:offset + n0 * n1].reshape(
+                     n0, n1)}
+_ROUTES: dict[tuple[str, str], Any] = {}
+
+
+def _lazy_variant(method: str, events: str) -> Any:
+    """The variant as a lazy dispatcher: for its cache lookup and its Python twin only (the
+    entry point of :func:`get_kernel` compiles on creation)."""
+    key = (METHOD_CODE[method], EVENT_TREATMENTS[events])
+    return njit(cache=True, nogil=True, error_model="numpy")(
+        kernel_function(*key, _source_digest()))
+
+
+def variant_ready(method: str, events: str) -> bool:
+    """True when the variant is compiled in this process or stored in numba's disk cache."""
+    from gearuq._firstcall import signature_cached
+
+    if (METHOD_CODE[method], EVENT_TREATMENTS[events]) in _KERNELS:
+        return True
+    return signature_cached(_lazy_variant(method, events), KERNEL_SIGNATURE)
+
+
+def first_call_route(method: str, events: str) -> Any:
+    """The :class:`gearuq._firstcall.FirstCallRoute` of a variant: compiled, or its own
+    Python source with the pointer views replaced by numpy views (units: the caller's
+    estimate of the interpreted CPU seconds)."""
+    from gearuq._firstcall import FirstCallRoute, interpreted
+
+    if (method, events) not in _ROUTES:
+        def compiled(*args: Any) -> Any:
+            return get_kernel(method, events)(*args)
+
+        _ROUTES[method, events] = FirstCallRoute(
+            compiled, f"the batched ODE integrator ({method}, {events} events)",
+            unit_cpu=1.0, compile_cpu=10.0, ready=lambda args: variant_ready(method, events),
+            twin=lambda: interpreted(_lazy_variant(method, events), _PYTHON_VIEWS))
+    return _ROUTES[method, events]

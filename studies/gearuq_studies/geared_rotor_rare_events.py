@@ -392,7 +392,9 @@ def run(out: str | Path = "gearuq_geared_rotor_rare_events", quick: bool = False
     execution = {"executor": executor, "chunk_size": chunk_size}
     # one cheap rotor run here first: from an empty numba cache it compiles the rotor's kernels
     # once, and the worker processes load them instead of each compiling them at the same time
-    study_model().response({}, None, outputs=["dte_rms_max"], **QUICK_LOW_FIDELITY_OPTIONS)
+    # (forced: a small first call would otherwise run them as plain Python, compiling nothing)
+    with gearuq.kernels_route("compiled"):
+        study_model().response({}, None, outputs=["dte_rms_max"], **QUICK_LOW_FIDELITY_OPTIONS)
     rows, reps = [], {}
     for x_um in (*moderates, rare):
         for method in ("mfis", "subset"):

@@ -69,8 +69,8 @@ def bench(model: Any, n_samples: int, n_fine: int = 1281) -> list[tuple]:
     speeds = np.linspace(25.0, 8000.0, 160)
     samples = model.default_space().sample(n_samples + 1, rng=2026)
     nominal = {p.name: p.nominal for p in model.parameters}
-    model.response({k: v[-1:] for k, v in samples.items()}, None,
-                   outputs=["dte_rms_max"])  # compiles the LTCA kernel once
+    with gearuq.kernels_route("compiled"):  # compiles the LTCA kernel once, before timing
+        model.response({k: v[-1:] for k, v in samples.items()}, None, outputs=["dte_rms_max"])
     rows = []
     try:
         for i in range(n_samples):

@@ -93,13 +93,15 @@ def mesh_oscillator_curves(data, force, mass, f_mesh, with_sweep):
     opts = {"frequencies": f_mesh, "frequency_units": "Hz"}
     outs = ["dte_amplitude_up", "dte_amplitude_down", "separation_up", "separation_down",
             "mesh_stiffness", "natural_frequency"]
-    model.response({}, outputs=outs, **opts)  # load compiled code once
+    with gearuq.kernels_route("compiled"):  # compile / load once, outside the timing
+        model.response({}, outputs=outs, **opts)
     t0 = time.perf_counter()
     pert = model.response({}, outputs=outs, **opts)
     res = {"pert": pert, "t_pert": (time.perf_counter() - t0) / f_mesh.size}
     if with_sweep:
-        model.response({}, outputs=outs, method="sweep", frequencies=f_mesh[:2],
-                       frequency_units="Hz")  # compile / load the kernels once
+        with gearuq.kernels_route("compiled"):  # compile / load the kernels once
+            model.response({}, outputs=outs, method="sweep", frequencies=f_mesh[:2],
+                           frequency_units="Hz")
         t0 = time.perf_counter()
         res["sweep"] = model.response({}, outputs=outs, method="sweep", **opts)
         res["t_sweep"] = (time.perf_counter() - t0) / f_mesh.size
@@ -111,7 +113,8 @@ def helical_curve(e_a: float, f_mesh: np.ndarray, z1: float, quick: bool):
     hp = gearuq.get_model("helical_pair")
     speeds = f_mesh * 60.0 / z1
     tau = np.linspace(0.0, 400.0 if quick else 800.0, 4001 if quick else 8001)
-    hp.response({"n": speeds[:1]}, tau[:11], outputs=["dte"])  # load the compiled kernel
+    with gearuq.kernels_route("compiled"):  # compile / load the kernel, outside the timing
+        hp.response({"n": speeds[:1]}, tau[:11], outputs=["dte"])
     t0 = time.perf_counter()
     ds = hp.response({"n": speeds, "e_a": np.full(speeds.size, e_a)}, tau,
                      outputs=["dte", "mesh_frequency", "omega_n"])

@@ -19,6 +19,10 @@ from gearuq_plugins.helical_pair.physics import PairSystem, initial_state
 
 #: Steps per mesh period at least, with the gated mesh (see :func:`integrate`).
 GATED_STEPS_PER_PERIOD = 8
+#: CPU seconds of the integrator run as plain Python (gearuq._firstcall), per unit of tau and
+#: per step, measured on the nominal pair (tau in [0, 200]: 351 steps, 1.5 s).
+INTERPRETED_CPU_PER_TAU = 8e-3
+INTERPRETED_CPU_PER_STEP = 4.5e-3
 
 
 @dataclass
@@ -44,6 +48,14 @@ class Trajectory:
     status: np.ndarray
     attrs: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, tuple] = field(default_factory=dict)
+
+
+def interpreted_cpu(span: float, max_step: float, n_samples: int) -> float:
+    """Estimated CPU seconds of ``n_samples`` samples over ``tau`` in ``[0, span]`` with the
+    integrator run as plain Python: the nominal pair's rate, or the step bound's count of
+    steps when ``max_step`` forces more (the gated mesh)."""
+    steps = span / max_step if max_step > 0.0 else 0.0
+    return n_samples * max(INTERPRETED_CPU_PER_TAU * span, INTERPRETED_CPU_PER_STEP * steps)
 
 
 def integrate(
@@ -101,6 +113,7 @@ def integrate(
             max_step=max_step, max_steps=max_steps, fixed_step=fixed_step,
             switch=kernel.switch if events else None, n_switch=n_switch, save=save,
             parallel=parallel, freeze_sides=frozen,
+            interpreted_cpu=interpreted_cpu(float(np.max(tau)), max_step, len(y0[rows])),
         )
         states[rows] = res.y
         status[rows] = res.status

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from gearuq._firstcall import kernels_route
 from gearuq.model import Model, Option, Output, Parameter
 
 _P = Parameter
@@ -348,7 +349,8 @@ class MeshOscillator(Model):
             t0 = time.perf_counter()
             nominal = {"mean_force": 2.0, "mass": 1.0} if model.dimensional else {}
             outputs = options.pop("outputs", ["amplitude_up"])
-            model.response(nominal, [0.0, 1.0], outputs=outputs, **options)
+            with kernels_route("compiled"):  # small calls would otherwise run interpreted
+                model.response(nominal, [0.0, 1.0], outputs=outputs, **options)
             if verbose:
                 print(f"mesh_oscillator: {label}: {time.perf_counter() - t0:.1f} s",
                       flush=True)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gearuq._firstcall import FirstCallRoute
 from gearuq_plugins.mesh_oscillator import continuation as ct
 from gearuq_plugins.mesh_oscillator import slowflow as sf
 
@@ -25,6 +26,15 @@ MAX_SOLUTIONS = 5
 MAX_POINTS = 6000
 #: Largest number of contact-loss onsets kept per sample.
 MAX_ONSETS = 8
+#: Small calls before the continuation is compiled run it as plain Python: about 3 ms of CPU
+#: per sample and frequency with the closed-form separation (0.4-0.6 s for the default 201
+#: frequencies), against 30 s for the compile (docs/benchmarks.md, "first minutes").
+CONTINUATION_ROUTE = FirstCallRoute(
+    ct.batch_response, "the mesh oscillator's continuation", unit_cpu=3e-3,
+    compile_cpu=30.0)
+#: The numerical separation costs about 80 times more per point interpreted (0.24 s per
+#: sample and frequency measured), so it compiles from the first call on.
+_NUMERICAL_WEIGHT = 80.0
 
 TRACE_MEANINGS = {
     ct.TRACE_OK: "ok",
@@ -136,12 +146,19 @@ def frequency_response(coefs: np.ndarray, grids: np.ndarray, *, order: int = 2,
     status = np.zeros(n, np.int64)
     n_points = np.zeros(n, np.int64)
 
-    def run(lo: int, hi: int) -> None:
-        ct.batch_response(coefs[lo:hi], order, mode, grids[lo:hi], MAX_POINTS,
-                          tuple(x[lo:hi] for x in sol), up[lo:hi], down[lo:hi],
-                          onsets[lo:hi], n_onsets[lo:hi], status[lo:hi], n_points[lo:hi])
+    def args(lo: int, hi: int) -> tuple:
+        return (coefs[lo:hi], order, mode, grids[lo:hi], MAX_POINTS,
+                tuple(x[lo:hi] for x in sol), up[lo:hi], down[lo:hi], onsets[lo:hi],
+                n_onsets[lo:hi], status[lo:hi], n_points[lo:hi])
 
-    workers = min(os.cpu_count() or 1, n) if parallel else 1
+    weight = _NUMERICAL_WEIGHT if mode == sf.SEP_NUMERICAL else 1.0
+    kernel, route = CONTINUATION_ROUTE.choose(weight * n * k_grid, args(0, n))
+
+    def run(lo: int, hi: int) -> None:
+        kernel(*args(lo, hi))
+
+    # the interpreted route holds the GIL: threads would only add overhead
+    workers = min(os.cpu_count() or 1, n) if parallel and route == "compiled" else 1
     if workers <= 1:
         run(0, n)
     else:
