@@ -169,7 +169,9 @@ class PeriodicSolution:
         Where Newton's method started: "linear" (the full-contact solution), "given"
         (continuation from a previous solution), "amplitude_continuation" (from the static
         state, the excitation amplitude raised in steps) or "smoothed_contact" (contact law
-        smoothed and sharpened in steps).
+        smoothed and sharpened in steps); "time_integration" when the state was found by
+        integrating the reduced rotor in time
+        (:func:`gearuq.rotor.sideband_balance.solve_periodic_by_integration`).
     """
 
     period: float
@@ -197,6 +199,22 @@ class PeriodicSolution:
     def two_sided_delta(self) -> np.ndarray:
         """``delta_j`` for ``j = -H..H`` (initial guess for a continuation)."""
         return _two_sided(self.delta, self.n_harmonics)
+
+    def with_channels(self, model: ModalModel, receptance: dict[str, np.ndarray],
+                      names: list[str]) -> PeriodicSolution:
+        """This solution with the harmonics of each channel in ``names`` filled in: the
+        response to the contact remainder, ``-receptance * r``, plus the static value."""
+        for name in names:
+            y = -receptance[name] * self.remainder
+            y[0] += model.static_value(name)
+            self.channels[name] = y
+        return self
+
+
+def contact_branch(back_contact: bool, separated: bool) -> str:
+    """:attr:`PeriodicSolution.branch` from where the flanks touch over the period."""
+    return ("back_flank_contact" if back_contact else
+            "contact_loss" if separated else "full_contact")
 
 
 def synthesize(harmonics: np.ndarray, t: np.ndarray, period: float) -> np.ndarray:
@@ -378,19 +396,12 @@ def solve_periodic(
     if not np.all(np.isfinite(x)):
         status = STATUS_SINGULAR
     n_sep = float(np.mean(~front & ~back))
-    branch = ("back_flank_contact" if back.any() else
-              "contact_loss" if n_sep > 0 else "full_contact")
-    r1 = r_hat[H:]
-    sol = PeriodicSolution(
-        period=period, delta=x[H:].copy(), force=_one_sided(force, H), remainder=r1,
+    return PeriodicSolution(
+        period=period, delta=x[H:].copy(), force=_one_sided(force, H), remainder=r_hat[H:],
         status=status, iterations=iterations, residual=res_norm,
         contact_loss_fraction=n_sep, back_contact_fraction=float(np.mean(back)),
-        min_force=float(force.min()), branch=branch, start=start)
-    for name in names:
-        y = -receptance[name] * r1
-        y[0] += model.static_value(name)
-        sol.channels[name] = y
-    return sol
+        min_force=float(force.min()), branch=contact_branch(back.any(), n_sep > 0),
+        start=start).with_channels(model, receptance, names)
 
 
 def _residual(x, smoothing, model, prep, h, backlash):

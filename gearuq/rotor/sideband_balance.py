@@ -50,6 +50,7 @@ from gearuq.rotor.harmonic_balance import (
     PeriodicSolution,
     _backtrack,
     _contact_force,
+    contact_branch,
 )
 from gearuq.rotor.reduction import ModalModel
 
@@ -342,18 +343,12 @@ def solve_periodic_orders(
     delta_t = _to_time(prep, x)
     force, _, front, back = _contact_force(prep, delta_t, backlash)
     n_sep = float(np.mean(~front & ~back))
-    sol = PeriodicSolution(
+    return PeriodicSolution(
         period=period, delta=x.copy(), force=np.fft.rfft(force)[J] / prep.n_time,
         remainder=r, status=status, iterations=iterations, residual=res,
         contact_loss_fraction=n_sep, back_contact_fraction=float(np.mean(back)),
-        min_force=float(force.min()),
-        branch=("back_flank_contact" if back.any() else
-                "contact_loss" if n_sep > 0 else "full_contact"), start=start)
-    for name in names:
-        y = -receptance[name] * r
-        y[0] += model.static_value(name)
-        sol.channels[name] = y
-    return sol
+        min_force=float(force.min()), branch=contact_branch(back.any(), n_sep > 0),
+        start=start).with_channels(model, receptance, names)
 
 
 def synthesize_orders(harmonics: np.ndarray, orders: np.ndarray, t: np.ndarray,
@@ -822,17 +817,13 @@ def solve_periodic_krylov(
         force = F
         force_hat = _fft.rfft(force)[:H + 1] / N
     n_sep = float(np.mean(F <= 0.0))
-    sol = PeriodicSolution(
+    return PeriodicSolution(
         period=period, delta=x, force=force_hat, remainder=r,
         status=status, iterations=count[0], residual=res, contact_loss_fraction=n_sep,
         back_contact_fraction=0.0, min_force=float(force.min()),
-        branch="contact_loss" if n_sep > 0 else "full_contact", start="linear",
-        min_approach=float(np.min((F + prep.ke_grid) / prep.k_grid)))
-    for name in names:
-        y = -receptance[name] * r
-        y[0] += model.static_value(name)
-        sol.channels[name] = y
-    return sol
+        branch=contact_branch(False, n_sep > 0), start="linear",
+        min_approach=float(np.min((F + prep.ke_grid) / prep.k_grid))
+    ).with_channels(model, receptance, names)
 
 
 # ------------------------------------------------------------- the periodic state in time
@@ -982,15 +973,9 @@ def solve_periodic_by_integration(
     force_hat = _fft.rfft(force_t)[:H + 1] / N
     r = force_hat - model.mean_stiffness * x
     n_sep, n_back = float(np.mean(force_t == 0.0)), float(np.mean(force_t < 0.0))
-    sol = PeriodicSolution(
+    return PeriodicSolution(
         period=period, delta=x, force=force_hat, remainder=r, status=status,
         iterations=done, residual=change, contact_loss_fraction=n_sep,
         back_contact_fraction=n_back, min_force=float(force_t.min()),
-        branch=("back_flank_contact" if n_back > 0 else "contact_loss" if n_sep > 0 else
-                "full_contact"), start="time_integration",
-        min_approach=float(delta_t.min()))
-    for name in names:
-        out = -receptance[name] * r
-        out[0] += model.static_value(name)
-        sol.channels[name] = out
-    return sol
+        branch=contact_branch(n_back > 0, n_sep > 0), start="time_integration",
+        min_approach=float(delta_t.min())).with_channels(model, receptance, names)
