@@ -42,6 +42,9 @@ import numpy as np
 
 #: Interpreted CPU seconds a process may spend on one kernel before the kernel is compiled.
 DEFAULT_ALLOWANCE_CPU = 2.0
+#: Predicted CPU seconds from which an interpreted call says so (a shorter one goes unnoticed,
+#: and a notice for it would only be noise).
+NOTICE_MIN_CPU = 0.2
 _ROUTES = ("auto", "compiled", "interpreted")
 _forced: contextvars.ContextVar[str | None] = contextvars.ContextVar("gearuq_kernels",
                                                                    default=None)
@@ -254,6 +257,7 @@ class FirstCallRoute:
         self._units = 0.0
         self._calls = 0
         self._settled = False
+        self._noticed = False
         self._pending_cpu = 0.0
         self._lock = threading.Lock()
 
@@ -288,7 +292,8 @@ class FirstCallRoute:
             return self.kernel, "compiled"
         if self._twin is None:
             self._twin = self._make_twin()
-        if self._calls == 0 and route == "auto":
+        if not self._noticed and route == "auto" and predicted >= NOTICE_MIN_CPU:
+            self._noticed = True
             self._notice(units)
         with self._lock:
             self._pending_cpu += predicted

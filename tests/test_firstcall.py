@@ -121,6 +121,49 @@ def test_the_ledger_counts_interpreted_cpu_across_processes(monkeypatch, tmp_pat
     assert ledger_path() == tmp_path / "nc" / "gearuq_firstcall.json"
 
 
+def test_a_call_predicted_below_a_fifth_of_a_second_runs_without_a_notice(monkeypatch, tmp_path,
+                                                                           capsys):
+    """The notice is for calls a user would notice; the first longer call still gives it."""
+    monkeypatch.setenv("GEARUQ_FIRSTCALL_LEDGER", str(tmp_path / "ledger.json"))
+    monkeypatch.delenv("GEARUQ_QUIET_COMPILE", raising=False)
+    fresh = njit(_kernel.py_func)
+    route = FirstCallRoute(fresh, "quiet kernel", unit_cpu=1e-3, compile_cpu=100.0,
+                           allowance_cpu=10.0)
+    xs, out = np.linspace(0.0, 1.0, 5), np.zeros(2)
+    with kernels_route("auto"):
+        # (not run: a run would replace the 1 ms per unit by the measured cost)
+        assert route.choose(10, (xs, 1.0, out))[1] == "interpreted"  # 0.01 s predicted
+        assert "quiet kernel" not in capsys.readouterr().err
+        assert route.choose(500, (xs, 1.0, out))[1] == "interpreted"  # 0.5 s predicted
+        assert "quiet kernel is not compiled yet" in capsys.readouterr().err
+        route.choose(500, (xs, 1.0, out))
+        assert "quiet kernel" not in capsys.readouterr().err  # once per process
+
+
+@pytest.mark.parametrize("n_pairs", [0, 7])
+def test_rotor_pole_sums_numpy_twin_equals_the_kernel_and_the_complex_sum(n_pairs):
+    """The rotor's receptance sums: the numpy route is bit-identical to the compiled kernel
+    and equals sum_k w_k / (i W - p_k) (plus each pair's conjugate term), evaluated here in
+    complex arithmetic, to rounding."""
+    from gearuq.rotor._spectral_kernels import pole_sums, pole_sums_auto, pole_sums_numpy
+
+    rng = np.random.default_rng(31 + n_pairs)
+    n_poles, n_out = 11, 3
+    poles = -rng.uniform(1.0, 50.0, n_poles) + 1j * rng.uniform(10.0, 900.0, n_poles)
+    weights = rng.normal(size=(n_poles, n_out)) + 1j * rng.normal(size=(n_poles, n_out))
+    w = np.concatenate([rng.uniform(0.0, 1000.0, 60), poles.imag[:3]])  # near resonances too
+    got = pole_sums_numpy(w, poles, weights, n_pairs)
+    expected = np.zeros((w.size, n_out), dtype=complex)
+    for k in range(n_poles):
+        expected += weights[k] / (1j * w[:, None] - poles[k])
+        if k < n_pairs:
+            expected += np.conj(weights[k]) / (1j * w[:, None] - np.conj(poles[k]))
+    np.testing.assert_allclose(got, expected, rtol=1e-11, atol=1e-13 * abs(expected).max())
+    assert np.array_equal(got, pole_sums(w, poles, weights, n_pairs))
+    with kernels_route("interpreted"):
+        assert np.array_equal(pole_sums_auto(w, poles, weights, n_pairs), got)
+
+
 def test_bad_route_in_the_environment_is_named(monkeypatch):
     route = FirstCallRoute(_kernel, "x", unit_cpu=1.0, compile_cpu=1.0)
     monkeypatch.setenv("GEARUQ_KERNELS", "jit")

@@ -11,7 +11,9 @@ rounding.
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -68,6 +70,68 @@ def pole_sums(w: np.ndarray, poles: np.ndarray, weights: np.ndarray,
         for f in range(nf):
             out[f, c] = acc_r[c, f] + 1j * acc_i[c, f]
     return out
+
+
+def pole_sums_numpy(w: np.ndarray, poles: np.ndarray, weights: np.ndarray,
+                    n_pairs: int) -> np.ndarray:
+    """:func:`pole_sums` without compiling: the same operations in the same order, each loop
+    over frequencies one numpy expression (its plain-Python route, :mod:`gearuq._firstcall`:
+    a few numpy calls per pole instead of the ~1 s compile a small first call would pay)."""
+    nk, nc = poles.size, weights.shape[1]
+    acc_r = np.zeros((nc, w.size))
+    acc_i = np.zeros((nc, w.size))
+    for k in range(n_pairs):
+        a = -poles[k].real
+        b = poles[k].imag
+        dr = a * a + (b - w) * (b + w)
+        di = 2.0 * a * w
+        d = 1.0 / (dr * dr + di * di)
+        rr = dr * d
+        ri = di * d
+        for c in range(nc):
+            n0 = 2.0 * (a * weights[k, c].real - b * weights[k, c].imag)
+            n1 = 2.0 * weights[k, c].real
+            acc_r[c] += n0 * rr + n1 * w * ri
+            acc_i[c] += n1 * w * rr - n0 * ri
+    for k in range(n_pairs, nk):
+        a = -poles[k].real
+        b = w - poles[k].imag
+        d = 1.0 / (a * a + b * b)
+        rr = a * d
+        ri = -b * d
+        for c in range(nc):
+            wr = weights[k, c].real
+            wi = weights[k, c].imag
+            acc_r[c] += rr * wr - ri * wi
+            acc_i[c] += rr * wi + ri * wr
+    return (acc_r + 1j * acc_i).T.copy()
+
+
+#: CPU seconds of :func:`pole_sums_numpy` per pole, output and frequency, plus per pole and
+#: output (numpy's call overhead), measured on the geared rotor's nominal call
+#: (docs/benchmarks.md, "first minutes").
+POLE_SUMS_NUMPY_CPU = (4e-9, 6e-6)
+
+
+@functools.cache
+def pole_sums_route() -> Any:
+    """Compiled or numpy :func:`pole_sums` (:class:`gearuq._firstcall.FirstCallRoute`): a
+    small first call (the geared rotor's few hundred frequencies) runs the numpy twin in a few
+    milliseconds instead of compiling (about 1 s of CPU, numba's start-up included)."""
+    from gearuq._firstcall import FirstCallRoute
+
+    return FirstCallRoute(pole_sums, "the rotor's receptance kernel (pole sums)", unit_cpu=1.0,
+                          compile_cpu=1.5, twin=lambda: pole_sums_numpy)
+
+
+def pole_sums_auto(w: np.ndarray, poles: np.ndarray, weights: np.ndarray,
+                   n_pairs: int) -> np.ndarray:
+    """:func:`pole_sums` by the route :func:`pole_sums_route` chooses (same arguments)."""
+    per_point, per_column = POLE_SUMS_NUMPY_CPU
+    columns = poles.size * (weights.shape[1] + 1)
+    predicted = columns * (per_column + per_point * w.size)
+    kernel, _ = pole_sums_route().choose(predicted, (w, poles, weights, n_pairs))
+    return kernel(w, poles, weights, n_pairs)
 
 
 @njit(cache=True)

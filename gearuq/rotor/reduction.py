@@ -133,7 +133,8 @@ class ModalModel:
         out: dict[str, np.ndarray] = {}
         s = 1j * w
         if n:
-            from gearuq.rotor._spectral_kernels import pole_sums  # numba: imported for cost
+            # numba: imported for cost
+            from gearuq.rotor._spectral_kernels import pole_sums_auto
 
             lam, X = np.linalg.eig(self.state_matrix(speed))
             B = np.concatenate([np.zeros(n), self.mesh])
@@ -155,9 +156,10 @@ class ModalModel:
             n_pairs = int(upper.sum()) if upper.sum() == lower.sum() else 0
             order = (np.concatenate([np.flatnonzero(upper), np.flatnonzero(~upper & ~lower)])
                      if n_pairs else np.arange(lam.size))
-            sums = pole_sums(np.ascontiguousarray(w.ravel()), np.ascontiguousarray(lam[order]),
-                             np.ascontiguousarray(weights[order]), n_pairs
-                             ).reshape(w.shape + (len(rows),))
+            sums = pole_sums_auto(np.ascontiguousarray(w.ravel()),
+                                  np.ascontiguousarray(lam[order]),
+                                  np.ascontiguousarray(weights[order]), n_pairs
+                                  ).reshape(w.shape + (len(rows),))
             out["mesh"] = sums[..., 0] + self.mesh_residual
             col = 1
             for name in names:
