@@ -321,6 +321,10 @@ def test_periodic_state_by_integration_against_an_independent_integrator(problem
             solve_periodic_by_integration(*args, **bad)
 
 
+# e2e: the default suite's costliest test (19 CPU s from an empty numba cache, 9 of them a
+# compile no earlier test had paid; 10 s warm): three dense balances, an integration over
+# the long period and a dop853 check over eight more
+@pytest.mark.e2e
 def test_dense_balance_restarted_from_the_time_integration(problem):
     """At 3400 rpm Newton's method on the dense balance fails from the linear start (its
     iterate 17 % apart); ``dynamics_at`` integrates the reduced rotor from that iterate to
