@@ -325,3 +325,48 @@ def test_this_file_runs_in_the_mesh_oscillator_compile_group(request):
     if not getattr(request.config.option, "loadgroup", False):
         pytest.skip("not run by pytest-xdist with --dist loadgroup")
     assert request.node.nodeid.endswith("@mesh_oscillator"), request.node.nodeid
+
+
+def test_compile_ahead_starts_nothing_when_ready_and_an_interrupted_wait_stops_the_child():
+    from gearuq._firstcall import await_compile, compile_ahead
+
+    assert compile_ahead("helical_pair", lambda: True) is None
+    await_compile(None)  # nothing to wait for
+
+    class Child:  # a child whose wait is interrupted (Ctrl-C) the first time
+        killed = 0
+        waits = 0
+
+        def wait(self):
+            self.waits += 1
+            if self.waits == 1:
+                raise KeyboardInterrupt
+            return -9
+
+        def kill(self):
+            self.killed += 1
+
+    child = Child()
+    with pytest.raises(KeyboardInterrupt):
+        await_compile(child)
+    assert child.killed == 1 and child.waits == 2  # killed, then reaped: no orphan
+
+
+@pytest.mark.e2e  # a second interpreter compiles the integrator variant: 10-15 s of CPU
+def test_compile_ahead_fills_the_cache_this_process_then_loads(tmp_path, monkeypatch):
+    from numba.core import config
+
+    from gearuq._firstcall import await_compile, compile_ahead
+    from gearuq.ode import kernel
+
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(cache))  # the child's cache
+    monkeypatch.setattr(config, "CACHE_DIR", str(cache))  # and this process's from now on
+    monkeypatch.setattr(kernel, "_KERNELS", {})  # as if nothing were compiled here
+    assert not kernel.variant_ready("dop853", "frozen")
+    child = compile_ahead("helical_pair", lambda: kernel.variant_ready("dop853", "frozen"))
+    assert child is not None
+    await_compile(child)
+    assert child.returncode == 0
+    # the variant the demo needs is now in the cache: its first call here loads it
+    assert kernel.variant_ready("dop853", "frozen")
