@@ -10,6 +10,7 @@ all of them when the library changed (:func:`library_fingerprint`).
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import gearuq
@@ -45,6 +46,7 @@ def _local_mathjax(value: str) -> tuple[str | None, dict | None]:
 
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+sys.path.insert(0, str(Path(__file__).parent))  # _gallery_routes, sphinx-gallery's reset hook
 
 project = "gearuq"
 author = "gearuq developers"
@@ -176,7 +178,8 @@ sphinx_gallery_conf = {
     "within_subsection_order": "FileNameSortKey",
     "matplotlib_animations": False,
     "image_scrapers": ("matplotlib",),
-    "reset_modules": ("matplotlib",),
+    # per example: the kernels' route (docs/_gallery_routes.py)
+    "reset_modules": ("matplotlib", "_gallery_routes.before_example"),
     "show_memory": False,
 }
 
