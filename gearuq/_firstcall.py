@@ -30,7 +30,6 @@ import contextlib
 import contextvars
 import json
 import os
-import subprocess
 import sys
 import threading
 import time
@@ -324,54 +323,3 @@ class FirstCallRoute:
               f"{self.allowance_cpu:.0f} s per process); a larger call compiles it (about "
               f"{self.compile_cpu:.0f} s of CPU, once per install; `gearuq compile` does it "
               "ahead)", file=sys.stderr, flush=True)
-
-
-def compile_ahead(model: str, ready: Callable[[], bool]) -> subprocess.Popen | None:
-    """Start compiling ``model``'s kernels in a child process, on another core, unless
-    ``ready()`` says they are compiled already (in numba's on-disk cache).
-
-    For a command that will need the compiled kernels and has other work to do first (the
-    demo: imports of plotting, fitting and file libraries, several seconds): the child runs
-    the model's ``precompile()`` into the on-disk cache while this process works; the caller
-    then :func:`await_compile` s it before its first kernel call, which loads the kernels from
-    the cache instead of compiling them itself. The child writes its compile notice on
-    standard error as a compile in this process would.
-
-    Parameters
-    ----------
-    model : str
-        A registered model with a ``precompile()`` method.
-    ready : callable
-        ``ready() -> bool``: True when nothing would compile.
-
-    Returns
-    -------
-    subprocess.Popen or None
-        The child, or None when ``ready()`` or when no child could be started (then the
-        first call compiles, as without this).
-    """
-    if ready():
-        return None
-    code = ("import gearuq\n"
-            f"gearuq.get_model({model!r}).precompile()\n")
-    try:
-        return subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.DEVNULL,
-                                stdout=subprocess.DEVNULL)
-    except OSError:
-        return None
-
-
-def await_compile(child: subprocess.Popen | None) -> None:
-    """Wait for a :func:`compile_ahead` child; stop it if this process is interrupted.
-
-    A child that failed leaves nothing to load: the first call then compiles (and reports
-    any error of its own), so its exit status is not raised here.
-    """
-    if child is None:
-        return
-    try:
-        child.wait()
-    except BaseException:
-        child.kill()
-        child.wait()
-        raise

@@ -267,25 +267,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from gearuq._firstcall import await_compile, compile_ahead
-    from gearuq.ode.kernel import variant_ready
+    from gearuq import registry
 
-    # from an empty cache the integrator variant the demo needs (DOP853, frozen sides) compiles
-    # in a child on the second core while this process imports what the run needs
-    # (docs/benchmarks.md, "the demo from an empty cache")
-    child = compile_ahead("helical_pair", lambda: variant_ready("dop853", "frozen"))
-    try:
-        import gearuq
-        from gearuq import registry
-
-        run = registry.get_study(registry.DEFAULT_STUDY)
-        for name in ("monte_carlo", "reliability", "fit_distributions", "save"):
-            getattr(gearuq, name)  # lazy imports, made while the child compiles
-    except BaseException:
-        if child is not None:
-            child.kill()
-        raise
-    await_compile(child)
+    run = registry.get_study(registry.DEFAULT_STUDY)
     return int(run(out=args.out, n_samples=args.n_samples, seed=args.seed,
                    executor=args.executor, progress=not args.quiet, store=args.store,
                    keep_chunks=args.keep_chunks) or 0)
