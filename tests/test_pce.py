@@ -453,8 +453,10 @@ def test_bad_input_messages():
             gearuq.monte_carlo(model, space, n_samples=8, rng=1, executor="serial"))
 
 
+# e2e: the whole surrogate benchmark in its quick mode (four problems, eight methods), 2.5 CPU s
+@pytest.mark.e2e
 def test_bench_surrogate_quick(tmp_path):
-    """The one run of the surrogate benchmark in the default suite (its numbers asserted)."""
+    """The quick run of the surrogate benchmark (its numbers asserted)."""
     from gearuq.bench import surrogate as bench_surrogate
 
     res = bench_surrogate.run(tmp_path, quick=True)

@@ -161,6 +161,8 @@ def test_fidelity_link_correlation_command_line(tmp_path):
     assert ds.sizes["sample"] == 24 and ds.attrs["space"] == "wide"
 
 
+# e2e: the whole study in its quick mode (three models, a frequency sweep each), 2.9 CPU s
+@pytest.mark.e2e
 def test_quick_model_fidelity(tmp_path):
     _run_quick("model_fidelity", tmp_path)
     ds = gearuq.load(tmp_path / "dte_vs_mesh_frequency.nc")
