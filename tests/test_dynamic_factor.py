@@ -490,5 +490,33 @@ def test_rare_stage_densities_against_an_independent_count(method):
     assert 0 < res["fit"]["runs"] < 60 * len(res["fit"]["levels"]) and rotor["runs"] < 150
     assert (res["directions"]["runs"] == 0) == (method == "harmonic")
     assert rotor["lower"] <= rotor["pf"] <= rotor["upper"] and rotor["status"] in (0, 1)
-    assert rotor["pf_over_x"][f"{x:.3f}"] == pytest.approx(rotor["pf"], rel=1e-9)
+    assert rotor["pf_over_x"]["pf"][f"{x:.3f}"] == pytest.approx(rotor["pf"], rel=1e-9)
     _agrees_with_a_crude_count(rotor, small, x)
+
+
+def test_pf_over_x_flags_invalid_runs_instead_of_reading_them_below_x():
+    """A run without a steady state (``kv_max`` NaN) is counted, read as safe in ``pf`` and
+    as failed in the upper reading, exactly as the main estimate reads it; with no invalid
+    run the two readings are one. The weighted sums are redone here by hand."""
+    from gearuq.failure.methods.subspace import subspace_density
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    density = subspace_density(np.eye(3)[:, :1], np.array([1.5]), np.array([[1.0]]), 0.1)
+    rng = np.random.default_rng(4)
+    u = rng.standard_normal((50, 3)) + [1.5, 0.0, 0.0]
+    kv = 1.7 + 0.1 * rng.standard_normal(50)
+    kv[[3, 17, 40]] = np.nan
+    x, n, p_pass = 1.75, 80, 0.9
+    out = study._pf_over_x([(u[:20], x - kv[:20]), (u[20:], x - kv[20:])], density, n, x,
+                           p_pass)
+    w = np.exp(density.log_weights(u))
+    bad = np.isnan(kv)
+    assert out["invalid_runs"] == 3
+    for xp in (x - 0.04, x, x + 0.06):
+        key = f"{xp:.3f}"
+        safe = np.sum(w[~bad] * (kv[~bad] >= xp)) / n / p_pass
+        assert out["pf"][key] == pytest.approx(safe, rel=1e-12)
+        assert out["invalid_as_failures"][key] == pytest.approx(
+            safe + np.sum(w[bad]) / n / p_pass, rel=1e-12)
+    clean = study._pf_over_x([(u[~bad], x - kv[~bad])], density, n, x, p_pass)
+    assert clean["invalid_runs"] == 0 and clean["pf"] == clean["invalid_as_failures"]
