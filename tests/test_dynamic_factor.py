@@ -520,3 +520,25 @@ def test_pf_over_x_flags_invalid_runs_instead_of_reading_them_below_x():
             safe + np.sum(w[bad]) / n / p_pass, rel=1e-12)
     clean = study._pf_over_x([(u[~bad], x - kv[~bad])], density, n, x, p_pass)
     assert clean["invalid_runs"] == 0 and clean["pf"] == clean["invalid_as_failures"]
+
+
+@pytest.mark.e2e
+def test_rare_stage_lines_against_an_independent_count():
+    """The rare stage's second method, radial line sampling behind the inspection gate, on
+    the small rotor (3 speeds) at a moderate level, against the crude count of accepted
+    pairs (acceptance read from the rotor's output): no weight, every line either crosses
+    or is gated out, and only accepted points cost runs."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    x = 1.22
+    settings = {**study.RARE_LINES, "n_lines": 40, "t_grid": (-6.0, -3.0, 0.0, 3.0, 6.0),
+                "root_tol": 0.01, "chunk_lines": 40}
+    res = study.lines_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
+                                       options=_SMALL_ROTOR)
+    assert res["n_lines"] == 40 and len(res["line_pf"]) == 40
+    assert res["lower"] <= res["pf"] <= res["upper"] and res["status"] in (0, 1)
+    assert res["lines_by_crossings"][3] == 0
+    # a grid of 5 points a line plus the refinement; a gated-out line costs nothing
+    assert res["runs"] < 40 * (5 + 2 * 12)
+    assert res["p_pass"] == study.accepted_probability(6)[0]
+    _agrees_with_a_crude_count(res, _SMALL_ROTOR, x)
