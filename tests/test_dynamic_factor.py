@@ -531,13 +531,14 @@ def test_rare_stage_lines_against_an_independent_count():
     from gearuq_studies import geared_rotor_dynamic_factor as study
 
     x = 1.22
+    # uniform directions: RARE_LINES draws them about the rare level's heavy lines
     settings = {**study.RARE_LINES, "n_lines": 40, "t_grid": (-6.0, -3.0, 0.0, 3.0, 6.0),
-                "root_tol": 0.01, "chunk_lines": 40}
+                "root_tol": 0.01, "chunk_lines": 40, "direction_means": None}
     res = study.lines_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
                                        options=_SMALL_ROTOR)
     assert res["n_lines"] == 40 and len(res["line_pf"]) == 40
     assert res["lower"] <= res["pf"] <= res["upper"] and res["status"] in (0, 1)
-    assert res["lines_by_crossings"][3] == 0
+    assert res["lines_by_crossings"][3] == 0 and res["max_weight"] == 1.0
     # a grid of 5 points a line plus the refinement; a gated-out line costs nothing
     assert res["runs"] < 40 * (5 + 2 * 12)
     assert res["p_pass"] == study.accepted_probability(6)[0]

@@ -75,6 +75,19 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    (seed 2032, both densities wider, ``min_std`` 1.5) 2.5e-6 and 1.3e-7, status 3 again.
    Pf near 1e-6 sits at X of about 1.77 (:data:`RARE_X`, 1.83 until this round), and no
    interval there is vouched for yet (docs/benchmarks.md, "Third round").
+   The second method, ``lines`` (:func:`lines_given_acceptance`, :data:`RARE_LINES`), has no
+   importance weight in the subspace: radial line sampling in the 10 directions of
+   :func:`harmonic_planes` with everything else drawn in each line's origin, inspection's
+   verdict exact along each line from the germ, the rotor only on the accepted part, the
+   line's probability the chi-10 mass of {kv_max >= X and accepted}
+   (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`). At X = 1.77 four runs
+   (80-100 lines, 636-771 rotor runs, 467-569 CPU s and 326-394 s wall each) give 1.5e-7
+   (uniform directions), 1.0e-5, 7.3e-7 and 2.7e-6 (directions drawn about where the
+   heaviest lines pointed: the alternating harmonic 15 with torque and damping low), each
+   with 1.4-8.7 effective lines of 80-100 (status 3): the line probabilities are as
+   heavy-tailed as the weights were, no interval is vouched for, and the two methods cannot
+   be said to agree; the mean of the 380 line terms, 3.7e-6, puts Pf(1.77 | pass) >= 1.8e-7
+   at 95 % by Markov's inequality (docs/benchmarks.md, "Fourth round").
 
 ``--quick`` runs 12 rotor runs, subset simulation with 16 per level on the coarsest speed
 grid (:data:`QUICK_OPTIONS`), the rare stage at the moderate X with :data:`CHEAP_OPTIONS` as
@@ -592,14 +605,17 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
 #: tooth-to-tooth harmonics 12-15), K_v on ``t_grid`` along each line (K_v grows about
 #: linearly with ``|t|`` there, from 1.05-1.17 at 0, on the cheap model), crossings refined
 #: to ``root_tol`` (the chi-10 tail falls by about 6 % per 0.01 at ``t`` near 7). The line
-#: directions are drawn from a projected normal about ``direction_means`` (relief +0.5,
-#: torque -1.9, damping -0.9, the harmonic planes centred: axes with a torque component
-#: near -0.5, where the heaviest lines of a uniform pilot of 80 pointed), 30 % of them
+#: directions are drawn from projected normals about ``direction_means`` (relief +0.8,
+#: torque -1.2, damping -1.2 and the alternating harmonic 15 at +-2.3, the planes of
+#: harmonics 12-14 centred: 3 times the mean line direction weighted by ``w_i p_i`` over
+#: three pilots of 280 lines on the rotor, folded to torque < 0 and harmonic 15 > 0; the
+#: same direction at 4.5 times left the lines of its edge with the estimate), 30 % of them
 #: uniform, so every line's weight is at most 1 / 0.3.
 RARE_LINES: dict[str, Any] = {"n_lines": 100, "harmonics": RARE_HARMONICS,
                               "t_grid": (-9.0, -6.0, 0.0, 6.0, 9.0), "root_tol": 0.005,
                               "chunk_lines": 100,
-                              "direction_means": ((0.5, -1.9, -0.9) + (0.0,) * 7,),
+                              "direction_means": tuple((0.8, -1.2, -1.2) + (0.0,) * 6 + (h,)
+                                                       for h in (2.3, -2.3)),
                               "direction_defensive": 0.3}
 #: The same in ``--quick``: the code path with a few dozen runs.
 QUICK_LINES: dict[str, Any] = {**RARE_LINES, "n_lines": 4, "t_grid": (-6.0, 0.0, 6.0),
