@@ -155,3 +155,32 @@ def test_directions_drawn_towards_a_half_space_vouch_for_the_interval():
     with pytest.raises(ValueError, match="direction_means"):
         gated_line_sampling(_half_space, basis, n_lines=10, seed=0,
                             direction_means=np.zeros((1, 2)))
+
+
+def test_origins_drawn_towards_failure_vouch_for_straight_lines():
+    """Straight lines along u0 (k = 1) for ``u0 - u2 >= 5.5`` behind ``u3 <= 1.5`` (exact
+    ``Phi(-5.5 / sqrt 2) Phi(1.5)``): each line's probability ``Phi(-(5.5 + u2))`` depends on
+    its origin, so standard normal origins leave 1-11 effective lines of 200 (status 3 in
+    every seed); origins drawn from the defensive mixture shifted to u2 = -2.75 (weights
+    <= 1 / 0.3, independent of u0) give 18 of 20 intervals holding, mean within 4 % of
+    exact, all status 0. A density that moves the line's own coordinate is refused."""
+    from gearuq.failure.methods.subspace import subspace_density
+
+    def limit(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return 5.5 - (u[:, 0] - u[:, 2]), np.ones(len(u), bool)
+
+    exact = stats.norm.sf(5.5 / math.sqrt(2)) * stats.norm.cdf(1.5)
+    basis = np.eye(D)[:, :1]
+    shifted = subspace_density(np.eye(D)[:, 2:3], np.array([-2.75]), np.eye(1), 0.3)
+    runs = {name: [gated_line_sampling(limit, basis, n_lines=200, seed=s, gate=_gate_u3,
+                                       root_tol=1e-4, origin_density=density)
+                   for s in range(20)]
+            for name, density in (("normal", None), ("shifted", shifted))}
+    assert all(r["status"] == 3 for r in runs["normal"])
+    drawn = runs["shifted"]
+    assert all(r["status"] == 0 and r["max_weight"] <= 1 / 0.3 for r in drawn)
+    assert sum(r["lower"] <= exact <= r["upper"] for r in drawn) >= 18
+    assert np.mean([r["pf"] for r in drawn]) == pytest.approx(exact, rel=0.04)
+    moves_u0 = subspace_density(np.eye(D)[:, :1], np.array([1.0]), np.eye(1), 0.3)
+    with pytest.raises(ValueError, match="origin_density"):
+        gated_line_sampling(limit, basis, n_lines=10, seed=0, origin_density=moves_u0)

@@ -145,6 +145,7 @@ from gearuq.failure.methods.subspace import (
     fit_subspace_density,
     gate_probability,
     given_gate,
+    subspace_density,
     subspace_estimate,
 )
 from gearuq.gears.deviations import (
@@ -645,7 +646,15 @@ def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, 
         ``lines_by_crossings`` (0, 1, 2, more), ``p_pass`` and ``line_pf`` (per line, of
         P(fail and pass)).
     """
-    basis, _ = harmonic_planes(tuple(settings["harmonics"]))
+    planes, groups = harmonic_planes(tuple(settings["harmonics"]))
+    basis, origin_density, means = planes, None, settings.get("direction_means")
+    if settings.get("along") is not None:
+        # straight lines along one harmonic's pinion-plus-wheel coordinate (the first of its
+        # plane); the origins' relief, torque and damping from a shifted defensive mixture
+        column = groups[list(settings["harmonics"]).index(settings["along"])][0]
+        basis, means = planes[:, column:column + 1], None
+        origin_density = subspace_density(planes[:, :3], np.array(settings["origin_means"]),
+                                          np.eye(3), float(settings["origin_defensive"]))
 
     def gate(u: np.ndarray) -> np.ndarray:
         return germ_acceptance_margin(u, grade) >= 0.0
@@ -655,9 +664,9 @@ def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, 
         n_lines=int(settings["n_lines"]), seed=seed, gate=gate,
         t_grid=np.array(settings["t_grid"], dtype=float), root_tol=settings["root_tol"],
         chunk_lines=int(settings["chunk_lines"]),
-        direction_means=(None if settings.get("direction_means") is None
-                         else np.array(settings["direction_means"], dtype=float)),
-        direction_defensive=float(settings.get("direction_defensive", 0.3)))
+        direction_means=None if means is None else np.array(means, dtype=float),
+        direction_defensive=float(settings.get("direction_defensive", 0.3)),
+        origin_density=origin_density)
     p_pass, se_pass = accepted_probability(grade)
     return {**given_gate(est, p_pass, se_pass),
             **{k: est[k] for k in ("status", "message", "runs", "n_lines", "n_effective",

@@ -48,6 +48,14 @@ computed on the ``w_i p_i``. ``PN(e; m) = (2 pi)^(-k/2) exp(-|m|^2 / 2) I_k(e . 
 (:func:`projected_normal_logpdf`; equal to ``Gamma(k) exp(b^2 / 4) D_-k(-b)``, a parabolic
 cylinder function, to 1e-12 in the tests).
 
+**Origins drawn where the rest of the failure set lives.** Where the inputs outside the
+subspace decide how far a line must go (a light load and low damping shorten every line of
+the pitch harmonic), ``origin_density`` draws each line's origin from a defensive mixture
+that moves only coordinates orthogonal to the subspace
+(:func:`~gearuq.failure.methods.subspace.subspace_density` on such columns): the origin's
+weight ``phi / h`` depends on those coordinates alone, is at most ``1 / a``, and multiplies
+the line's term, so the mean stays unbiased and the terms bounded.
+
 Invalid runs (NaN) make their cells unknown: ``pf`` reads them as safe, the interval's upper
 end as failed (status 6). ``P(F | gate) = P(F and gate) / P(gate)`` with ``P(gate)`` counted
 (:func:`~gearuq.failure.methods.subspace.gate_probability`,
@@ -247,7 +255,8 @@ def gated_line_sampling(limit: Limit, basis: np.ndarray, *, n_lines: int, seed: 
                         gate_points: int = 401, root_tol: float = 1e-3, max_iter: int = 40,
                         chunk_lines: int = 50, confidence: float = 0.95,
                         direction_means: np.ndarray | None = None,
-                        direction_defensive: float = 0.3) -> dict[str, Any]:
+                        direction_defensive: float = 0.3,
+                        origin_density: Any = None) -> dict[str, Any]:
     """``P(F and gate)`` by radial line sampling in ``span(basis)`` behind a gate.
 
     Parameters
@@ -280,6 +289,11 @@ def gated_line_sampling(limit: Limit, basis: np.ndarray, *, n_lines: int, seed: 
     direction_defensive : float
         Share ``a`` of uniform directions in that mixture, in (0, 1): every line's weight
         is at most ``1 / a``.
+    origin_density : Mixture, optional
+        Density the lines' origins are drawn from (:class:`~gearuq.failure.methods.
+        importance.Mixture` with a defensive share, e.g. of
+        :func:`~gearuq.failure.methods.subspace.subspace_density`), differing from the
+        standard normal only orthogonally to ``basis``; default: the standard normal.
 
     Returns
     -------
@@ -323,6 +337,13 @@ def gated_line_sampling(limit: Limit, basis: np.ndarray, *, n_lines: int, seed: 
         if means.shape[1] != k or not np.all(np.isfinite(means)):
             raise ValueError(f"direction_means of shape {means.shape} is outside its valid "
                              f"range: finite (L, {k}) means in the subspace's coordinates")
+    if origin_density is not None and not (
+            np.allclose(origin_density.means @ basis, 0.0, atol=1e-10)
+            and np.allclose((origin_density.covs - np.eye(d)) @ basis, 0.0, atol=1e-10)
+            and origin_density.defensive > 0):
+        raise ValueError("origin_density is outside its valid range: a defensive mixture "
+                         "that moves only coordinates orthogonal to basis (its weight must "
+                         "not depend on the line's coordinate)")
     c_max = float(np.max(np.abs(t_grid)))
     s = {"c_max": c_max, "t_grid": np.unique(np.clip(t_grid, -c_max, c_max)),
          "n_grid": t_grid.size, "root_tol": float(root_tol), "max_iter": int(max_iter)}
@@ -333,6 +354,10 @@ def gated_line_sampling(limit: Limit, basis: np.ndarray, *, n_lines: int, seed: 
         m = min(int(chunk_lines), int(n_lines) - start)
         origins, _ = _lines(rows, m, rng)
         axes, weight = _axes(means, float(direction_defensive), m, k, rng)
+        if origin_density is not None:
+            drawn = origin_density.sample(m, rng)
+            origins = drawn - (drawn @ basis) @ rows
+            weight = weight * np.exp(origin_density.log_weights(drawn))
         dirs = axes @ rows
         pieces = gate_pieces(gate, origins, dirs, c_max, gate_points)
         parts.append({**_search(runs, origins, dirs, pieces, s, k), "weight": weight})
