@@ -531,8 +531,8 @@ def test_rare_stage_lines_against_an_independent_count():
     from gearuq_studies import geared_rotor_dynamic_factor as study
 
     x = 1.22
-    # uniform directions: RARE_LINES draws them about the rare level's heavy lines
-    settings = {**study.RARE_LINES, "n_lines": 40, "t_grid": (-6.0, -3.0, 0.0, 3.0, 6.0),
+    # radial lines, uniform directions: the rare settings aim at the rare level's heavy lines
+    settings = {**study.RADIAL_LINES, "n_lines": 40, "t_grid": (-6.0, -3.0, 0.0, 3.0, 6.0),
                 "root_tol": 0.01, "chunk_lines": 40, "direction_means": None}
     res = study.lines_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
                                        options=_SMALL_ROTOR)
@@ -543,3 +543,25 @@ def test_rare_stage_lines_against_an_independent_count():
     assert res["runs"] < 40 * (5 + 2 * 12)
     assert res["p_pass"] == study.accepted_probability(6)[0]
     _agrees_with_a_crude_count(res, _SMALL_ROTOR, x)
+
+
+def test_lines_settings_are_checked_before_any_run():
+    """Straight lines along harmonic 15: an origin density over more columns than precede
+    the line's coordinate (it would move the line's own coordinate and make the weight
+    depend on it), or a spread of another length, is refused by name before any run."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    def never(*_args, **_kwargs):
+        raise AssertionError("no model run expected")
+
+    for bad in ({"origin_means": (0.0,) * 10}, {"origin_std": (1.0,) * 3}):
+        with pytest.raises(ValueError, match="origin_means"):
+            study.lines_given_acceptance(1.77, 0, 6, {**study.RARE_LINES, **bad},
+                                         {"executor": never})
+    basis, groups = study.harmonic_planes(study.RARE_LINES["harmonics"])
+    column = groups[-1][0]
+    # the line's coordinate is the pinion-plus-wheel sum of the germs' last normal (cos 15)
+    names = study.study_space().names
+    assert {names[i] for i in np.flatnonzero(basis[:, column])} == {"pitch_xi_p_29",
+                                                                     "pitch_xi_g_29"}
+    assert len(study.RARE_LINES["origin_means"]) <= column

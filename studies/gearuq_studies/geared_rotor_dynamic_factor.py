@@ -601,50 +601,68 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
 
 
 #: The rare stage's second method (``rare_methods=("lines",)``,
-#: :func:`lines_given_acceptance`): radial lines in the 10 directions of
-#: :func:`harmonic_planes` (relief, torque, damping and the pinion-plus-wheel sums of the
-#: tooth-to-tooth harmonics 12-15), K_v on ``t_grid`` along each line (K_v grows about
-#: linearly with ``|t|`` there, from 1.05-1.17 at 0, on the cheap model), crossings refined
-#: to ``root_tol`` (the chi-10 tail falls by about 6 % per 0.01 at ``t`` near 7). The line
-#: directions are drawn from projected normals about ``direction_means`` (relief +0.8,
-#: torque -1.2, damping -1.2 and the alternating harmonic 15 at +-2.3, the planes of
-#: harmonics 12-14 centred: 3 times the mean line direction weighted by ``w_i p_i`` over
-#: three pilots of 280 lines on the rotor, folded to torque < 0 and harmonic 15 > 0; the
-#: same direction at 4.5 times left the lines of its edge with the estimate), 30 % of them
-#: uniform, so every line's weight is at most 1 / 0.3.
-RARE_LINES: dict[str, Any] = {"n_lines": 100, "harmonics": RARE_HARMONICS,
-                              "t_grid": (-9.0, -6.0, 0.0, 6.0, 9.0), "root_tol": 0.005,
-                              "chunk_lines": 100,
-                              "direction_means": tuple((0.8, -1.2, -1.2) + (0.0,) * 6 + (h,)
-                                                       for h in (2.3, -2.3)),
-                              "direction_defensive": 0.3}
+#: :func:`lines_given_acceptance`): straight lines along the pinion-plus-wheel coordinate of
+#: the alternating tooth-to-tooth harmonic 15 (``along``), where the heaviest radial lines of
+#: the fourth round pointed; each line's origin (relief, torque, damping and the planes of
+#: harmonics 12-14) drawn from a defensive mixture shifted to relief +0.6, torque -2.0 and
+#: damping -1.9 standard units with the harmonic planes widened to 1.4 (``origin_means``,
+#: ``origin_std``; every weight at most 1 / 0.3): the heavy lines of a first straight run had
+#: these torques and dampings and amplitudes of 1.5-1.9 in all three planes at once. K_v on
+#: ``t_grid`` and at the crossings (secant to ``root_tol``).
+RARE_LINES: dict[str, Any] = {"n_lines": 130, "harmonics": RARE_HARMONICS, "along": 15,
+                              "t_grid": (-6.0, -4.0, 0.0, 4.0, 6.0), "root_tol": 0.005,
+                              "chunk_lines": 130,
+                              "origin_means": (0.6, -2.0, -1.9) + (0.0,) * 6,
+                              "origin_std": (1.0,) * 3 + (1.4,) * 6, "origin_defensive": 0.3}
+#: The radial variant (``along`` None): lines in the 10 directions of
+#: :func:`harmonic_planes`, their directions drawn from projected normals about
+#: ``direction_means`` (relief +0.8, torque -1.2, damping -1.2, harmonic 15 at +-2.3: 3 times
+#: the heavy lines' mean direction over three pilots), 30 % uniform. At X = 1.77 it left
+#: 1.4-8.7 effective lines of 80-100 (docs/benchmarks.md, "Fourth round").
+RADIAL_LINES: dict[str, Any] = {"n_lines": 100, "harmonics": RARE_HARMONICS, "along": None,
+                                "t_grid": (-9.0, -6.0, 0.0, 6.0, 9.0), "root_tol": 0.005,
+                                "chunk_lines": 100,
+                                "direction_means": tuple((0.8, -1.2, -1.2) + (0.0,) * 6 + (h,)
+                                                         for h in (2.3, -2.3)),
+                                "direction_defensive": 0.3}
 #: The same in ``--quick``: the code path with a few dozen runs.
-QUICK_LINES: dict[str, Any] = {**RARE_LINES, "n_lines": 4, "t_grid": (-6.0, 0.0, 6.0),
-                               "root_tol": 0.05}
+QUICK_LINES: dict[str, Any] = {**RARE_LINES, "n_lines": 4, "t_grid": (-4.0, 0.0, 4.0),
+                               "root_tol": 0.05, "chunk_lines": 4}
 
 
 def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, Any],
                            execution: dict[str, Any], options: dict[str, Any] | None = None
                            ) -> dict[str, Any]:
-    """P(kv_max >= x | pass) by radial line sampling behind the inspection gate.
+    """P(kv_max >= x | pass) by line sampling behind the inspection gate.
 
-    A method that shares no estimator code with the importance samplers and carries no
-    weight (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`): each line runs
-    through a draw of the untruncated law with its component in the 10 directions of
-    :func:`harmonic_planes` removed, radially in that subspace; inspection's verdict along
-    the line is exact without the rotor (:func:`germ_acceptance_margin`, bisected), the
-    rotor runs on the accepted part only, and the line's probability is the chi-10 mass of
-    {t : kv_max >= x and accepted}. The mean over i.i.d. lines is unbiased whatever the
-    subspace; its normal interval is vouched for when enough lines carry it (status 0),
-    then divided by the counted P(pass) (:func:`accepted_probability`).
+    A method that shares no estimator code with the importance samplers and has no weight
+    along its lines (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`):
+    inspection's verdict along each line is exact without the rotor
+    (:func:`germ_acceptance_margin`, bisected), the rotor runs on the accepted part only,
+    and the line's probability is the mass of {t : kv_max >= x and accepted}. With
+    ``settings["along"]`` (:data:`RARE_LINES`) the lines are straight, along that harmonic's
+    pinion-plus-wheel coordinate (``t`` standard normal), and their origins are drawn from a
+    defensive mixture moving the leading columns of :func:`harmonic_planes`
+    (``origin_means``, ``origin_std``, ``origin_defensive``); without it
+    (:data:`RADIAL_LINES`) they are radial in the planes' span (``|t|`` chi), their
+    directions optionally drawn about ``direction_means``. Every weight is at most
+    1 / defensive, the mean of the i.i.d. line terms is unbiased whatever the settings, and
+    its normal interval is vouched for when enough lines carry it (status 0); it is then
+    divided by the counted P(pass) (:func:`accepted_probability`).
 
     Returns
     -------
     dict
         ``pf``, ``lower``, ``upper`` (95 %, given acceptance), ``cov``, ``status``,
         ``message``, ``runs``, ``n_lines``, ``n_effective``, ``lines_gated_out``,
-        ``lines_by_crossings`` (0, 1, 2, more), ``p_pass`` and ``line_pf`` (per line, of
-        P(fail and pass)).
+        ``lines_by_crossings`` (0, 1, 2, more), ``max_weight``, ``p_pass`` and the per-line
+        ``line_pf`` (of P(fail and pass)) and ``line_weight``.
+
+    Raises
+    ------
+    ValueError
+        More ``origin_means`` than columns before the line's, or ``origin_std`` of another
+        length.
     """
     planes, groups = harmonic_planes(tuple(settings["harmonics"]))
     basis, origin_density, means = planes, None, settings.get("direction_means")
@@ -653,8 +671,17 @@ def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, 
         # plane); the origins' relief, torque and damping from a shifted defensive mixture
         column = groups[list(settings["harmonics"]).index(settings["along"])][0]
         basis, means = planes[:, column:column + 1], None
-        origin_density = subspace_density(planes[:, :3], np.array(settings["origin_means"]),
-                                          np.eye(3), float(settings["origin_defensive"]))
+        # the origin density moves the leading columns of harmonic_planes (relief, torque,
+        # damping, then the planes of the harmonics before ``along``), one mean and one
+        # standard deviation each
+        shift = np.array(settings["origin_means"], dtype=float)
+        spread = np.array(settings.get("origin_std", np.ones(shift.size)), dtype=float)
+        if shift.size > column or spread.shape != shift.shape:
+            raise ValueError(f"origin_means={settings['origin_means']!r} is outside its valid "
+                             f"range: at most {column} values (the columns before the line's), "
+                             "one origin_std each")
+        origin_density = subspace_density(planes[:, :shift.size], shift, np.diag(spread**2),
+                                          float(settings["origin_defensive"]))
 
     def gate(u: np.ndarray) -> np.ndarray:
         return germ_acceptance_margin(u, grade) >= 0.0
@@ -1099,8 +1126,9 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         Methods of the rare stage, of ``"subspace"`` (:func:`subspace_given_acceptance`: the
         cheap model's and the rotor's estimates), ``"harmonic"`` (the same, its density
         centred in the harmonic planes of :func:`harmonic_planes`), ``"lines"``
-        (:func:`lines_given_acceptance`: radial line sampling in those planes behind the
-        inspection gate, no weights; the second method at the rare level), ``"mfis"``
+        (:func:`lines_given_acceptance`: line sampling behind the inspection gate along
+        harmonic 15's coordinate, :data:`RARE_LINES`; the second method at the rare level),
+        ``"mfis"``
         (:func:`mfis_given_acceptance`, the Gaussian mixture over all inputs) and
         ``"subset"``
         (:func:`subset_given_acceptance` on the rotor).
