@@ -75,19 +75,21 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    (seed 2032, both densities wider, ``min_std`` 1.5) 2.5e-6 and 1.3e-7, status 3 again.
    Pf near 1e-6 sits at X of about 1.77 (:data:`RARE_X`, 1.83 until this round), and no
    interval there is vouched for yet (docs/benchmarks.md, "Third round").
-   The second method, ``lines`` (:func:`lines_given_acceptance`, :data:`RARE_LINES`), has no
-   importance weight in the subspace: radial line sampling in the 10 directions of
-   :func:`harmonic_planes` with everything else drawn in each line's origin, inspection's
-   verdict exact along each line from the germ, the rotor only on the accepted part, the
-   line's probability the chi-10 mass of {kv_max >= X and accepted}
-   (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`). At X = 1.77 four runs
-   (80-100 lines, 636-771 rotor runs, 467-569 CPU s and 326-394 s wall each) give 1.5e-7
-   (uniform directions), 1.0e-5, 7.3e-7 and 2.7e-6 (directions drawn about where the
-   heaviest lines pointed: the alternating harmonic 15 with torque and damping low), each
-   with 1.4-8.7 effective lines of 80-100 (status 3): the line probabilities are as
-   heavy-tailed as the weights were, no interval is vouched for, and the two methods cannot
-   be said to agree; the mean of the 380 line terms, 3.7e-6, puts Pf(1.77 | pass) >= 1.8e-7
-   at 95 % by Markov's inequality (docs/benchmarks.md, "Fourth round").
+   The second method, ``lines`` (:func:`lines_given_acceptance`, :data:`RARE_LINES`),
+   shares no estimator code with the importance samplers: line sampling behind the
+   inspection gate (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`), the
+   gate exact along each line from the germ, the rotor only on the accepted part, each
+   line's probability the mass of {kv_max >= X and accepted}. Radial lines in the 10
+   directions of :func:`harmonic_planes` (:data:`RADIAL_LINES`; four runs at X = 1.77:
+   1.5e-7, 1.0e-5, 7.3e-7, 2.7e-6, 1.4-8.7 effective lines of 80-100) showed where the event
+   lives: the alternating harmonic 15 of the pinion-plus-wheel sum with a light load and
+   low damping, helped by harmonics 12-14 at once. Straight lines along harmonic 15 with
+   their origins' relief, torque, damping and harmonic 12-14 planes drawn from a shifted,
+   widened defensive mixture (weights at most 1 / 0.3) give 1.3e-6 [7.1e-7, 1.9e-6] and
+   1.6e-6 [9.0e-7, 2.4e-6] at X = 1.77 (60 and 130 lines: 577 and 1095 rotor runs, 410 and
+   795 CPU s, 290 and 555 s wall on a loaded machine; 14.7 and 16.5 effective lines, so
+   status 3: not vouched for by the effective-lines rule, largest line share 16 %), beside
+   the importance samplers' mean 8.0e-7 there (docs/benchmarks.md, "Fourth round").
 
 ``--quick`` runs 12 rotor runs, subset simulation with 16 per level on the coarsest speed
 grid (:data:`QUICK_OPTIONS`), the rare stage at the moderate X with :data:`CHEAP_OPTIONS` as
@@ -191,6 +193,9 @@ QUICK_OPTIONS: dict[str, Any] = {**OPTIONS, "n_speeds": 6, "range_mesh_harmonics
 #: reading: six importance-sampling runs of four densities put it at 6.6e-8 .. 2.5e-6 here
 #: (mean 8e-7), each with one draw carrying 26-85 % of its estimate, so no interval is
 #: vouched for (docs/benchmarks.md, "Third round"). It was 1.83 (about 1e-7) until then.
+#: Straight lines along harmonic 15 (:data:`RARE_LINES`) give 1.3e-6 [7.1e-7, 1.9e-6] and
+#: 1.6e-6 [9.0e-7, 2.4e-6] here, 14.7 and 16.5 effective lines of 60 and 130, status 3
+#: (docs/benchmarks.md, "Fourth round").
 RARE_X = 1.77
 #: MFIS of the rare stage (``rare_methods=("mfis",)``): subset simulation on the cheap
 #: model at 250 per level (about 1600 cheap runs, 460 CPU s), the Gaussian mixture fitted
