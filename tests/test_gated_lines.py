@@ -184,3 +184,10 @@ def test_origins_drawn_towards_failure_vouch_for_straight_lines():
     moves_u0 = subspace_density(np.eye(D)[:, :1], np.array([1.0]), np.eye(1), 0.3)
     with pytest.raises(ValueError, match="origin_density"):
         gated_line_sampling(limit, basis, n_lines=10, seed=0, origin_density=moves_u0)
+
+
+def test_a_handful_of_lines_is_not_vouched_for():
+    """With 10 lines the effective-lines rule (half of them) could pass: the status says
+    that too few lines were drawn for the normal interval, in words."""
+    res = gated_line_sampling(_limit, _basis(), n_lines=10, seed=1, gate=_gate)
+    assert res["status"] != 0 and "lines" in res["message"]

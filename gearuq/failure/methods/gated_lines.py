@@ -71,7 +71,14 @@ from typing import Any
 import numpy as np
 from scipy import special
 
-from gearuq.failure.methods.line_sampling import _lines, _reasons, _refine, line_estimate, line_mass
+from gearuq.failure.methods.line_sampling import (
+    MIN_EFFECTIVE_LINES,
+    _lines,
+    _reasons,
+    _refine,
+    line_estimate,
+    line_mass,
+)
 
 __all__ = ["gated_line_sampling", "gate_pieces", "projected_normal_logpdf"]
 
@@ -365,6 +372,10 @@ def gated_line_sampling(limit: Limit, basis: np.ndarray, *, n_lines: int, seed: 
     w = lines["weight"]
     e = line_estimate(w * lines["est"], w * lines["low"], w * lines["high"], confidence)
     reasons = _reasons(lines, e["pf"], e["n_effective"], s)
+    if lines["est"].size < MIN_EFFECTIVE_LINES and not reasons:
+        # the effective-lines rule allows half the lines, which says little for a handful
+        reasons.append((1, f"only {lines['est'].size} lines: too few for the normal interval "
+                        f"of their mean to be trusted (at least {MIN_EFFECTIVE_LINES:.0f})"))
     counts = np.bincount(np.minimum(lines["n_crossings"], 3), minlength=4)
     pf = e["pf"]
     return {"pf": pf, "lower": e["pf_lower"], "upper": e["pf_upper"], "se": e["se"],
