@@ -490,5 +490,78 @@ def test_rare_stage_densities_against_an_independent_count(method):
     assert 0 < res["fit"]["runs"] < 60 * len(res["fit"]["levels"]) and rotor["runs"] < 150
     assert (res["directions"]["runs"] == 0) == (method == "harmonic")
     assert rotor["lower"] <= rotor["pf"] <= rotor["upper"] and rotor["status"] in (0, 1)
-    assert rotor["pf_over_x"][f"{x:.3f}"] == pytest.approx(rotor["pf"], rel=1e-9)
+    assert rotor["pf_over_x"]["pf"][f"{x:.3f}"] == pytest.approx(rotor["pf"], rel=1e-9)
     _agrees_with_a_crude_count(rotor, small, x)
+
+
+def test_pf_over_x_flags_invalid_runs_instead_of_reading_them_below_x():
+    """A run without a steady state (``kv_max`` NaN) is counted, read as safe in ``pf`` and
+    as failed in the upper reading, exactly as the main estimate reads it; with no invalid
+    run the two readings are one. The weighted sums are redone here by hand."""
+    from gearuq.failure.methods.subspace import subspace_density
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    density = subspace_density(np.eye(3)[:, :1], np.array([1.5]), np.array([[1.0]]), 0.1)
+    rng = np.random.default_rng(4)
+    u = rng.standard_normal((50, 3)) + [1.5, 0.0, 0.0]
+    kv = 1.7 + 0.1 * rng.standard_normal(50)
+    kv[[3, 17, 40]] = np.nan
+    x, n, p_pass = 1.75, 80, 0.9
+    out = study._pf_over_x([(u[:20], x - kv[:20]), (u[20:], x - kv[20:])], density, n, x,
+                           p_pass)
+    w = np.exp(density.log_weights(u))
+    bad = np.isnan(kv)
+    assert out["invalid_runs"] == 3
+    for xp in (x - 0.04, x, x + 0.06):
+        key = f"{xp:.3f}"
+        safe = np.sum(w[~bad] * (kv[~bad] >= xp)) / n / p_pass
+        assert out["pf"][key] == pytest.approx(safe, rel=1e-12)
+        assert out["invalid_as_failures"][key] == pytest.approx(
+            safe + np.sum(w[bad]) / n / p_pass, rel=1e-12)
+    clean = study._pf_over_x([(u[~bad], x - kv[~bad])], density, n, x, p_pass)
+    assert clean["invalid_runs"] == 0 and clean["pf"] == clean["invalid_as_failures"]
+
+
+@pytest.mark.e2e
+def test_rare_stage_lines_against_an_independent_count():
+    """The rare stage's second method, radial line sampling behind the inspection gate, on
+    the small rotor (3 speeds) at a moderate level, against the crude count of accepted
+    pairs (acceptance read from the rotor's output): no weight, every line either crosses
+    or is gated out, and only accepted points cost runs."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    x = 1.22
+    # radial lines, uniform directions: the rare settings aim at the rare level's heavy lines
+    settings = {**study.RADIAL_LINES, "n_lines": 40, "t_grid": (-6.0, -3.0, 0.0, 3.0, 6.0),
+                "root_tol": 0.01, "chunk_lines": 40, "direction_means": None}
+    res = study.lines_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
+                                       options=_SMALL_ROTOR)
+    assert res["n_lines"] == 40 and len(res["line_pf"]) == 40
+    assert res["lower"] <= res["pf"] <= res["upper"] and res["status"] in (0, 1)
+    assert res["lines_by_crossings"][3] == 0 and res["max_weight"] == 1.0
+    # a grid of 5 points a line plus the refinement; a gated-out line costs nothing
+    assert res["runs"] < 40 * (5 + 2 * 12)
+    assert res["p_pass"] == study.accepted_probability(6)[0]
+    _agrees_with_a_crude_count(res, _SMALL_ROTOR, x)
+
+
+def test_lines_settings_are_checked_before_any_run():
+    """Straight lines along harmonic 15: an origin density over more columns than precede
+    the line's coordinate (it would move the line's own coordinate and make the weight
+    depend on it), or a spread of another length, is refused by name before any run."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    def never(*_args, **_kwargs):
+        raise AssertionError("no model run expected")
+
+    for bad in ({"origin_means": (0.0,) * 10}, {"origin_std": (1.0,) * 3}):
+        with pytest.raises(ValueError, match="origin_means"):
+            study.lines_given_acceptance(1.77, 0, 6, {**study.RARE_LINES, **bad},
+                                         {"executor": never})
+    basis, groups = study.harmonic_planes(study.RARE_LINES["harmonics"])
+    column = groups[-1][0]
+    # the line's coordinate is the pinion-plus-wheel sum of the germs' last normal (cos 15)
+    names = study.study_space().names
+    assert {names[i] for i in np.flatnonzero(basis[:, column])} == {"pitch_xi_p_29",
+                                                                     "pitch_xi_g_29"}
+    assert len(study.RARE_LINES["origin_means"]) <= column

@@ -173,6 +173,8 @@ def test_quick_dynamic_factor_study_on_the_stage(tmp_path):
     passes = ds["pitch_acceptance_margin"].values >= 0
     assert _binomial_holds(int(passes.sum()), n, 0.95**2)
     assert info["accepted_share_closed_form"] == pytest.approx(0.95**2)
+    p_pass, se_pass, n_germs = info["accepted_probability_counted"]
+    assert n_germs == 400_000 and abs(p_pass - 0.95**2) < 0.006 and 0 < se_pass < 1e-3
     acc = passes & valid
     assert count["accepted"] == int(acc.sum()) and count["lower"] <= count["pf"] <= count["upper"]
     assert bound["invalid_accepted"] == int((passes & ~valid).sum())
@@ -209,3 +211,20 @@ def test_germ_acceptance_margin_on_the_stage_is_the_plugins_output():
     p, se = study.accepted_probability(0, stage, n=100_000)
     assert se == pytest.approx(math.sqrt(p * (1 - p) / 1e5))
     assert p == pytest.approx(0.95**2, abs=0.004)
+
+
+def test_acceptance_line_names_the_counted_and_the_closed_form_values():
+    """The stage's screen line names the runs' share, P(pass) counted on germ pairs with its
+    standard error, and the closed form (0.95)^2 = 0.9025, each for what it is; the count
+    agrees with the closed form to the process quantile's error (it is estimated once)."""
+    e_axle = GearStage.example(STAGE)
+    p, se = study.accepted_probability(0, e_axle, 100_000)
+    assert se == pytest.approx(math.sqrt(p * (1 - p) / 1e5)) and abs(p - 0.95**2) < 0.006
+    info = {"stage": STAGE, "crude_mc": {"accepted": 90, "runs": 112, "invalid": 11},
+            "accepted_share": 90 / 101, "accepted_share_interval": (0.81, 0.94),
+            "accepted_share_closed_form": 0.95**2,
+            "accepted_probability_counted": (p, se, 100_000)}
+    line = study.acceptance_line(info)
+    assert "passed 90 of 101 runs (0.891 [0.810, 0.940])" in line
+    assert f"counted P(pass) = {p:.4f} +- {se:.4f} (standard error, 100000 germ pairs)" in line
+    assert "closed form (1 - 0.05)^2 = 0.9025" in line

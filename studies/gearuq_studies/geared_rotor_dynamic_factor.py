@@ -75,6 +75,21 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
    (seed 2032, both densities wider, ``min_std`` 1.5) 2.5e-6 and 1.3e-7, status 3 again.
    Pf near 1e-6 sits at X of about 1.77 (:data:`RARE_X`, 1.83 until this round), and no
    interval there is vouched for yet (docs/benchmarks.md, "Third round").
+   The second method, ``lines`` (:func:`lines_given_acceptance`, :data:`RARE_LINES`),
+   shares no estimator code with the importance samplers: line sampling behind the
+   inspection gate (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`), the
+   gate exact along each line from the germ, the rotor only on the accepted part, each
+   line's probability the mass of {kv_max >= X and accepted}. Radial lines in the 10
+   directions of :func:`harmonic_planes` (:data:`RADIAL_LINES`; four runs at X = 1.77:
+   1.5e-7, 1.0e-5, 7.3e-7, 2.7e-6, 1.4-8.7 effective lines of 80-100) showed where the event
+   lives: the alternating harmonic 15 of the pinion-plus-wheel sum with a light load and
+   low damping, helped by harmonics 12-14 at once. Straight lines along harmonic 15 with
+   their origins' relief, torque, damping and harmonic 12-14 planes drawn from a shifted,
+   widened defensive mixture (weights at most 1 / 0.3) give 1.3e-6 [7.1e-7, 1.9e-6] and
+   1.6e-6 [9.0e-7, 2.4e-6] at X = 1.77 (60 and 130 lines: 577 and 1095 rotor runs, 410 and
+   795 CPU s, 290 and 555 s wall on a loaded machine; 14.7 and 16.5 effective lines, so
+   status 3: not vouched for by the effective-lines rule, largest line share 16 %), beside
+   the importance samplers' mean 8.0e-7 there (docs/benchmarks.md, "Fourth round").
 
 ``--quick`` runs 12 rotor runs, subset simulation with 16 per level on the coarsest speed
 grid (:data:`QUICK_OPTIONS`), the rare stage at the moderate X with :data:`CHEAP_OPTIONS` as
@@ -127,10 +142,12 @@ from gearuq import plot
 from gearuq.execution import evaluate_chunks, workers_for_run
 from gearuq.failure import LimitState, describe_status, failure_probability
 from gearuq.failure.intervals import clopper_pearson_interval
+from gearuq.failure.methods.gated_lines import gated_line_sampling
 from gearuq.failure.methods.subspace import (
     fit_subspace_density,
     gate_probability,
     given_gate,
+    subspace_density,
     subspace_estimate,
 )
 from gearuq.gears.deviations import (
@@ -176,6 +193,9 @@ QUICK_OPTIONS: dict[str, Any] = {**OPTIONS, "n_speeds": 6, "range_mesh_harmonics
 #: reading: six importance-sampling runs of four densities put it at 6.6e-8 .. 2.5e-6 here
 #: (mean 8e-7), each with one draw carrying 26-85 % of its estimate, so no interval is
 #: vouched for (docs/benchmarks.md, "Third round"). It was 1.83 (about 1e-7) until then.
+#: Straight lines along harmonic 15 (:data:`RARE_LINES`) give 1.3e-6 [7.1e-7, 1.9e-6] and
+#: 1.6e-6 [9.0e-7, 2.4e-6] here, 14.7 and 16.5 effective lines of 60 and 130, status 3
+#: (docs/benchmarks.md, "Fourth round").
 RARE_X = 1.77
 #: MFIS of the rare stage (``rare_methods=("mfis",)``): subset simulation on the cheap
 #: model at 250 per level (about 1600 cheap runs, 460 CPU s), the Gaussian mixture fitted
@@ -585,6 +605,109 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
     return out
 
 
+#: The rare stage's second method (``rare_methods=("lines",)``,
+#: :func:`lines_given_acceptance`): straight lines along the pinion-plus-wheel coordinate of
+#: the alternating tooth-to-tooth harmonic 15 (``along``), where the heaviest radial lines of
+#: the fourth round pointed; each line's origin (relief, torque, damping and the planes of
+#: harmonics 12-14) drawn from a defensive mixture shifted to relief +0.6, torque -2.0 and
+#: damping -1.9 standard units with the harmonic planes widened to 1.4 (``origin_means``,
+#: ``origin_std``; every weight at most 1 / 0.3): the heavy lines of a first straight run had
+#: these torques and dampings and amplitudes of 1.5-1.9 in all three planes at once. K_v on
+#: ``t_grid`` and at the crossings (secant to ``root_tol``).
+RARE_LINES: dict[str, Any] = {"n_lines": 130, "harmonics": RARE_HARMONICS, "along": 15,
+                              "t_grid": (-6.0, -4.0, 0.0, 4.0, 6.0), "root_tol": 0.005,
+                              "chunk_lines": 130,
+                              "origin_means": (0.6, -2.0, -1.9) + (0.0,) * 6,
+                              "origin_std": (1.0,) * 3 + (1.4,) * 6, "origin_defensive": 0.3}
+#: The radial variant (``along`` None): lines in the 10 directions of
+#: :func:`harmonic_planes`, their directions drawn from projected normals about
+#: ``direction_means`` (relief +0.8, torque -1.2, damping -1.2, harmonic 15 at +-2.3: 3 times
+#: the heavy lines' mean direction over three pilots), 30 % uniform. At X = 1.77 it left
+#: 1.4-8.7 effective lines of 80-100 (docs/benchmarks.md, "Fourth round").
+RADIAL_LINES: dict[str, Any] = {"n_lines": 100, "harmonics": RARE_HARMONICS, "along": None,
+                                "t_grid": (-9.0, -6.0, 0.0, 6.0, 9.0), "root_tol": 0.005,
+                                "chunk_lines": 100,
+                                "direction_means": tuple((0.8, -1.2, -1.2) + (0.0,) * 6 + (h,)
+                                                         for h in (2.3, -2.3)),
+                                "direction_defensive": 0.3}
+#: The same in ``--quick``: the code path with a few dozen runs.
+QUICK_LINES: dict[str, Any] = {**RARE_LINES, "n_lines": 4, "t_grid": (-4.0, 0.0, 4.0),
+                               "root_tol": 0.05, "chunk_lines": 4}
+
+
+def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, Any],
+                           execution: dict[str, Any], options: dict[str, Any] | None = None
+                           ) -> dict[str, Any]:
+    """P(kv_max >= x | pass) by line sampling behind the inspection gate.
+
+    A method that shares no estimator code with the importance samplers and has no weight
+    along its lines (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`):
+    inspection's verdict along each line is exact without the rotor
+    (:func:`germ_acceptance_margin`, bisected), the rotor runs on the accepted part only,
+    and the line's probability is the mass of {t : kv_max >= x and accepted}. With
+    ``settings["along"]`` (:data:`RARE_LINES`) the lines are straight, along that harmonic's
+    pinion-plus-wheel coordinate (``t`` standard normal), and their origins are drawn from a
+    defensive mixture moving the leading columns of :func:`harmonic_planes`
+    (``origin_means``, ``origin_std``, ``origin_defensive``); without it
+    (:data:`RADIAL_LINES`) they are radial in the planes' span (``|t|`` chi), their
+    directions optionally drawn about ``direction_means``. Every weight is at most
+    1 / defensive, the mean of the i.i.d. line terms is unbiased whatever the settings, and
+    its normal interval is vouched for when enough lines carry it (status 0); it is then
+    divided by the counted P(pass) (:func:`accepted_probability`).
+
+    Returns
+    -------
+    dict
+        ``pf``, ``lower``, ``upper`` (95 %, given acceptance), ``cov``, ``status``,
+        ``message``, ``runs``, ``n_lines``, ``n_effective``, ``lines_gated_out``,
+        ``lines_by_crossings`` (0, 1, 2, more), ``max_weight``, ``p_pass`` and the per-line
+        ``line_pf`` (of P(fail and pass)) and ``line_weight``.
+
+    Raises
+    ------
+    ValueError
+        More ``origin_means`` than columns before the line's, or ``origin_std`` of another
+        length.
+    """
+    planes, groups = harmonic_planes(tuple(settings["harmonics"]))
+    basis, origin_density, means = planes, None, settings.get("direction_means")
+    if settings.get("along") is not None:
+        # straight lines along one harmonic's pinion-plus-wheel coordinate (the first of its
+        # plane); the origins' relief, torque and damping from a shifted defensive mixture
+        column = groups[list(settings["harmonics"]).index(settings["along"])][0]
+        basis, means = planes[:, column:column + 1], None
+        # the origin density moves the leading columns of harmonic_planes (relief, torque,
+        # damping, then the planes of the harmonics before ``along``), one mean and one
+        # standard deviation each
+        shift = np.array(settings["origin_means"], dtype=float)
+        spread = np.array(settings.get("origin_std", np.ones(shift.size)), dtype=float)
+        if shift.size > column or spread.shape != shift.shape:
+            raise ValueError(f"origin_means={settings['origin_means']!r} is outside its valid "
+                             f"range: at most {column} values (the columns before the line's), "
+                             "one origin_std each")
+        origin_density = subspace_density(planes[:, :shift.size], shift, np.diag(spread**2),
+                                          float(settings["origin_defensive"]))
+
+    def gate(u: np.ndarray) -> np.ndarray:
+        return germ_acceptance_margin(u, grade) >= 0.0
+
+    est = gated_line_sampling(
+        _kv_on_normals(study_model(grade), options or OPTIONS, execution, x), basis,
+        n_lines=int(settings["n_lines"]), seed=seed, gate=gate,
+        t_grid=np.array(settings["t_grid"], dtype=float), root_tol=settings["root_tol"],
+        chunk_lines=int(settings["chunk_lines"]),
+        direction_means=None if means is None else np.array(means, dtype=float),
+        direction_defensive=float(settings.get("direction_defensive", 0.3)),
+        origin_density=origin_density)
+    p_pass, se_pass = accepted_probability(grade)
+    return {**given_gate(est, p_pass, se_pass),
+            **{k: est[k] for k in ("status", "message", "runs", "n_lines", "n_effective",
+                                   "lines_gated_out", "lines_by_crossings", "max_weight")},
+            "line_weight": est["line_weight"].tolist(),
+            "p_pass": p_pass, "p_pass_se": se_pass, "X": x,
+            "line_pf": est["line_pf"].tolist()}
+
+
 def _recorded(limit: Any, seen: list[tuple[np.ndarray, np.ndarray]]) -> Any:
     """``limit`` that also keeps each batch's draws and ``kv_max`` (NaN where invalid)."""
     def record(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -596,16 +719,28 @@ def _recorded(limit: Any, seen: list[tuple[np.ndarray, np.ndarray]]) -> Any:
 
 
 def _pf_over_x(seen: list[tuple[np.ndarray, np.ndarray]], density: Any, n: int, x: float,
-               p_pass: float) -> dict[str, float]:
+               p_pass: float) -> dict[str, Any]:
     """P(kv_max >= x' | pass) at x' = x - 0.06 .. x + 0.06 from the same weighted draws (the
-    level where P is near a target, read off one run; not vouched for away from ``x``)."""
+    level where P is near a target, read off one run; not vouched for away from ``x``).
+
+    An invalid run (no steady state: ``kv_max`` NaN) is read as the main estimate reads it:
+    as safe in ``"pf"``, as failed in ``"invalid_as_failures"`` (the upper reading), and
+    counted in ``"invalid_runs"``, never silently taken as below ``x'``.
+    """
     if not seen:
-        return {}
+        return {"pf": {}, "invalid_as_failures": {}, "invalid_runs": 0}
     u = np.concatenate([a for a, _ in seen])
     kv = x - np.concatenate([g for _, g in seen])
     w = np.exp(density.log_weights(u))
-    return {f"{xp:.3f}": float(np.sum(w * (kv >= xp)) / n / p_pass)
-            for xp in x + np.arange(-0.06, 0.0601, 0.02)}
+    invalid = ~np.isfinite(kv)
+    levels = x + np.arange(-0.06, 0.0601, 0.02)
+    with np.errstate(invalid="ignore"):
+        above = [kv >= xp for xp in levels]
+    return {"pf": {f"{xp:.3f}": float(np.sum(w * a) / n / p_pass)
+                   for xp, a in zip(levels, above, strict=True)},
+            "invalid_as_failures": {f"{xp:.3f}": float(np.sum(w * (a | invalid)) / n / p_pass)
+                                    for xp, a in zip(levels, above, strict=True)},
+            "invalid_runs": int(invalid.sum())}
 
 
 def grouped_sobol(n_base: int, seed: int, grade: int,
@@ -858,6 +993,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     modes = mesh_mode_speeds(0, stage)
     paths = figures(out, ds, x, modes, None, 0, stage)
     p_pass = (1.0 - OPTIONS["process_share_beyond"]) ** 2
+    # counted on germ pairs (12 CPU s for two million on the e-axle; a fifth in quick)
+    n_germs = 400_000 if quick else 2_000_000
     n_ok = int((ds["status"].values == 0).sum())
     info = {"quick": quick, "stage": stage.name, "classes": [stage.pinion.iso_grade,
                                                              stage.wheel.iso_grade],
@@ -865,6 +1002,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             "crude_mc_invalid_as_failures": invalid_as_failures(ds, x), "subset": ss,
             "accepted_share": int(ok.sum()) / max(n_ok, 1), "accepted_share_interval":
             clopper_pearson_interval(int(ok.sum()), n_ok), "accepted_share_closed_form": p_pass,
+            "accepted_probability_counted": (*accepted_probability(0, stage, n_germs),
+                                             n_germs),
             "kv_max_quantiles": np.quantile(ds["kv_max"].values[ok], [0.05, 0.5, 0.95]),
             "kv_iso_max_quantiles": np.quantile(ds["kv_iso_max"].values[ok],
                                                 [0.05, 0.5, 0.95]),
@@ -884,12 +1023,26 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     return 0
 
 
+def acceptance_line(info: dict[str, Any]) -> str:
+    """The stage's screen line on inspection: three values, each named.
+
+    The share of the rotor runs that passed (with its Clopper-Pearson interval), P(pass)
+    counted on germ pairs by :func:`accepted_probability` with its standard error (what the
+    rare paths divide by), and the declared process share's closed form ``(1 - s)^2``.
+    """
+    count, (lo, up) = info["crude_mc"], info["accepted_share_interval"]
+    p, se, n_germs = info["accepted_probability_counted"]
+    share = 1.0 - math.sqrt(info["accepted_share_closed_form"])
+    return (f"{info['stage']}: inspection passed {count['accepted']} of "
+            f"{count['runs'] - count['invalid']} runs ({info['accepted_share']:.3f} "
+            f"[{lo:.3f}, {up:.3f}]); counted P(pass) = {p:.4f} +- {se:.4f} (standard error, "
+            f"{n_germs:.0f} germ pairs); closed form (1 - {share:.2f})^2 = "
+            f"{info['accepted_share_closed_form']:.4f}")
+
+
 def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
     count, ss = info["crude_mc"], info["subset"]
-    lo, up = info["accepted_share_interval"]
-    print(f"{info['stage']}: accepted {count['accepted']} of {count['runs'] - count['invalid']} "
-          f"({info['accepted_share']:.3f} [{lo:.3f}, {up:.3f}]; closed form "
-          f"{info['accepted_share_closed_form']:.4f})")
+    print(acceptance_line(info))
     print(f"X = {info['X']:.4g} (90 % of accepted kv_max)")
     print(f"  crude MC : P(kv_max >= X | pass) = {count['pf']:.3g} [{count['lower']:.3g}, "
           f"{count['upper']:.3g}] ({count['failures']} of {count['accepted']})")
@@ -977,7 +1130,10 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     rare_methods : tuple of str
         Methods of the rare stage, of ``"subspace"`` (:func:`subspace_given_acceptance`: the
         cheap model's and the rotor's estimates), ``"harmonic"`` (the same, its density
-        centred in the harmonic planes of :func:`harmonic_planes`), ``"mfis"``
+        centred in the harmonic planes of :func:`harmonic_planes`), ``"lines"``
+        (:func:`lines_given_acceptance`: line sampling behind the inspection gate along
+        harmonic 15's coordinate, :data:`RARE_LINES`; the second method at the rare level),
+        ``"mfis"``
         (:func:`mfis_given_acceptance`, the Gaussian mixture over all inputs) and
         ``"subset"``
         (:func:`subset_given_acceptance` on the rotor).
@@ -992,10 +1148,10 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     """
     if grade not in range(1, 13):
         raise ValueError(f"grade={grade!r} is outside its valid range: integers 1..12")
-    unknown = set(rare_methods) - {"harmonic", "subspace", "mfis", "subset"}
+    unknown = set(rare_methods) - {"harmonic", "subspace", "lines", "mfis", "subset"}
     if unknown or not rare_methods:
         raise ValueError(f"rare_methods={rare_methods!r} is outside its valid set: a non-empty "
-                         "tuple of 'harmonic', 'subspace', 'mfis', 'subset'")
+                         "tuple of 'harmonic', 'subspace', 'lines', 'mfis', 'subset'")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     execution = {"executor": executor, "chunk_size": chunk_size}
@@ -1044,6 +1200,10 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
                             "harmonic": (RARE_HARMONIC, QUICK_HARMONIC)}[method][int(quick)]
                 rare[method] = subspace_given_acceptance(rare["X"], seed + 3, grade, settings,
                                                          run_on, **fidelities)
+            elif method == "lines":
+                rare[method] = lines_given_acceptance(
+                    rare["X"], seed + 3, grade, QUICK_LINES if quick else RARE_LINES, run_on,
+                    fidelities.get("options"))
             elif method == "mfis":
                 rare[method] = mfis_given_acceptance(rare["X"], seed + 3, grade,
                                                      QUICK_MFIS if quick else RARE_MFIS, run_on,
@@ -1081,6 +1241,9 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
             print(f"  rare level, {label}: P(kv_max >= {rare['X']:.4g} | pass) = {e['pf']:.3g} "
                   f"[{e['lower']:.3g}, {e['upper']:.3g}], {e['runs']} runs"
                   + (f" and {e['cheap_runs']} cheap runs" if "cheap_runs" in e else "")
+                  + (f" on {e['n_lines']} lines ({e['n_effective']:.1f} effective; by "
+                     f"crossings 0/1/2/more: {e['lines_by_crossings']})" if "n_lines" in e
+                     else "")
                   + f"; status {e['status']}: {e['message']}"
                   + (f"; whatever the status, P >= {e['lower_one_sided']:.3g} at 95 % "
                      "(Markov's inequality on the unbiased estimate)"
@@ -1115,7 +1278,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="subset-simulation samples per level of the rare stage")
     parser.add_argument("--rare-methods", default="subspace",
                         help="comma-separated methods of the rare stage: subspace, harmonic, "
-                        "mfis, subset")
+                        "lines, mfis, subset")
     parser.add_argument("--stage", default=None, help="a built-in stage name or a stage "
                         "TOML path: the population stage on it (default: the paper's rotor)")
     args = parser.parse_args(argv)
