@@ -56,7 +56,7 @@ def test_gated_annulus_intervals_hold_over_seeds():
                                   root_tol=1e-4)
         held += res["lower"] <= exact <= res["upper"]
         means.append(res["pf"])
-        assert res["status"] == 0, res["message"]
+        assert res["status"] == 0 and "no weights" in res["message"], res["message"]
         # the annulus: two crossings, or none where R + c u2 >= R_g, on every line
         assert res["lines_by_crossings"][1] == res["lines_by_crossings"][3] == 0
         # u3 > 1.5 rejects a line whole: 6.7 % of the lines, none of them run
@@ -150,6 +150,8 @@ def test_directions_drawn_towards_a_half_space_vouch_for_the_interval():
                                  root_tol=1e-4, direction_means=np.array([[3.0, 0.0, 0.0]]))
              for s in range(20)]
     assert all(r["status"] == 0 and r["max_weight"] <= 1 / 0.3 for r in drawn)
+    # a weighted run's message says its terms carry weights, an unweighted one says none
+    assert all("weights at most" in r["message"] for r in drawn)
     assert sum(r["lower"] <= exact <= r["upper"] for r in drawn) >= 18
     assert np.mean([r["pf"] for r in drawn]) == pytest.approx(exact, rel=0.03)
     with pytest.raises(ValueError, match="direction_means"):
@@ -179,6 +181,8 @@ def test_origins_drawn_towards_failure_vouch_for_straight_lines():
     assert all(r["status"] == 3 for r in runs["normal"])
     drawn = runs["shifted"]
     assert all(r["status"] == 0 and r["max_weight"] <= 1 / 0.3 for r in drawn)
+    # a weighted run's message says its terms carry weights, an unweighted one says none
+    assert all("weights at most" in r["message"] for r in drawn)
     assert sum(r["lower"] <= exact <= r["upper"] for r in drawn) >= 18
     assert np.mean([r["pf"] for r in drawn]) == pytest.approx(exact, rel=0.04)
     moves_u0 = subspace_density(np.eye(D)[:, :1], np.array([1.0]), np.eye(1), 0.3)

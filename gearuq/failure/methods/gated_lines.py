@@ -382,8 +382,10 @@ def gated_line_sampling(limit: Limit, basis: np.ndarray, *, n_lines: int, seed: 
             "cov": e["se"] / pf if pf > 0 else math.inf, "n_effective": e["n_effective"],
             "status": reasons[0][0] if reasons else 0,
             "message": "; ".join(m for _, m in reasons) or (
-                f"{lines['est'].size} i.i.d. lines, no weights: the normal interval of their "
-                "mean holds by the central limit theorem"),
+                f"{lines['est'].size} i.i.d. lines, "
+                + ("no weights" if means is None and origin_density is None else
+                   f"weights at most {float(np.max(w)):.3g}")
+                + ": the normal interval of their mean holds by the central limit theorem"),
             "runs": runs.n_runs, "n_lines": int(lines["est"].size),
             "lines_gated_out": int(np.sum(lines["n_pieces"] == 0)),
             "lines_by_crossings": counts.tolist(), "line_pf": lines["est"],
