@@ -1,4 +1,4 @@
-"""Radial line sampling behind a gate: ``P(F and gate)`` with no importance weight.
+"""Line sampling behind a gate: ``P(F and gate)`` with no importance weight along the lines.
 
 The line sampling of :mod:`gearuq.failure.methods.line_sampling` (Koutsourelakis,
 Pradlwarter and Schueller, Probabilistic Engineering Mechanics 19 (2004) 409-417), radial in
