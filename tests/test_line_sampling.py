@@ -247,3 +247,25 @@ def test_line_law_masses_against_closed_forms() -> None:
     expected = [0.5 * math.exp(-5.33**2 / 2)] * 2 + [0.5 * math.exp(-450.0),
                                                      1 - math.exp(-2.0)]
     assert radial == pytest.approx(expected, rel=1e-10)
+
+
+def test_a_failed_end_counts_its_tail_in_every_reading():
+    """A line whose ends at -c_max and c_max both fail: the mass beyond them is failed in the
+    estimate and in both readings, so ``low <= est <= high`` and the exact ``2 Phi(-0.5)``
+    lies between them (the upper reading once left a failed end's tail out and fell below
+    the estimate)."""
+    from gearuq.failure.methods.line_sampling import _search_chunk
+
+    class Straight:
+        dim = 2
+
+        def evaluate(self, u: np.ndarray, tag: str = "") -> dict[str, np.ndarray]:
+            return {"g": 0.25 - u[:, 0] ** 2}  # fails for |t| > 0.5 along e_1
+
+    s = {"c_max": 1.0, "n_grid": 5, "root_tol": 1e-6, "max_iter": 60}
+    out = _search_chunk(Straight(), np.zeros((1, 2)), np.array([[1.0, 0.0]]), s, 1, "t")
+    exact = 2.0 * stats.norm.sf(0.5)
+    assert out["low"][0] <= out["est"][0] <= out["high"][0]
+    # to rounding: the refined brackets' safe ends sit within root_tol of the roots
+    assert out["low"][0] <= exact * (1 + 1e-12) and exact <= out["high"][0]
+    assert out["est"][0] == pytest.approx(exact, rel=1e-6)

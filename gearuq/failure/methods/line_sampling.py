@@ -306,10 +306,10 @@ def _search_chunk(ev: LimitStateEvaluator, origins: np.ndarray, dirs: np.ndarray
     low = est.copy()
     high = est + np.sum(np.where(~both, cell_mass, 0.0), axis=1)
     tail = float(line_mass(np.array(s["c_max"]), np.array(np.inf), k))
-    for end in (0, -1):  # beyond -c_max and c_max: the sign of the end, its bound if safe
+    for end in (0, -1):  # beyond -c_max and c_max: the sign of the end, failed in the bound
         est += np.where(valid[:, end] & fail[:, end], tail, 0.0)
         low += np.where(valid[:, end] & fail[:, end], tail, 0.0)
-        high += np.where(valid[:, end] & fail[:, end], 0.0, tail)
+        high += tail
     line, cell = np.nonzero(cross)
     out = {"n_crossings": cross.sum(axis=1), "n_unconverged": np.zeros(n, dtype=int)}
     if line.size:
