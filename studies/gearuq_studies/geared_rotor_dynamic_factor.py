@@ -369,7 +369,7 @@ def accepted_probability(grade: int, stage: GearStage | None = None,
     accepts (two million: about 5 CPU s on the paper's pair, 12 on the e-axle; once a
     process). Every rare path of the study divides by this one count."""
     dim = 58 if stage is None else sum(stage.teeth) - 2
-    return gate_probability(lambda u: germ_acceptance_margin(u, grade, stage) >= 0.0, dim,
+    return gate_probability(_acceptance_gate(grade, stage), dim,
                             n=n, seed=0)
 
 
@@ -499,6 +499,12 @@ def germ_acceptance_margin(u: np.ndarray, grade: int,
     return np.minimum(*margins)
 
 
+def _acceptance_gate(grade: int, stage: GearStage | None = None) -> Any:
+    """``gate(u) -> bool mask``: inspection accepts the pair of the germs in ``u``
+    (:func:`germ_acceptance_margin` at least 0), the gate the rare methods take."""
+    return lambda u: germ_acceptance_margin(u, grade, stage) >= 0.0
+
+
 def _kv_on_normals(model: gearuq.Model, options: dict[str, Any], execution: dict[str, Any],
                    x: float) -> Any:
     """``limit(u) -> (x - kv_max, ok)`` of the model on standard normal draws ``u``."""
@@ -590,8 +596,7 @@ def subspace_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
         basis, directions = rare_directions(grade, seed, settings, execution, cheap_options)
         groups = None
 
-    def gate(u: np.ndarray) -> np.ndarray:
-        return germ_acceptance_margin(u, grade) >= 0.0
+    gate = _acceptance_gate(grade)
 
     density, fit = fit_subspace_density(
         _kv_on_normals(model, cheap_options, execution, x - settings["widen"]), basis,
@@ -703,8 +708,7 @@ def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, 
         origin_density = subspace_density(planes[:, :shift.size], shift, np.diag(spread**2),
                                           float(settings["origin_defensive"]))
 
-    def gate(u: np.ndarray) -> np.ndarray:
-        return germ_acceptance_margin(u, grade) >= 0.0
+    gate = _acceptance_gate(grade)
 
     est = gated_line_sampling(
         _kv_on_normals(study_model(grade), options or OPTIONS, execution, x), basis,
