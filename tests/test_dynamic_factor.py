@@ -10,12 +10,14 @@ fine sweep against the located peak.
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from scipy import stats
 
 from gearuq_plugins.geared_rotor import GearedRotor
 
@@ -342,18 +344,18 @@ def test_quick_dynamic_factor_study(tmp_path):
     assert info["quick"] and info["X"] > 1.0
     count, ss = info["crude_mc"], info["subset"]
     assert count["lower"] <= count["pf"] <= count["upper"]
-    assert ss["p_pass"] == info["rare"]["subspace"]["p_pass"] == pytest.approx(0.95**2,
-                                                                              abs=0.004)
     rare = info["rare"]  # quick: the rare stage's code path at the moderate X
-    assert rare["X"] == info["X"] and set(rare) == {"X", "subspace"}
-    sub = rare["subspace"]
-    for fidelity in ("cheap", "rotor"):
-        assert sub[fidelity]["lower"] <= sub[fidelity]["pf"] <= sub[fidelity]["upper"]
-        assert isinstance(sub[fidelity]["message"], str) and sub[fidelity]["message"]
-    # rejected pairs cost no run: at most the 12 draws, and P(pass) counted near 0.95^2
-    assert sub["rotor"]["runs"] <= 12 and sub["fit"]["runs"] > 0
-    assert sub["p_pass"] == pytest.approx(0.95**2, abs=0.004)
-    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_subspace"}
+    assert ss["p_pass"] == rare["mirrored"]["p_pass"] == pytest.approx(0.95**2, abs=0.004)
+    assert rare["X"] == info["X"] and set(rare) == {"X", "lines", "mirrored"}
+    for method in ("lines", "mirrored"):
+        res = rare[method]
+        assert res["lower"] <= res["pf"] <= res["upper"]
+        assert isinstance(res["message"], str) and res["message"]
+    # rejected pairs cost no run: at most the quick sampler's draws
+    assert rare["mirrored"]["runs"] <= _quick_mirrored_draws()
+    assert rare["lines"]["n_lines"] == 4 and rare["lines"]["p_pass"] == ss["p_pass"]
+    assert set(info["stages_wall_cpu_s"]) == {"population", "subset", "rare_lines",
+                                              "rare_mirrored"}
     assert min(info["kv_max_quantiles"]) >= 1.0 and min(info["kv_iso_max_quantiles"]) >= 1.0
     assert {p.name for p in tmp_path.glob("*.png")} == {"kv_over_speed.png",
                                                        "campbell_map.png"}
@@ -387,6 +389,13 @@ def test_a_failed_steady_state_while_locating_a_peak_is_flagged(problem, monkeyp
 
 
 #: The rare-stage tests' small rotor (3 speeds, 1 harmonic) and its cheaper twin.
+def _quick_mirrored_draws() -> int:
+    """Draws of the quick mirrored sampler (each a rotor run at most)."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    return int(study.QUICK_MIRRORED["n_rotor"])
+
+
 _SMALL_ROTOR = {"pitch_tolerance_law": "capable_process", "process_share_beyond": 0.05,
                 "n_speeds": 3, "speed_min": 6000.0, "speed_max": 8000.0,
                 "range_mesh_harmonics": 1, "peaks_refined": 0}
@@ -565,3 +574,122 @@ def test_lines_settings_are_checked_before_any_run():
     assert {names[i] for i in np.flatnonzero(basis[:, column])} == {"pitch_xi_p_29",
                                                                      "pitch_xi_g_29"}
     assert len(study.RARE_LINES["origin_means"]) <= column
+
+
+def test_mirrored_density_is_the_lines_origins_times_a_mirrored_pair():
+    """The mirrored density moves relief, torque, damping, the planes of harmonics 12-14 and
+    harmonic 15's pinion-plus-wheel coordinate only: its weight is even in that coordinate
+    (the two components mirrored), depends on no other germ coordinate, is at most
+    1 / defensive, and its marginal along harmonic 15 is the written mixture (checked
+    against a histogram of its draws)."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    settings = study.RARE_MIRRORED
+    dens = study.mirrored_density(settings)
+    planes, groups = study.harmonic_planes(tuple(settings["harmonics"]))
+    along = planes[:, groups[-1][0]]
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal((2000, 61))
+    t = u @ along
+    mirror = u - 2.0 * np.outer(t, along)
+    np.testing.assert_allclose(dens.log_weights(mirror), dens.log_weights(u), atol=1e-10)
+    # a germ coordinate orthogonal to every moved column leaves the weight unchanged
+    other = np.zeros(61)
+    other[0], other[29] = math.sqrt(0.5), -math.sqrt(0.5)  # harmonic 1, pinion minus wheel
+    assert abs(other @ planes).max() < 1e-12
+    np.testing.assert_allclose(dens.log_weights(u + 2.5 * other), dens.log_weights(u),
+                               atol=1e-10)
+    assert np.exp(dens.log_weights(u)).max() <= 1.0 / settings["defensive"] + 1e-12
+    sample = dens.sample(40_000, rng)
+    draws = sample @ along
+    m, s, a = settings["along_mean"], settings["along_std"], settings["defensive"]
+    # relief, torque and damping: the defensive normal and the lines' origin moments
+    for j in range(3):
+        mean = (1 - a) * settings["origin_means"][j]
+        var = a + (1 - a) * (settings["origin_std"][j] ** 2 + settings["origin_means"][j] ** 2)
+        assert np.mean(sample @ planes[:, j]) == pytest.approx(
+            mean, abs=4.0 * math.sqrt((var - mean**2) / 40_000))
+    for lo, hi in ((-5.0, -3.0), (-1.0, 1.0), (3.0, 4.0), (4.0, 6.0)):
+        exact = a * (stats.norm.cdf(hi) - stats.norm.cdf(lo)) + (1 - a) * 0.5 * sum(
+            stats.norm.cdf((hi - c) / s) - stats.norm.cdf((lo - c) / s) for c in (m, -m))
+        share = np.mean((draws >= lo) & (draws < hi))
+        assert share == pytest.approx(exact, abs=4.0 * math.sqrt(exact / 40_000) + 1e-4)
+
+
+def test_mirrored_settings_are_checked_before_any_run():
+    """Origin means of another length than the columns before harmonic 15's, or a
+    non-positive mirrored mean or spread, are refused by name."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    for bad, name in (({"origin_means": (0.0,) * 10}, "origin_means"),
+                      ({"origin_std": (1.0,) * 3}, "origin_means"),
+                      ({"along_mean": 0.0}, "along_mean"), ({"along_std": -1.0}, "along_std")):
+        with pytest.raises(ValueError, match=name):
+            study.mirrored_density({**study.RARE_MIRRORED, **bad})
+
+
+def test_mirrored_coverage_resumes_from_its_store(tmp_path, monkeypatch):
+    """Each finished seed is one line of the store as soon as it ends: a second call runs
+    only the seeds not there, an interrupted seed loses nothing before it, and the table
+    counts the intervals holding the reference, among all and among status 0."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    calls = []
+
+    def fake(x, seed, grade, settings, execution, options=None):
+        calls.append(seed)
+        if seed == 4 and len(calls) == 3:
+            raise KeyboardInterrupt
+        pf = 1.5e-6 * (1.0 + 0.1 * (seed - 3))
+        return {"pf": pf, "lower": pf * 0.9, "upper": pf * 1.1, "status": seed % 2,
+                "ess": 40.0, "n_fail": 100, "runs": 7, "max_share": 0.1}
+
+    monkeypatch.setattr(study, "mirrored_given_acceptance", fake)
+    store = tmp_path / "cov.jsonl"
+    execution = {"executor": "serial"}
+    with pytest.raises(KeyboardInterrupt):
+        study.mirrored_coverage([1, 2, 4, 3], store, execution=execution)
+    assert [json.loads(line)["seed"] for line in store.read_text().splitlines()] == [1, 2]
+    out = study.mirrored_coverage([1, 2, 3, 4], store, execution=execution)
+    assert calls == [1, 2, 4, 3, 4]
+    ref = study.LINES_REFERENCE["pf"]
+    holds = {r["seed"]: r["holds"] for r in out["rows"]}
+    for seed in (1, 2, 3, 4):
+        pf = 1.5e-6 * (1.0 + 0.1 * (seed - 3))
+        assert holds[seed] == (0.9 * pf <= ref <= 1.1 * pf)
+    assert out["n"] == 4 and out["held"] == sum(holds.values())
+    assert out["n_status0"] == 2 and out["held_status0"] == holds[2] + holds[4]
+    assert study.mirrored_coverage([1, 2], store, execution=execution)["n"] == 2
+    assert len(calls) == 5
+    # seeds from a generator, repeated: each once, counted once
+    out = study.mirrored_coverage((s for s in (2, 2, 1)), store, execution=execution)
+    assert out["n"] == 2 and len(calls) == 5
+    # a last line cut short by an interruption is redone; other settings are refused
+    store.write_text(store.read_text() + '{"seed": 5, "pf": 1.')
+    assert study.mirrored_coverage([5], store, execution=execution)["n"] == 1
+    assert calls[-1] == 5
+    assert study.mirrored_coverage([1, 2, 3, 4, 5], store, execution=execution)["n"] == 5
+    assert len(calls) == 6
+    with pytest.raises(ValueError, match="other settings"):
+        study.mirrored_coverage([1], store, execution=execution,
+                                settings={**study.RARE_MIRRORED, "n_rotor": 10})
+
+
+@pytest.mark.e2e
+def test_rare_stage_mirrored_against_an_independent_count():
+    """The mirrored importance sampler on the small rotor (3 speeds) at a moderate level,
+    against the crude count of accepted pairs: rejected draws cost no run, and the estimate
+    agrees with the count."""
+    from gearuq_studies import geared_rotor_dynamic_factor as study
+
+    x = 1.22
+    # the rare settings aim at X = 1.77 (ESS 10 of 133 failing here): a density for this level
+    settings = {**study.QUICK_MIRRORED, "n_rotor": 200, "batch": 100, "min_ess": 30.0,
+                "along_mean": 1.0, "along_std": 1.5, "origin_means": (0.0,) * 9,
+                "origin_std": (1.2,) * 9}
+    res = study.mirrored_given_acceptance(x, 5, 6, settings, {"executor": "serial"},
+                                          options=_SMALL_ROTOR)
+    assert res["runs"] < 200 and res["lower"] <= res["pf"] <= res["upper"]
+    assert res["status"] in (0, 1), res["message"]
+    assert res["pf_over_x"]["pf"][f"{x:.3f}"] == pytest.approx(res["pf"], rel=1e-9)
+    _agrees_with_a_crude_count(res, _SMALL_ROTOR, x)

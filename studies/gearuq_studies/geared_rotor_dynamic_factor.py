@@ -39,70 +39,36 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
 4. figures: K_v against speed with the population's bands and ISO 6336-1 Method B; a
    Campbell-like map (speed of the K_v peak against K_v, failures marked, the speeds where
    the mesh frequency meets the natural frequencies with the most mesh strain energy);
-5. the rare level: P(kv_max >= :data:`RARE_X` | pass) by importance sampling that moves
-   the input law in a few directions only (:func:`subspace_given_acceptance`): inspection
-   is a gate on the germs (:func:`germ_acceptance_margin`, the plugin's margin without the
-   rotor), so the accepted law is sampled exactly and a rejected pair costs no run; the
-   density moves damping, torque, relief and three pitch directions (the leading singular
-   vectors of the cheap K_v's gradients, :func:`rare_directions`), fitted by cross-entropy
-   on the cheap model (:data:`CHEAP_OPTIONS`: the same rotor on 20 speeds with 2 mesh
-   harmonics and its largest grid peak located), then fresh draws give the cheap model's
-   and the rotor's estimates; the weights depend on 6 coordinates and are bounded by 10.
-   Where the rare set lives (measured on the cheap model): K_v peaks near 7800 rpm, driven
-   by the pinion-plus-wheel sum of the tooth-to-tooth pitch harmonics 12-15 (the gradients
-   of pinion and wheel germs are equal: each tooth meets the same mate), helped by damping
-   near 3 % and a light load; relief moves the 3900 rpm peak, not this one. X = 1.83 is
-   rarer than the earlier pilots said: at full size (seed 2031, 665 s wall, 660 s CPU on a
-   loaded machine) the cheap model gives 2.0e-7 and the rotor 5.2e-8; two more runs give
-   1.6e-7 and 2.3e-7 (cheap) and 1.3e-7 (rotor). In each a few failing draws at the edge
-   of the density carry a third to nine tenths of the estimate (status 1 or 3), so the
-   value, about 1e-7, may lean low and no interval is vouched for yet; moving all 29
-   pinion-plus-wheel pitch sums instead gives 4e-9 and 9e-9 with weights more degenerate
-   still. The single cheap subset walks' 3e-6 lies 15-20 times higher; the rotor subset's
-   1.2e-8 [4.6e-10, 3.1e-7] (status 1) holds the six-direction values; the Gaussian-mixture
-   MFIS's 1.1e-11 (status 3) is far too low (Markov's inequality on the bounded-weight
-   estimates: P >= 2.6e-9 at 95 % from the rotor's 5.2e-8, the one statement vouched for);
-   our reading, not vouched for, puts the truth between about 1e-7 and 3e-6
-   (docs/benchmarks.md, "The dynamic question").
-   :func:`mfis_given_acceptance` and :func:`subset_given_acceptance` stay available
-   (``--rare-methods``), and so does ``harmonic``: the same sampler with the density kept
-   centred and isotropic in the (cos, sin) plane of each tooth-to-tooth harmonic 12-15 of
-   the pinion-plus-wheel germ sum (:func:`harmonic_planes`), since K_v depends on a
-   harmonic's amplitude, not its phase, and a mean shift reaches one phase of that annulus
-   only. At X = 1.79 (``--rare-x 1.79 --rare-methods harmonic,subspace``, seed 2031) the two
-   densities give 7.9e-7 and 3.8e-7 on the rotor (8.2e-8 and 1.0e-6 on the cheap model),
-   every one of them with one draw carrying 30-64 % of its estimate (status 3); at 1.77
-   (seed 2032, both densities wider, ``min_std`` 1.5) 2.5e-6 and 1.3e-7, status 3 again.
-   Pf near 1e-6 sits at X of about 1.77 (:data:`RARE_X`, 1.83 until this round), and no
-   interval there is vouched for yet (docs/benchmarks.md, "Third round").
-   The second method, ``lines`` (:func:`lines_given_acceptance`, :data:`RARE_LINES`),
-   shares no estimator code with the importance samplers: line sampling behind the
-   inspection gate (:func:`gearuq.failure.methods.gated_lines.gated_line_sampling`), the
-   gate exact along each line from the germ, the rotor only on the accepted part, each
-   line's probability the mass of {kv_max >= X and accepted}. Radial lines in the 10
-   directions of :func:`harmonic_planes` (:data:`RADIAL_LINES`; four runs at X = 1.77:
-   1.5e-7, 1.0e-5, 7.3e-7, 2.7e-6, 1.4-8.7 effective lines of 80-100) showed where the event
-   lives: the alternating harmonic 15 of the pinion-plus-wheel sum with a light load and
-   low damping, helped by harmonics 12-14 at once. Straight lines along harmonic 15 with
-   their origins' relief, torque, damping and harmonic 12-14 planes drawn from a shifted,
-   widened defensive mixture (weights at most 1 / 0.3) give 1.3e-6 [7.1e-7, 1.9e-6] and
-   1.6e-6 [9.0e-7, 2.4e-6] at X = 1.77 (60 and 130 lines: 577 and 1095 rotor runs, 410 and
-   795 CPU s, 290 and 555 s wall on a loaded machine; 14.7 and 16.5 effective lines, so
-   status 3: not vouched for by the effective-lines rule, largest line share 16 %), beside
-   the importance samplers' mean 8.0e-7 there (docs/benchmarks.md, "Fourth round"). With
-   the origins' density at the cross-entropy moments of those runs' line terms (narrower in
-   torque and damping) the lines vouch for their interval: **P(kv_max >= 1.77 | pass) =
-   1.65e-6 [1.21e-6, 2.10e-6]** with 170 lines (42 effective, status 0; 1509 rotor runs,
-   1034 CPU s / 574 s wall on two quiet cores, inside the issue's 10 minutes) and 1.44e-6
-   [1.13e-6, 1.74e-6] with 250 lines of another seed (66 effective, status 0; 1621 CPU s /
-   879 s wall). The importance samplers' six values there (6.6e-8 to 2.5e-6, mean 8.0e-7,
-   each status 3) do not agree to an interval: no second vouched-for method yet
-   (docs/benchmarks.md, "Fifth round").
+5. the rare level, P(kv_max >= :data:`RARE_X` | pass) near 1e-6, by two methods that share
+   no estimator code (``--rare-methods``, default ``lines,mirrored``). Inspection is a gate
+   on the germs (:func:`germ_acceptance_margin`, the plugin's margin without the rotor): the
+   accepted law is sampled exactly and a rejected pair costs no run.
+
+   - ``lines`` (:func:`lines_given_acceptance`, :data:`RARE_LINES`): line sampling behind
+     the gate along the pinion-plus-wheel coordinate of the alternating tooth-to-tooth
+     harmonic 15 (where the event lives: a light load, low damping and that wave; harmonics
+     12-14 help), each line's origin drawn from a defensive mixture at the cross-entropy
+     moments of earlier line terms. At X = 1.77: **1.65e-6 [1.21e-6, 2.10e-6]** (170
+     lines, 42 effective, status 0; 1509 rotor runs, 1034 CPU s / 574 s wall on two quiet
+     cores) and 1.44e-6 [1.13e-6, 1.74e-6] (250 lines of another seed, status 0).
+   - ``mirrored`` (:func:`mirrored_given_acceptance`, :data:`RARE_MIRRORED`): importance
+     sampling whose density (besides a defensive standard normal) sits at the moments of
+     the lines' origins times two normals mirrored along harmonic 15 (K_v fails at both
+     ends of it). At X = 1.77, 1500 draws (seed 12; the default is now 2000):
+     **1.36e-6 [8.9e-7, 1.83e-6]**, 31.6 effective failing draws, status 0, 1342 rotor runs,
+     904 CPU s / 492 s wall: inside both line intervals, and both line estimates inside
+     its own. Its coverage over seeds against the 420 pooled line terms
+     (:data:`LINES_REFERENCE`, :func:`mirrored_coverage`): COVERAGE_TBD.
+   - ``subspace``, ``harmonic`` (densities fitted by cross-entropy on the cheap model),
+     ``mfis`` and ``subset`` stay available; at this level their weights or levels do not
+     vouch for an interval (status 3 or 1; docs/benchmarks.md, "The dynamic question",
+     third to sixth rounds).
 
 ``--quick`` runs 12 rotor runs, subset simulation with 16 per level on the coarsest speed
-grid (:data:`QUICK_OPTIONS`), the rare stage at the moderate X with :data:`CHEAP_OPTIONS` as
-its rotor (12 runs) and :data:`QUICK_OPTIONS` as its cheap model, all in under a minute of
-CPU, and marks every figure "quick: N runs, not a result".
+grid (:data:`QUICK_OPTIONS`), the rare stage's methods at the moderate X with
+:data:`CHEAP_OPTIONS` as their rotor (4 lines, 24 mirrored draws: their densities aim at
+the rare level, so they end flagged, status 3 or 4: the code path, not an answer), all in
+under a minute of CPU, and marks every figure "quick: N runs, not a result".
 
 **On a gear stage** (``--stage e_axle_27_79`` or a stage TOML file; :func:`run_on_stage`):
 the population stage on the stage's own rotor and speed range. Inputs: the pitch germ of its
@@ -727,6 +693,180 @@ def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, 
             "line_pf": est["line_pf"].tolist()}
 
 
+#: The rare stage's importance sampling mirrored along harmonic 15
+#: (``rare_methods=("mirrored",)``, :func:`mirrored_given_acceptance`): a share
+#: ``defensive`` of the standard normal (every weight at most 1 / 0.3), the rest two
+#: components of equal share, each a normal at the moments of the straight lines' origins
+#: (:data:`RARE_LINES`: relief, torque, damping and the planes of harmonics 12-14) times,
+#: along harmonic 15's pinion-plus-wheel coordinate, a normal at ``+along_mean`` or
+#: ``-along_mean`` with ``along_std`` (K_v fails at both ends of that coordinate, so a
+#: one-sided shift would miss half the failure set); ``along_mean`` 3.6 and ``along_std``
+#: 1.0: the lines' line terms put E|t| given failure at 3.58-3.75 (spread 0.53-0.60),
+#: widened. ``n_rotor`` 2000: 1500 draws gave 31.6 effective failing draws at X = 1.77,
+#: just above ``min_ess``.
+#: ``min_ess``: fewer effective failing draws give status 3 (the lines' rule).
+RARE_MIRRORED: dict[str, Any] = {"harmonics": RARE_HARMONICS, "along": 15,
+                                 "along_mean": 3.6, "along_std": 1.0,
+                                 "origin_means": RARE_LINES["origin_means"],
+                                 "origin_std": RARE_LINES["origin_std"], "defensive": 0.3,
+                                 "n_rotor": 2000, "batch": 250, "target_cov": 0.2,
+                                 "min_ess": 30.0}
+#: The same in ``--quick``: the code path with a few dozen runs.
+QUICK_MIRRORED: dict[str, Any] = {**RARE_MIRRORED, "n_rotor": 24, "batch": 24}
+
+
+def mirrored_density(settings: dict[str, Any]) -> Any:
+    """The defensive mixture of :func:`mirrored_given_acceptance` (``settings`` as
+    :data:`RARE_MIRRORED`): moved in the columns of :func:`harmonic_planes` up to and
+    including the first of ``along``'s plane, two components mirrored in that one."""
+    planes, groups = harmonic_planes(tuple(settings["harmonics"]))
+    column = groups[list(settings["harmonics"]).index(settings["along"])][0]
+    shift = np.array(settings["origin_means"], dtype=float)
+    spread = np.array(settings["origin_std"], dtype=float)
+    if shift.size != column or spread.shape != shift.shape:
+        raise ValueError(f"origin_means={settings['origin_means']!r} is outside its valid "
+                         f"range: {column} values (the columns before the mirrored one), one "
+                         "origin_std each")
+    for name in ("along_mean", "along_std"):
+        if not float(settings[name]) > 0.0:
+            raise ValueError(f"{name}={settings[name]!r} is outside its valid range (0, inf)")
+    means = np.zeros((2, column + 1))
+    means[:, :column] = shift
+    means[:, column] = (settings["along_mean"], -settings["along_mean"])
+    cov = np.diag(np.append(spread, settings["along_std"]) ** 2)
+    return subspace_density(planes[:, :column + 1], means, np.stack([cov, cov]),
+                            float(settings["defensive"]))
+
+
+def mirrored_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, Any],
+                              execution: dict[str, Any],
+                              options: dict[str, Any] | None = None) -> dict[str, Any]:
+    """P(kv_max >= x | pass) by importance sampling of a density set, not fitted.
+
+    The density (:func:`mirrored_density`): the standard normal as its defensive share, the
+    rest at the moments of the straight lines' origins times two normals mirrored along
+    harmonic 15's pinion-plus-wheel coordinate, where
+    :func:`lines_given_acceptance` found the failure set: an estimator (fresh weighted draws,
+    :func:`gearuq.failure.methods.subspace.subspace_estimate`) that shares no code with the
+    lines' and is unbiased whatever the density; inspection's gate is applied before any run.
+    Status 3 below ``settings["min_ess"]`` effective failing draws, where the weights' other
+    diagnostics give 0 or 1: a heavy-tailed sum of a few dozen terms understates its own
+    variance (a threshold that flags the thinnest runs only: docs/reliability.md, "What
+    status 0 does not promise").
+
+    Returns
+    -------
+    dict
+        ``pf``, ``lower``, ``upper`` (95 %, given acceptance), ``cov``, ``status``,
+        ``message``, ``runs``, ``ess``, ``max_share``, ``n_fail``, ``lower_one_sided``
+        (Markov's bound, whatever the status), ``pf_over_x``, ``p_pass``, ``X``.
+    """
+    density = mirrored_density(settings)
+    gate = _acceptance_gate(grade)
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+    limit = _recorded(_kv_on_normals(study_model(grade), options or OPTIONS, execution, x),
+                      seen)
+    est = subspace_estimate(limit, density, n=int(settings["n_rotor"]), seed=seed, gate=gate,
+                            batch=int(settings["batch"]),
+                            target_cov=float(settings["target_cov"]))
+    if est["status"] in (0, 1) and est["ess"] < settings["min_ess"]:
+        est["status"], est["message"] = 3, (
+            f"{est['ess']:.1f} effective failing draws of {est['n_fail']}, fewer than "
+            f"{settings['min_ess']:g}: a sum of so few heavy terms understates its own "
+            "variance, so the interval is not vouched for")
+    p_pass, se_pass = accepted_probability(grade)
+    return {**given_gate(est, p_pass, se_pass),
+            **{k: est[k] for k in ("status", "message", "runs", "ess", "max_share", "n_fail")},
+            "pf_over_x": _pf_over_x(seen, density, int(settings["n_rotor"]), x, p_pass),
+            "p_pass": p_pass, "X": x}
+
+
+#: The rare level's reference for coverage (:func:`mirrored_coverage`): the 420 line terms
+#: of the two status-0 runs of :data:`RARE_LINES` at X = 1.77 (seeds 2041 and 2042, 250 and
+#: 170 lines, one design), pooled as one sample: P(kv_max >= 1.77 | pass), its standard
+#: error, 106.8 effective lines, 3747 rotor runs (docs/benchmarks.md, "Sixth round"). Line
+#: sampling shares no estimator code with the importance samplers.
+LINES_REFERENCE: dict[str, Any] = {"X": 1.77, "pf": 1.524e-6, "se": 1.275e-7,
+                                   "n_lines": 420, "n_effective": 106.8, "runs": 3747,
+                                   "seeds": (2041, 2042)}
+
+
+def mirrored_coverage(seeds: Any, store: str | Path, *, grade: int = 6,
+                      settings: dict[str, Any] | None = None,
+                      reference: dict[str, Any] | None = None,
+                      execution: dict[str, Any] | None = None,
+                      options: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Coverage of :func:`mirrored_given_acceptance`'s intervals on the rotor, resumable.
+
+    Each seed of ``seeds`` not yet in ``store`` (a JSON-lines file, one line per finished
+    seed, written as soon as the seed ends: an interrupted run loses at most the seed under
+    way) is run at ``reference["X"]`` with ``settings`` (default :data:`RARE_MIRRORED`); the
+    table then counts the intervals that hold ``reference["pf"]`` (default
+    :data:`LINES_REFERENCE`), among all seeds and among those of status 0.
+
+    Returns
+    -------
+    dict
+        ``rows`` (seed, pf, lower, upper, status, ess, n_fail, runs, wall_s, cpu_s, holds),
+        ``n``, ``held``, ``n_status0``, ``held_status0``, ``reference``.
+    """
+    settings = settings or RARE_MIRRORED
+    reference = reference or LINES_REFERENCE
+    seeds = list(dict.fromkeys(int(s) for s in seeds))  # once each, in the order given
+    store = Path(store)
+    store.parent.mkdir(parents=True, exist_ok=True)
+    # what a stored row must match to count here: a rerun with other settings, X or class
+    # refuses to mix its rows with these
+    key = {"X": float(reference["X"]), "grade": int(grade),
+           "settings": json.dumps(settings, sort_keys=True, default=str)}
+    rows = []
+    lines = store.read_text().splitlines() if store.exists() else []
+    for i, line in enumerate(lines):
+        if not line.strip():
+            continue
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            if i == len(lines) - 1:  # a write cut short by an interruption: drop it, redo
+                store.write_text("".join(f"{kept}\n" for kept in lines[:i]))
+                continue
+            raise ValueError(f"store={str(store)!r} has an unreadable line {i + 1}; valid: "
+                             "one JSON object a line") from None
+        if any(row.get(k) != v for k, v in key.items()):
+            raise ValueError(f"store={str(store)!r} holds seed {row.get('seed')} of other "
+                             f"settings, X or class than these ({key['X']}, class "
+                             f"{key['grade']}); valid: a store of this run's settings only")
+        rows.append(row)
+    done = {r["seed"] for r in rows}
+    todo = [s for s in seeds if s not in done]
+    if todo:
+        with workers_for_run((execution or {}).get("executor", "processes")) as pool:
+            run_on = {"executor": pool, "chunk_size": (execution or {}).get("chunk_size", 25)}
+            for seed in todo:
+                t0, c0 = wall_and_cpu(pool)
+                res = mirrored_given_acceptance(key["X"], seed, grade, settings, run_on,
+                                                options)
+                t1, c1 = wall_and_cpu(pool)
+                row = {"seed": seed, **{k: res[k] for k in ("pf", "lower", "upper", "status",
+                                                            "ess", "n_fail", "runs",
+                                                            "max_share")},
+                       "wall_s": t1 - t0, "cpu_s": c1 - c0, **key}
+                with store.open("a") as fh:
+                    fh.write(json.dumps(row, default=float) + "\n")
+                rows.append(row)
+                print(f"seed {seed}: {row['pf']:.3g} [{row['lower']:.3g}, {row['upper']:.3g}]"
+                      f", status {row['status']}, {row['ess']:.1f} effective of "
+                      f"{row['n_fail']} failing, {row['runs']} runs, {row['wall_s']:.0f} s "
+                      f"wall, {row['cpu_s']:.0f} s CPU", flush=True)
+    rows = [r for r in rows if r["seed"] in set(seeds)]
+    for r in rows:
+        r["holds"] = bool(r["lower"] <= reference["pf"] <= r["upper"])
+    ok = [r for r in rows if r["status"] == 0]
+    return {"rows": rows, "n": len(rows), "held": sum(r["holds"] for r in rows),
+            "n_status0": len(ok), "held_status0": sum(r["holds"] for r in ok),
+            "reference": reference}
+
+
 def _recorded(limit: Any, seen: list[tuple[np.ndarray, np.ndarray]]) -> Any:
     """``limit`` that also keeps each batch's draws and ``kv_max`` (NaN where invalid)."""
     def record(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1112,17 +1252,16 @@ def _stage_route(run_paper: Any) -> Any:
 
 @_stage_route
 @plot.quick_mode(
-    "12 rotor runs; subset simulation with 16 per level and the rare stage's importance "
-    "sampling at the moderate X (12 runs) on coarser speed grids",
+    "12 rotor runs; subset simulation with 16 per level and the rare stage's methods "
+    "(--rare-methods) at the moderate X with a few dozen runs, on coarser speed grids",
     left_out=("the 400-run population, subset simulation at 200 per level, the grouped "
-              "Sobol' indices and the rare level (X near P = 1e-6, importance sampling in a "
-              "few directions on the cheap model and the rotor): no probability or ranking "
-              "here is resolved"))
+              "Sobol' indices and the rare level (X near P = 1e-6, the rare stage's methods "
+              "at full size on the rotor): no probability or ranking here is resolved"))
 def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = False,
         seed: int = 2028, grade: int = 6, executor: Any = DEFAULT_EXECUTION["executor"],
         chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
         n_per_level: int = 200, sobol_base: int = 16, rare_x: float = RARE_X,
-        rare_per_level: int = 200, rare_methods: tuple[str, ...] = ("subspace",),
+        rare_per_level: int = 200, rare_methods: tuple[str, ...] = ("lines", "mirrored"),
         stage: str | None = None) -> int:
     """P(K_v >= X anywhere in 25-8000 rpm | the gears pass inspection), where, and why.
 
@@ -1147,15 +1286,16 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     rare_per_level : int
         Samples per level of subset simulation in the rare stage.
     rare_methods : tuple of str
-        Methods of the rare stage, of ``"subspace"`` (:func:`subspace_given_acceptance`: the
-        cheap model's and the rotor's estimates), ``"harmonic"`` (the same, its density
-        centred in the harmonic planes of :func:`harmonic_planes`), ``"lines"``
-        (:func:`lines_given_acceptance`: line sampling behind the inspection gate along
-        harmonic 15's coordinate, :data:`RARE_LINES`; the second method at the rare level),
-        ``"mfis"``
-        (:func:`mfis_given_acceptance`, the Gaussian mixture over all inputs) and
-        ``"subset"``
-        (:func:`subset_given_acceptance` on the rotor).
+        Methods of the rare stage (default ``("lines", "mirrored")``, the two that vouch
+        for an interval at :data:`RARE_X`), of ``"lines"`` (:func:`lines_given_acceptance`:
+        line sampling behind the inspection gate along harmonic 15's coordinate,
+        :data:`RARE_LINES`), ``"mirrored"`` (:func:`mirrored_given_acceptance`: importance
+        sampling mirrored along it, :data:`RARE_MIRRORED`), ``"subspace"``
+        (:func:`subspace_given_acceptance`: the cheap model's and the rotor's estimates),
+        ``"harmonic"`` (the same, its density centred in the harmonic planes of
+        :func:`harmonic_planes`), ``"mfis"`` (:func:`mfis_given_acceptance`, the Gaussian
+        mixture over all inputs) and ``"subset"`` (:func:`subset_given_acceptance` on the
+        rotor).
     stage : str, optional
         A built-in stage name (``e_axle_27_79``) or a stage TOML path: the population
         stage on that stage instead (:func:`run_on_stage`); default: the paper's rotor.
@@ -1167,10 +1307,12 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     """
     if grade not in range(1, 13):
         raise ValueError(f"grade={grade!r} is outside its valid range: integers 1..12")
-    unknown = set(rare_methods) - {"harmonic", "subspace", "lines", "mfis", "subset"}
+    unknown = set(rare_methods) - {"harmonic", "subspace", "lines", "mirrored", "mfis",
+                                   "subset"}
     if unknown or not rare_methods:
         raise ValueError(f"rare_methods={rare_methods!r} is outside its valid set: a non-empty "
-                         "tuple of 'harmonic', 'subspace', 'lines', 'mfis', 'subset'")
+                         "tuple of 'harmonic', 'subspace', 'lines', 'mirrored', 'mfis', "
+                         "'subset'")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     execution = {"executor": executor, "chunk_size": chunk_size}
@@ -1223,6 +1365,10 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
                 rare[method] = lines_given_acceptance(
                     rare["X"], seed + 3, grade, QUICK_LINES if quick else RARE_LINES, run_on,
                     fidelities.get("options"))
+            elif method == "mirrored":
+                rare[method] = mirrored_given_acceptance(
+                    rare["X"], seed + 5, grade, QUICK_MIRRORED if quick else RARE_MIRRORED,
+                    run_on, fidelities.get("options"))
             elif method == "mfis":
                 rare[method] = mfis_given_acceptance(rare["X"], seed + 3, grade,
                                                      QUICK_MFIS if quick else RARE_MFIS, run_on,
@@ -1295,9 +1441,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="X of the rare stage (P near 1e-6 at the default)")
     parser.add_argument("--rare-per-level", type=int, default=200,
                         help="subset-simulation samples per level of the rare stage")
-    parser.add_argument("--rare-methods", default="subspace",
+    parser.add_argument("--rare-methods", default="lines,mirrored",
                         help="comma-separated methods of the rare stage: subspace, harmonic, "
-                        "lines, mfis, subset")
+                        "lines, mirrored, mfis, subset")
     parser.add_argument("--stage", default=None, help="a built-in stage name or a stage "
                         "TOML path: the population stage on it (default: the paper's rotor)")
     args = parser.parse_args(argv)
