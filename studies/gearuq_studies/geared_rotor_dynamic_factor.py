@@ -58,10 +58,11 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
      **1.36e-6 [8.9e-7, 1.83e-6]**, 31.6 effective failing draws, status 0, 1342 rotor runs,
      904 CPU s / 492 s wall: inside both line intervals, and both line estimates inside
      its own. Its coverage against the 420 pooled line terms (:data:`LINES_REFERENCE`,
-     1.52e-6, :func:`mirrored_coverage`), 2000 draws a seed: 7 of 8 intervals hold it
-     (seeds 3001-3008, all status 0; the miss by 0.4 % of its lower end), about 1300 CPU s
-     a seed; the 8 estimates average 1.84e-6 (standard error 0.10e-6), 2.0 joint standard
-     errors above the lines' (the store, resumable towards 20 seeds:
+     1.52e-6, :func:`mirrored_coverage`), 2000 draws a seed: of seeds 3001-3009, 7 of the
+     8 status-0 intervals hold it (the miss by 0.4 % of its lower end) and the flagged one
+     (status 3) too, about 1300 CPU s a seed; the 8 status-0 estimates average 1.84e-6
+     (standard error 0.10e-6), 2.0 joint standard errors above the lines' (the store,
+     resumable towards 20 seeds:
      ``docs/data/rotor_mirrored_coverage.jsonl``; docs/benchmarks.md, "Sixth round").
    - ``subspace``, ``harmonic`` (densities fitted by cross-entropy on the cheap model),
      ``mfis`` and ``subset`` stay available; at this level their weights or levels do not
