@@ -245,3 +245,30 @@ def test_status_0_is_no_coverage_guarantee_off_the_design_point():
     assert status0 == 300 and hits >= 276  # 92 % of 300
     hits, status0 = held["off it"]
     assert status0 >= 200 and hits / status0 <= 0.93
+
+
+def test_min_ess_flags_runs_the_weight_diagnostics_pass():
+    """``min_ess``: a run whose weight diagnostics give status 0 or 1 but that rests on
+    fewer effective failing draws than ``min_ess`` gets status 3 and says so with both
+    numbers; the estimate and its interval are unchanged, and a run above the threshold
+    keeps its status."""
+    b = 4.5
+    basis = np.eye(4)[:, :2]
+
+    def limit(u):
+        return b - u[:, 0] - u[:, 1], np.ones(len(u), bool)
+
+    dens = subspace_density(basis, np.array([2.6, 1.2]), np.eye(2), defensive=0.3)
+    seen = {"below": False, "above": False}
+    for seed in range(40):
+        plain = subspace_estimate(limit, dens, n=600, seed=seed, batch=600)
+        strict = subspace_estimate(limit, dens, n=600, seed=seed, batch=600, min_ess=30.0)
+        assert strict["pf"] == plain["pf"] and strict["upper"] == plain["upper"]
+        if plain["status"] in (0, 1) and plain["ess"] < 30.0:
+            assert strict["status"] == 3 and "min_ess = 30" in strict["message"]
+            assert f"{plain['ess']:.1f} effective failing draws" in strict["message"]
+            seen["below"] = True
+        else:
+            assert strict["status"] == plain["status"]
+            seen["above"] |= plain["status"] == 0
+    assert all(seen.values()), seen

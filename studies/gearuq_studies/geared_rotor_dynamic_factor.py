@@ -773,12 +773,8 @@ def mirrored_given_acceptance(x: float, seed: int, grade: int, settings: dict[st
                       seen)
     est = subspace_estimate(limit, density, n=int(settings["n_rotor"]), seed=seed, gate=gate,
                             batch=int(settings["batch"]),
-                            target_cov=float(settings["target_cov"]))
-    if est["status"] in (0, 1) and est["ess"] < settings["min_ess"]:
-        est["status"], est["message"] = 3, (
-            f"{est['ess']:.1f} effective failing draws of {est['n_fail']}, fewer than "
-            f"{settings['min_ess']:g}: a sum of so few heavy terms understates its own "
-            "variance, so the interval is not vouched for")
+                            target_cov=float(settings["target_cov"]),
+                            min_ess=float(settings["min_ess"]))
     p_pass, se_pass = accepted_probability(grade)
     return {**given_gate(est, p_pass, se_pass),
             **{k: est[k] for k in ("status", "message", "runs", "ess", "max_share", "n_fail")},
@@ -863,7 +859,8 @@ def mirrored_coverage(seeds: Any, store: str | Path, *, grade: int = 6,
                       f", status {row['status']}, {row['ess']:.1f} effective of "
                       f"{row['n_fail']} failing, {row['runs']} runs, {row['wall_s']:.0f} s "
                       f"wall, {row['cpu_s']:.0f} s CPU", flush=True)
-    rows = [r for r in rows if r["seed"] in set(seeds)]
+    wanted = set(seeds)
+    rows = [r for r in rows if r["seed"] in wanted]
     for r in rows:
         r["holds"] = bool(r["lower"] <= reference["pf"] <= r["upper"])
     ok = [r for r in rows if r["status"] == 0]

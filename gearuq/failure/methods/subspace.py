@@ -252,14 +252,15 @@ def fit_subspace_density(limit: Limit, basis: np.ndarray, *, n_per_level: int, s
 
 def subspace_estimate(limit: Limit, density: Mixture, *, n: int, seed: int,
                       gate: Gate | None = None, batch: int = 250, confidence: float = 0.95,
-                      target_cov: float = 0.2) -> dict[str, Any]:
+                      target_cov: float = 0.2, min_ess: float = 0.0) -> dict[str, Any]:
     """``P(F and gate)`` from ``n`` fresh draws of ``density`` (batches of ``batch``).
 
     Returns the dict of :func:`~gearuq.failure.methods.importance.weighted_estimate`
     (``pf``, ``lower``, ``upper``, ``cov``, ``ess``, ``max_share``, ``pareto_k``, ...) with
     ``runs``, ``status`` and ``message`` (:func:`~gearuq.failure.methods.importance.
     weight_status`: 0 when the weights vouch for the interval, otherwise what they cannot
-    vouch for, in words) and ``lower_one_sided``: ``(1 - confidence) pf``, a lower bound of
+    vouch for, in words; 3 where it would be 0 or 1 with fewer than ``min_ess`` effective
+    failing draws) and ``lower_one_sided``: ``(1 - confidence) pf``, a lower bound of
     ``P(F and gate)`` at ``confidence`` by Markov's inequality (the estimate is unbiased and
     non-negative, the density drawn afresh), which holds whatever the status says.
     """
@@ -283,6 +284,11 @@ def subspace_estimate(limit: Limit, density: Mixture, *, n: int, seed: int,
         status, message = 6, (f"{est['n_invalid']} of {est['n']} model runs were invalid: the "
                               "interval reads them as safe at its lower end, failed at its "
                               "upper end")
+    if status in (0, 1) and est["ess"] < min_ess:
+        status, message = 3, (f"{est['ess']:.1f} effective failing draws of {est['n_fail']}, "
+                              f"fewer than min_ess = {min_ess:g}: a sum of so few heavy terms "
+                              "understates its own variance, so the interval is not vouched "
+                              "for")
     # Markov's inequality on an unbiased, non-negative estimate: P(pf_hat >= pf / alpha) <=
     # alpha, so alpha pf_hat is a lower bound at 1 - alpha that holds however poorly the
     # density fits (invalid runs read as safe: pf_hat then estimates P(F and valid) <= P(F))
