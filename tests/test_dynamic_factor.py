@@ -453,6 +453,8 @@ def test_germ_acceptance_margin_is_the_plugins_output(model):
     assert share == pytest.approx(0.95**2, abs=0.004)
 
 
+# 2-6 s of CPU: CI runs it with the end-to-end runs (-m e2e)
+@pytest.mark.e2e
 def test_given_acceptance_divides_by_the_counted_acceptance():
     """Every rare path divides by one counted P(pass): it agrees with an independent count
     of the vectorised gate, differs from the declared 0.95^2 by more than its own error (the

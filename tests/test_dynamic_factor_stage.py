@@ -76,6 +76,8 @@ def test_the_stage_option_routes_and_refuses_what_a_stage_does_not_use(tmp_path)
     assert vars(args) == {"stage": STAGE, "n_per_level": 0}
 
 
+# 2-6 s of CPU: CI runs it with the end-to-end runs (-m e2e)
+@pytest.mark.e2e
 def test_accepted_share_is_the_capable_process_closed_form():
     """Each gear of its own class and germ count: 5 % beyond F_pT, so P(pass) = 0.95^2.
 

@@ -256,6 +256,8 @@ def test_krylov_contact_loss_is_bounded_by_its_iteration_budget(problem):
     np.testing.assert_array_equal(worse.delta, sol.delta)
 
 
+# 2-6 s of CPU: CI runs it with the end-to-end runs (-m e2e)
+@pytest.mark.e2e
 def test_periodic_state_by_integration_against_an_independent_integrator(problem):
     """The reduced rotor integrated long period by long period (classical Runge-Kutta, the
     contact law at each stage) until its state returns to itself, against the adaptive

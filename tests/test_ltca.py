@@ -308,6 +308,8 @@ def test_beam_starts_at_root_circle_when_root_above_base():
     assert after == pytest.approx(0.912, abs=0.01)
 
 
+# 2-6 s of CPU: CI runs it with the end-to-end runs (-m e2e)
+@pytest.mark.e2e
 def test_ltca_stiffness_within_iso_band_over_tooth_numbers():
     """LTCA / ISO 6336-1 method B mean mesh stiffness for z 17-120, shifts, racks A and D.
 

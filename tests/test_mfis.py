@@ -175,6 +175,8 @@ def test_the_geared_rotor_benchmark_case_is_well_posed():
     assert 0.0 < lo <= p["pf"] <= up < 1e-4
 
 
+# 2-6 s of CPU: CI runs it with the end-to-end runs (-m e2e)
+@pytest.mark.e2e
 def test_a_stored_run_with_cheap_instants_resumes_to_the_same_answer(tmp_path):
     """``low_fidelity_t`` (an array) enters the store's fingerprint: a second call with the
     same arguments reuses the stored stages and gives the identical estimate."""

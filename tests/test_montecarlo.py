@@ -195,6 +195,8 @@ def test_model_by_registered_name():
 
 
 # ------------------------------------------------------------------------------- reproducibility
+# 2-6 s of CPU: CI runs it with the end-to-end runs (-m e2e)
+@pytest.mark.e2e
 def test_bit_identical_for_chunk_sizes_and_executors():
     n = 60
     kw = {"n_samples": n, "rng": 99, "rule": "lhs", "progress": False}

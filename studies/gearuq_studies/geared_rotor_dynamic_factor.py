@@ -626,6 +626,28 @@ QUICK_LINES: dict[str, Any] = {**RARE_LINES, "n_lines": 4, "t_grid": (-4.0, 0.0,
                                "root_tol": 0.05, "chunk_lines": 4}
 
 
+def _origin_moments(settings: dict[str, Any], exact: bool
+                    ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+    """The columns of :func:`harmonic_planes` that ``settings["origin_means"]`` and
+    ``settings["origin_std"]`` move (relief, torque, damping, then the planes of the
+    harmonics before ``settings["along"]``), one mean and one standard deviation each.
+
+    Returns the planes, the column of ``along``'s pinion-plus-wheel coordinate, the means and
+    the standard deviations (ones where ``origin_std`` is not set). With ``exact`` every
+    column before ``along``'s must be given, otherwise at most those.
+    """
+    planes, groups = harmonic_planes(tuple(settings["harmonics"]))
+    column = groups[list(settings["harmonics"]).index(settings["along"])][0]
+    shift = np.array(settings["origin_means"], dtype=float)
+    spread = np.array(settings.get("origin_std", np.ones(shift.size)), dtype=float)
+    if (shift.size != column if exact else shift.size > column) or spread.shape != shift.shape:
+        count = f"{column}" if exact else f"at most {column}"
+        raise ValueError(f"origin_means={settings['origin_means']!r} is outside its valid "
+                         f"range: {count} values (the columns before harmonic "
+                         f"{settings['along']}'s), one origin_std each")
+    return planes, column, shift, spread
+
+
 def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, Any],
                            execution: dict[str, Any], options: dict[str, Any] | None = None
                            ) -> dict[str, Any]:
@@ -665,17 +687,8 @@ def lines_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, 
     if settings.get("along") is not None:
         # straight lines along one harmonic's pinion-plus-wheel coordinate (the first of its
         # plane); the origins' relief, torque and damping from a shifted defensive mixture
-        column = groups[list(settings["harmonics"]).index(settings["along"])][0]
+        planes, column, shift, spread = _origin_moments(settings, exact=False)
         basis, means = planes[:, column:column + 1], None
-        # the origin density moves the leading columns of harmonic_planes (relief, torque,
-        # damping, then the planes of the harmonics before ``along``), one mean and one
-        # standard deviation each
-        shift = np.array(settings["origin_means"], dtype=float)
-        spread = np.array(settings.get("origin_std", np.ones(shift.size)), dtype=float)
-        if shift.size > column or spread.shape != shift.shape:
-            raise ValueError(f"origin_means={settings['origin_means']!r} is outside its valid "
-                             f"range: at most {column} values (the columns before the line's), "
-                             "one origin_std each")
         origin_density = subspace_density(planes[:, :shift.size], shift, np.diag(spread**2),
                                           float(settings["origin_defensive"]))
 
@@ -724,14 +737,7 @@ def mirrored_density(settings: dict[str, Any]) -> Any:
     """The defensive mixture of :func:`mirrored_given_acceptance` (``settings`` as
     :data:`RARE_MIRRORED`): moved in the columns of :func:`harmonic_planes` up to and
     including the first of ``along``'s plane, two components mirrored in that one."""
-    planes, groups = harmonic_planes(tuple(settings["harmonics"]))
-    column = groups[list(settings["harmonics"]).index(settings["along"])][0]
-    shift = np.array(settings["origin_means"], dtype=float)
-    spread = np.array(settings["origin_std"], dtype=float)
-    if shift.size != column or spread.shape != shift.shape:
-        raise ValueError(f"origin_means={settings['origin_means']!r} is outside its valid "
-                         f"range: {column} values (the columns before the mirrored one), one "
-                         "origin_std each")
+    planes, column, shift, spread = _origin_moments(settings, exact=True)
     for name in ("along_mean", "along_std"):
         if not float(settings[name]) > 0.0:
             raise ValueError(f"{name}={settings[name]!r} is outside its valid range (0, inf)")
