@@ -12,6 +12,9 @@ from gearuq.testing import reliability_problems as rp
 from gearuq.testing.problems import FOUR_BRANCH_PF, four_branch_model, standard_normal_space
 
 
+# 3-4 s of CPU, a statistical check over many runs: CI runs it with the end-to-end
+# runs (-m e2e)
+@pytest.mark.e2e
 def test_four_branch_single_output_within_interval_and_150_runs():
     rep = failure_probability(four_branch_model(), standard_normal_space(2), "g",
                               method="akmcs", rng=1, n_mc=50_000, target_cov=0.1,

@@ -169,6 +169,9 @@ def test_bootstrap_pvalues_true_family_vs_wrong_family():
     assert float(wrong["ks_pvalue"][0]) < 0.01 and float(wrong["ad_pvalue"][0]) < 0.01
 
 
+# 3-4 s of CPU, a statistical check over many runs: CI runs it with the end-to-end
+# runs (-m e2e)
+@pytest.mark.e2e
 def test_bootstrap_pvalues_roughly_uniform_under_h0_and_naive_is_lenient():
     rng = np.random.default_rng(13)
     p_boot, p_naive = [], []

@@ -65,6 +65,9 @@ def test_ridge_runs_that_did_not_mix_say_so_and_status0_intervals_hold() -> None
         assert float(r["lineage_zero_share"]) > 0.05
 
 
+# 3-4 s of CPU, a statistical check over many runs: CI runs it with the end-to-end
+# runs (-m e2e)
+@pytest.mark.e2e
 def test_chains_that_mix_are_not_flagged() -> None:
     space = gearuq.ParameterSpace.normal(x1=(0.0, 1.0), x2=(0.0, 1.0))
     truth = float(stats.norm.sf(4.5))

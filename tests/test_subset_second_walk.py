@@ -85,6 +85,9 @@ def test_a_walk_the_rule_leaves_alone_is_reported_bit_for_bit(seed: int) -> None
     assert float(default["pf_lower"]) <= resistance_load_pf() <= float(default["pf_upper"])
 
 
+# 3-4 s of CPU, a statistical check over many runs: CI runs it with the end-to-end
+# runs (-m e2e)
+@pytest.mark.e2e
 def test_two_walks_on_a_deep_healthy_problem_hold_and_cost_two_walks(tmp_path) -> None:
     """``g = 4.5 - x1`` (Pf 3.4e-6, six levels): the failures of a walk descend from 2-6
     level-1 chains, so the default runs two walks. Their mean is unbiased, the hull of their
@@ -115,6 +118,9 @@ def test_two_walks_on_a_deep_healthy_problem_hold_and_cost_two_walks(tmp_path) -
     assert 0.5 < np.mean(cov_ratio) < 0.95, cov_ratio
 
 
+# 3-4 s of CPU, a statistical check over many runs: CI runs it with the end-to-end
+# runs (-m e2e)
+@pytest.mark.e2e
 def test_a_walk_that_missed_a_mode_is_caught_by_the_second() -> None:
     """One limit state ``min(1e3 g1, 1e-3 g2)`` (Pf 1.573e-3): the thresholds follow the
     component in the large unit, and a walk may miss the other mode. Two walks on every seed:
