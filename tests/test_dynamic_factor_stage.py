@@ -74,6 +74,25 @@ def test_the_stage_option_routes_and_refuses_what_a_stage_does_not_use(tmp_path)
     args = study_parser("geared_rotor_dynamic_factor", study.run).parse_args(
         ["--stage", STAGE, "--n-per-level", "0"])
     assert vars(args) == {"stage": STAGE, "n_per_level": 0}
+    with pytest.raises(ValueError, match=r"sobol_base=1 is outside its valid range: 0"):
+        study.run(out=tmp_path, sobol_base=1, stage=STAGE)
+
+
+def test_sobol_groups_put_every_input_of_a_stage_under_one_cause():
+    """The grouped Sobol' indices on a stage: each gear's germ its own group, both gears'
+    reliefs one, load and damping one each; an input of no cause is refused by name."""
+    e_axle = GearStage.example(STAGE)
+    names = study.study_space(e_axle).names
+    causes = study.sobol_groups(names)
+    count = {c: causes.count(c) for c in set(causes)}
+    assert count == {"pinion pitch": 26, "wheel pitch": 78, "relief": 2, "load": 1,
+                     "damping": 1}
+    assert [c for n, c in zip(names, causes, strict=True) if "relief" in n] == ["relief"] * 2
+    paper = study.sobol_groups(study.study_space().names)
+    assert {c: paper.count(c) for c in set(paper)} == {
+        "pinion pitch": 29, "wheel pitch": 29, "relief": 1, "load": 1, "damping": 1}
+    with pytest.raises(ValueError, match=r"input 'backlash' has no cause"):
+        study.sobol_groups(["torque", "backlash"])
 
 
 def test_accepted_share_is_the_capable_process_closed_form():

@@ -152,7 +152,10 @@ OUTPUTS = ["kv_max", "speed_at_kv_max", "kv_over_speed", "kv_iso_over_speed", "k
            "pitch_acceptance_margin", "pitch_total_deviation_pinion",
            "pitch_total_deviation_wheel"]
 #: Cause groups of the Sobol' indices.
-GROUPS = {"torque": "load", "tip_relief_amount": "relief", "damping_ratio": "damping"}
+GROUPS = {"torque": "load", "tip_relief_amount": "relief", "damping_ratio": "damping",
+          # a stage's reliefs of each gear (its drawing's tip reliefs)
+          "pinion_tip_relief_amount": "relief", "wheel_tip_relief_amount": "relief",
+          "pinion_root_relief_amount": "relief", "wheel_root_relief_amount": "relief"}
 DEFAULT_EXECUTION: dict[str, Any] = {"executor": "processes", "chunk_size": 25}
 #: The cheap fidelity of the rare stage: the same rotor on 20 speeds (420 rpm steps), two
 #: mesh harmonics and the largest grid peak of K_v located to 10 rpm; about 0.29 CPU s a run
@@ -203,13 +206,14 @@ def load_stage(stage: str | Path | GearStage) -> GearStage:
                      f"{', '.join(GearStage.examples())}) nor an existing TOML file")
 
 
-#: The long-period solver of a hunting-tooth stage: the steady state on the spectral orders
-#: that hold 98 % of the excitation's energy. GMRES on every harmonic (the plugin's default)
-#: stalls where the teeth separate at the resonance (10-20 CPU s a speed on the e-axle at
-#: 12-16 % contact loss, against 0.01 s without): docs/benchmarks.md, "On the e-axle 27/79
-#: stage", gives the cost and the K_v both give.
-STAGE_SOLVER: dict[str, Any] = {"long_period_solver": "spectral_orders",
-                                "spectral_energy": 0.98}
+#: The long-period solver of a hunting-tooth stage: GMRES on every harmonic (the plugin's
+#: default), the reduced rotor integrated in time where Newton's method stagnates under
+#: contact loss. On the 13 e-axle draws of seed 2028 whose steady states the spectral orders
+#: (98 % of the energy, this setting before) could not find (status 16), it found all 13
+#: (5.6-9.5 CPU s a run, ``kv_max`` 2.29-2.86); on 8 draws that both solve, it costs 0.6-6.1
+#: CPU s a run and the spectral orders read ``kv_max`` 0.016-0.072 low (docs/benchmarks.md,
+#: "On the e-axle 27/79 stage", seventh round).
+STAGE_SOLVER: dict[str, Any] = {"long_period_solver": "gmres"}
 
 
 #: Speeds of ``--quick --stage`` (80 otherwise), whose peaks are not located (grid maxima):
@@ -904,26 +908,60 @@ def _pf_over_x(seen: list[tuple[np.ndarray, np.ndarray]], density: Any, n: int, 
             "invalid_runs": int(invalid.sum())}
 
 
-def grouped_sobol(n_base: int, seed: int, grade: int,
-                  execution: dict[str, Any]) -> dict[str, Any]:
-    """First-order and total Sobol' indices of ``kv_max``, inputs grouped by cause."""
+def sobol_groups(names: list[str]) -> list[str]:
+    """The cause of each input of :func:`study_space` (:data:`GROUPS`; the pitch germ
+    ``pitch_xi_p_*`` of the pinion, ``pitch_xi_g_*`` of the wheel).
+
+    Raises
+    ------
+    ValueError
+        An input of no known cause.
+    """
+    causes = []
+    for name in names:
+        if name in GROUPS:
+            causes.append(GROUPS[name])
+        elif name.startswith(("pitch_xi_p_", "pitch_xi_g_")):
+            causes.append("pinion pitch" if name.startswith("pitch_xi_p_") else "wheel pitch")
+        else:
+            raise ValueError(f"input {name!r} has no cause in the grouped Sobol' indices; "
+                             f"valid: {sorted(GROUPS)} or the pitch germs pitch_xi_p_*, "
+                             "pitch_xi_g_*")
+    return causes
+
+
+def grouped_sobol(n_base: int, seed: int, grade: int, execution: dict[str, Any],
+                  stage: GearStage | None = None) -> dict[str, Any]:
+    """First-order and total Sobol' indices of ``kv_max``, inputs grouped by cause (the
+    pitch germ of each gear, relief, load, damping: :data:`GROUPS`), over the untruncated
+    law of :func:`study_space` (``stage``'s on a stage, with :func:`stage_options`).
+
+    Raises
+    ------
+    RuntimeError
+        A rotor run failed (no steady state): the indices are not computed from a design
+        with holes.
+    """
     from SALib.analyze import sobol as sobol_analyze
     from SALib.sample import sobol as sobol_sample
 
-    space = study_space()
+    space = study_space(stage)
     names = space.names
-    groups = [GROUPS.get(n, "pinion pitch" if "_p_" in n else "wheel pitch") for n in names]
+    groups = sobol_groups(names)
     problem = {"num_vars": len(names), "names": names, "groups": groups,
                "bounds": [[0.0, 1.0]] * len(names)}
     unit = np.clip(sobol_sample.sample(problem, n_base, calc_second_order=False, seed=seed),
                    1e-12, 1 - 1e-12)
-    model = study_model(grade)
+    model = study_model(grade, stage)
+    options = OPTIONS if stage is None else stage_options(stage)
     ds = evaluate_chunks(model, space.transform(unit),
-                                model.prepare(None, outputs=["kv_max"], **OPTIONS),
-                                progress=False, **execution)
+                         model.prepare(None, outputs=["kv_max"], **options),
+                         progress=False, **execution)
     y = ds["kv_max"].values
-    if not np.all(ds["status"].values == 0) or not np.all(np.isfinite(y)):
-        raise RuntimeError("grouped Sobol': some rotor runs failed; indices not computed")
+    bad = int(np.count_nonzero((ds["status"].values != 0) | ~np.isfinite(y)))
+    if bad:
+        raise RuntimeError(f"grouped Sobol': {bad} of {y.size} rotor runs failed (no steady "
+                           "state); the indices are not computed")
     res = sobol_analyze.analyze(problem, y, calc_second_order=False, seed=seed)
     return {"groups": list(dict.fromkeys(groups)), "S1": res["S1"].tolist(),
             "S1_conf": res["S1_conf"].tolist(), "ST": res["ST"].tolist(),
@@ -1094,7 +1132,7 @@ def peak_sites(ds: Any, modes: list[tuple[float, float]]) -> list[dict[str, floa
 def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = False,
                  seed: int = 2028, executor: Any = DEFAULT_EXECUTION["executor"],
                  chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
-                 n_per_level: int = 200) -> int:
+                 n_per_level: int = 200, sobol_base: int = 16) -> int:
     """The population stage of the dynamic question on a gear stage (``--stage``).
 
     The stage's rotor, classes, reliefs, load and speed range (:func:`study_space`), the
@@ -1102,7 +1140,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     the Campbell-like map, the accepted share against its closed form ``(1 - s)^2``, X at
     the 90 % quantile of accepted ``kv_max`` with P(kv_max >= X | pass) by counting and by
     subset simulation on the parallel system (not in ``quick``), the rank correlations of
-    ``kv_max`` with its causes. The rare level is not run on a stage.
+    ``kv_max`` with its causes, and (not in ``quick``) the grouped Sobol' indices of
+    ``kv_max`` (:func:`grouped_sobol`). The rare level is not run on a stage.
 
     Parameters
     ----------
@@ -1119,6 +1158,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     n_runs, n_per_level : int
         Crude Monte Carlo runs and subset-simulation samples per level (0: no subset
         simulation).
+    sobol_base : int
+        Saltelli base samples of the grouped Sobol' indices (``7 sobol_base`` runs; 0: none).
 
     Returns
     -------
@@ -1133,6 +1174,9 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     if int(n_per_level) != n_per_level or not (n_per_level == 0 or n_per_level >= 10):
         raise ValueError(f"n_per_level={n_per_level!r} is outside its valid range: 0 (no "
                          "subset simulation) or integers >= 10")
+    if int(sobol_base) != sobol_base or not (sobol_base == 0 or sobol_base >= 2):
+        raise ValueError(f"sobol_base={sobol_base!r} is outside its valid range: 0 (no Sobol' "
+                         "indices) or integers >= 2")
     n_mc, stages = (QUICK_STAGE_RUNS if quick else int(n_runs)), {}
     with workers_for_run(executor) as pool:
         run_on = {"executor": pool, "chunk_size": chunk_size}
@@ -1151,8 +1195,13 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
                 rng=seed + 1, n_per_level=int(n_per_level), model_options=stage_options(stage),
                 **run_on), accepted_probability(0, stage))
             stages["subset"] = tuple(np.subtract(clock(), (t1, c1)))
+        sobol = None
+        if not quick and sobol_base:
+            t2, c2 = clock()
+            sobol = grouped_sobol(int(sobol_base), seed + 2, 0, run_on, stage)
+            stages["sobol"] = tuple(np.subtract(clock(), (t2, c2)))
     modes = mesh_mode_speeds(0, stage)
-    paths = figures(out, ds, x, modes, None, 0, stage)
+    paths = figures(out, ds, x, modes, sobol, 0, stage)
     p_pass = (1.0 - OPTIONS["process_share_beyond"]) ** 2
     # counted on germ pairs (12 CPU s for two million on the e-axle; a fifth in quick)
     n_germs = 400_000 if quick else 2_000_000
@@ -1161,6 +1210,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
                                                              stage.wheel.iso_grade],
             "seed": seed, "X": x, "crude_mc": conditional_count(ds, x),
             "crude_mc_invalid_as_failures": invalid_as_failures(ds, x), "subset": ss,
+            "sobol": sobol,
             "accepted_share": int(ok.sum()) / max(n_ok, 1), "accepted_share_interval":
             clopper_pearson_interval(int(ok.sum()), n_ok), "accepted_share_closed_form": p_pass,
             "accepted_probability_counted": (*accepted_probability(0, stage, n_germs),
@@ -1219,6 +1269,8 @@ def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
           + "; ISO Method B: " + ", ".join(f"{v:.3f}" for v in info["kv_iso_max_quantiles"]))
     print("  rank correlation with kv_max: " + ", ".join(
         f"{k} {v:+.2f}" for k, v in info["kv_rank_correlations"].items()))
+    if info["sobol"] is not None:
+        _print_sobol(info["sobol"])
     print("  peaks nearest: " + ", ".join(
         f"{p['speed']:.0f} rpm (h {p['harmonic']}) {p['peaks']}" for p in info["peak_sites"]
         if p["peaks"]))
@@ -1226,6 +1278,15 @@ def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
         print(f"  stage {name}: {wall:.0f} s wall, {cpu:.0f} s CPU (this process and its "
               "workers)")
     print(f"written: {out} ({', '.join(p.name for p in paths)}, population.nc, summary.json)")
+
+
+def _print_sobol(sobol: dict[str, Any]) -> None:
+    """The grouped Sobol' indices on one line, each with its bootstrap half-width."""
+    print(f"  grouped Sobol' of kv_max, first order / total (+- 95 % bootstrap, "
+          f"{sobol['runs']} runs): " + ", ".join(
+              f"{g} {a:.2f}+-{da:.2f}/{b:.2f}+-{db:.2f}" for g, a, da, b, db in
+              zip(sobol["groups"], sobol["S1"], sobol["S1_conf"], sobol["ST"],
+                  sobol["ST_conf"], strict=True)))
 
 
 def _stage_route(run_paper: Any) -> Any:
@@ -1244,7 +1305,7 @@ def _stage_route(run_paper: Any) -> Any:
         for name, value in settings.items():
             if name not in own and value != signature.parameters[name].default:
                 raise ValueError(f"{name}={value!r} is not used on a stage (it takes its "
-                                 "classes from its file and has no Sobol' or rare stage); "
+                                 "classes from its file and has no rare stage); "
                                  "valid: the default")
         return run_on_stage(bound.arguments["stage"], **{k: v for k, v in settings.items()
                                                          if k in own})
@@ -1417,9 +1478,7 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
                      "(Markov's inequality on the unbiased estimate)"
                      if e.get("status") and "lower_one_sided" in e else ""))
     if sobol is not None:
-        print("  grouped Sobol' (first order / total): " + ", ".join(
-            f"{g} {a:.2f}/{b:.2f}" for g, a, b in
-            zip(sobol["groups"], sobol["S1"], sobol["ST"], strict=True)))
+        _print_sobol(sobol)
     for name, (wall, cpu) in stages.items():
         print(f"  stage {name}: {wall:.0f} s wall, {cpu:.0f} s CPU (this process and its "
               "workers)")
