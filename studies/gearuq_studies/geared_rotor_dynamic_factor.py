@@ -1061,8 +1061,8 @@ def figures(out: Path, ds: Any, x: float, modes: list[tuple[float, float]],
         ax.bar(pos - 0.2, sobol["S1"], 0.4, yerr=sobol["S1_conf"], label="first order")
         ax.bar(pos + 0.2, sobol["ST"], 0.4, yerr=sobol["ST_conf"], label="total")
         ax.set_xticks(pos, sobol["groups"])
-        ax.set(ylabel="Sobol' index of kv_max", title=f"What drives K_v ({sobol['runs']} "
-               "rotor runs)")
+        ax.set(ylabel="Sobol' index of kv_max (1)", title=f"What drives K_v{where} "
+               f"({sobol['runs']} rotor runs)")
         ax.legend(fontsize=7)
         paths.append(out / "sobol_kv.png")
         plot.save_figure(fig, paths[-1], dpi=130, bbox_inches="tight")  # stamps a quick run
