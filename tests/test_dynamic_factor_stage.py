@@ -74,6 +74,25 @@ def test_the_stage_option_routes_and_refuses_what_a_stage_does_not_use(tmp_path)
     args = study_parser("geared_rotor_dynamic_factor", study.run).parse_args(
         ["--stage", STAGE, "--n-per-level", "0"])
     assert vars(args) == {"stage": STAGE, "n_per_level": 0}
+    with pytest.raises(ValueError, match=r"sobol_base=1 is outside its valid range: 0"):
+        study.run(out=tmp_path, sobol_base=1, stage=STAGE)
+
+
+def test_sobol_groups_put_every_input_of_a_stage_under_one_cause():
+    """The grouped Sobol' indices on a stage: each gear's germ its own group, both gears'
+    reliefs one, load and damping one each; an input of no cause is refused by name."""
+    e_axle = GearStage.example(STAGE)
+    names = study.study_space(e_axle).names
+    causes = study.sobol_groups(names)
+    count = {c: causes.count(c) for c in set(causes)}
+    assert count == {"pinion pitch": 26, "wheel pitch": 78, "relief": 2, "load": 1,
+                     "damping": 1}
+    assert [c for n, c in zip(names, causes, strict=True) if "relief" in n] == ["relief"] * 2
+    paper = study.sobol_groups(study.study_space().names)
+    assert {c: paper.count(c) for c in set(paper)} == {
+        "pinion pitch": 29, "wheel pitch": 29, "relief": 1, "load": 1, "damping": 1}
+    with pytest.raises(ValueError, match=r"input 'backlash' has no cause"):
+        study.sobol_groups(["torque", "backlash"])
 
 
 # 2-6 s of CPU: CI runs it with the end-to-end runs (-m e2e)
@@ -230,3 +249,44 @@ def test_acceptance_line_names_the_counted_and_the_closed_form_values():
     assert "passed 90 of 101 runs (0.891 [0.810, 0.940])" in line
     assert f"counted P(pass) = {p:.4f} +- {se:.4f} (standard error, 100000 germ pairs)" in line
     assert "closed form (1 - 0.05)^2 = 0.9025" in line
+
+
+def test_grouped_sobol_solves_a_failed_run_again_and_reports_what_stays_failed(monkeypatch):
+    """The Sobol' design on a stage: a run without a steady state is solved again with the
+    fallback solver (and counted); one that fails again voids the indices, said so with its
+    status, never computed from a design with holes. The model is a stand-in whose kv_max is
+    additive in the load and the damping, so the indices have a closed form."""
+    import xarray as xr
+
+    e_axle = GearStage.example(STAGE)
+    calls = []
+
+    def fake_evaluate(model, design, request, progress, store=None, **execution):
+        solver = request.options["long_period_solver"]
+        calls.append((solver, len(next(iter(design.values())))))
+        torque, damping = np.asarray(design["torque"]), np.asarray(design["damping_ratio"])
+        kv = 1.0 + (torque - 50.0) / 200.0 + 2.0 * (damping - 0.01) / 0.04
+        status = np.zeros(kv.size, np.int8)
+        if solver == "gmres":
+            status[:3] = 16               # GMRES fails on the first three runs
+        elif fail_again:
+            status[0] = 16                # and the fallback on the first of them
+        return xr.Dataset({"kv_max": ("sample", np.where(status == 0, kv, np.nan)),
+                           "status": ("sample", status)})
+
+    monkeypatch.setattr(study, "evaluate_chunks", fake_evaluate)
+    fail_again = False
+    res = study.grouped_sobol(256, 5, 0, {"executor": "serial"}, e_axle)
+    assert calls == [("gmres", 7 * 256), ("spectral_orders", 3)] and res["retried"] == 3
+    assert res["groups"] == ["pinion pitch", "wheel pitch", "relief", "load", "damping"]
+    total = dict(zip(res["groups"], res["ST"], strict=True))
+    # kv = 1 + U + 2 V, U and V uniform on (0, 1) (torque on 50-250 N m, damping on 1-5 %):
+    # variances 1/12 and 4/12, total indices 0.2 and 0.8, none for the other groups
+    assert total["pinion pitch"] == total["wheel pitch"] == total["relief"] == 0.0
+    assert total["load"] == pytest.approx(0.2, abs=0.05)
+    assert total["damping"] == pytest.approx(0.8, abs=0.1)
+    calls.clear()
+    fail_again = True
+    res = study.grouped_sobol(4, 5, 0, {"executor": "serial"}, e_axle)
+    assert "S1" not in res and res["failed"] == 1 and res["retried"] == 2
+    assert res["failed_status"] == {16: 1} and "not computed" in res["message"]
