@@ -254,7 +254,8 @@ def test_acceptance_line_names_the_counted_and_the_closed_form_values():
 def test_grouped_sobol_solves_a_failed_run_again_and_reports_what_stays_failed(monkeypatch):
     """The Sobol' design on a stage: a run without a steady state is solved again with the
     fallback solver (and counted); one that fails again voids the indices, said so with its
-    status, never computed from a design with holes. The model is a stand-in whose kv_max is
+    status, never computed from a design with holes; a run whose peak search alone failed
+    enters with its lower bound, counted. The model is a stand-in whose kv_max is
     additive in the load and the damping, so the indices have a closed form."""
     import xarray as xr
 
@@ -269,15 +270,21 @@ def test_grouped_sobol_solves_a_failed_run_again_and_reports_what_stays_failed(m
         status = np.zeros(kv.size, np.int8)
         if solver == "gmres":
             status[:3] = 16               # GMRES fails on the first three runs
+            status[3] = 21                # and one run's peak search (its value a bound)
         elif fail_again:
             status[0] = 16                # and the fallback on the first of them
-        return xr.Dataset({"kv_max": ("sample", np.where(status == 0, kv, np.nan)),
-                           "status": ("sample", status)})
+        out = xr.Dataset({"kv_max": ("sample", np.where(status == 16, np.nan, kv)),
+                          "status": ("sample", status)})
+        out["status"].attrs = {"flag_values": np.array([0, 16, 21], np.int8),
+                               "flag_meanings": "ok harmonic_balance_not_converged "
+                                                "steady_state_failed_while_locating_a_peak"}
+        return out
 
     monkeypatch.setattr(study, "evaluate_chunks", fake_evaluate)
     fail_again = False
     res = study.grouped_sobol(256, 5, 0, {"executor": "serial"}, e_axle)
     assert calls == [("gmres", 7 * 256), ("spectral_orders", 3)] and res["retried"] == 3
+    assert res["lower_bounds"] == 1
     assert res["groups"] == ["pinion pitch", "wheel pitch", "relief", "load", "damping"]
     total = dict(zip(res["groups"], res["ST"], strict=True))
     # kv = 1 + U + 2 V, U and V uniform on (0, 1) (torque on 50-250 N m, damping on 1-5 %):
@@ -289,4 +296,5 @@ def test_grouped_sobol_solves_a_failed_run_again_and_reports_what_stays_failed(m
     fail_again = True
     res = study.grouped_sobol(4, 5, 0, {"executor": "serial"}, e_axle)
     assert "S1" not in res and res["failed"] == 1 and res["retried"] == 2
+    assert res["lower_bounds"] == 1
     assert res["failed_status"] == {16: 1} and "not computed" in res["message"]

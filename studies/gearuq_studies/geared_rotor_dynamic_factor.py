@@ -953,15 +953,19 @@ def grouped_sobol(n_base: int, seed: int, grade: int, execution: dict[str, Any],
     pitch germ of each gear, relief, load, damping: :data:`GROUPS`), over the untruncated
     law of :func:`study_space` (``stage``'s on a stage, with :func:`stage_options`).
 
-    The runs go to ``store`` when given (a rerun reuses them). On a stage, a run without a
+    The runs go to ``store`` when given (a rerun reuses them). A run whose every grid speed
+    has a steady state but whose peak search failed (the plugin's
+    ``steady_state_failed_while_locating_a_peak``) enters with its largest value found, a
+    lower bound of its peak, counted in ``lower_bounds``. On a stage, a run without a
     steady state is solved again with :data:`STAGE_FALLBACK_SOLVER`.
 
     Returns
     -------
     dict
         ``groups``, ``S1``, ``S1_conf``, ``ST``, ``ST_conf`` (95 % bootstrap half-widths),
-        ``runs``, ``retried``; or, where runs are still without a steady state, no indices
-        (a design with holes has none) but ``failed``, ``failed_status`` and ``message``.
+        ``runs``, ``retried``, ``lower_bounds``; or, where runs are still without a steady
+        state, no indices (a design with holes has none) but ``failed``, ``failed_status``
+        and ``message``.
     """
     from SALib.analyze import sobol as sobol_analyze
     from SALib.sample import sobol as sobol_sample
@@ -979,7 +983,12 @@ def grouped_sobol(n_base: int, seed: int, grade: int, execution: dict[str, Any],
     ds = evaluate_chunks(model, design, model.prepare(None, outputs=["kv_max"], **options),
                          progress=False, store=store, **execution)
     y, status = ds["kv_max"].values.copy(), ds["status"].values.copy()
-    failed = np.flatnonzero((status != 0) | ~np.isfinite(y))
+    meanings = dict(zip(str(ds["status"].attrs.get("flag_meanings", "")).split(),
+                        np.atleast_1d(ds["status"].attrs.get("flag_values", [])), strict=False))
+    peak_missed = meanings.get("steady_state_failed_while_locating_a_peak")
+    lower = (status == peak_missed) & np.isfinite(y) if peak_missed is not None else \
+        np.zeros(y.size, bool)
+    failed = np.flatnonzero(((status != 0) & ~lower) | ~np.isfinite(y))
     retried = 0
     if failed.size and stage is not None:
         again = evaluate_chunks(
@@ -992,7 +1001,8 @@ def grouped_sobol(n_base: int, seed: int, grade: int, execution: dict[str, Any],
         retried, failed = int(fixed.sum()), failed[~fixed]
     if failed.size:
         codes = dict(zip(*np.unique(status[failed], return_counts=True), strict=True))
-        return {"runs": int(y.size), "retried": retried, "failed": int(failed.size),
+        return {"runs": int(y.size), "retried": retried, "lower_bounds": int(lower.sum()),
+                "failed": int(failed.size),
                 "failed_status": {int(k): int(v) for k, v in codes.items()},
                 "message": f"{failed.size} of {y.size} rotor runs without a steady state "
                            f"(status {sorted(int(k) for k in codes)}): the indices are not "
@@ -1000,7 +1010,8 @@ def grouped_sobol(n_base: int, seed: int, grade: int, execution: dict[str, Any],
     res = sobol_analyze.analyze(problem, y, calc_second_order=False, seed=seed)
     return {"groups": list(dict.fromkeys(groups)), "S1": res["S1"].tolist(),
             "S1_conf": res["S1_conf"].tolist(), "ST": res["ST"].tolist(),
-            "ST_conf": res["ST_conf"].tolist(), "runs": int(y.size), "retried": retried}
+            "ST_conf": res["ST_conf"].tolist(), "runs": int(y.size), "retried": retried,
+            "lower_bounds": int(lower.sum())}
 
 
 def mesh_mode_speeds(grade: int, stage: GearStage | None = None) -> list[tuple[float, float]]:
@@ -1324,6 +1335,8 @@ def _print_sobol(sobol: dict[str, Any]) -> None:
         return
     retried = (f"; {sobol['retried']} solved again on the spectral orders"
                if sobol.get("retried") else "")
+    retried += (f"; {sobol['lower_bounds']} with a lower bound of the peak (its search "
+                "failed)" if sobol.get("lower_bounds") else "")
     print(f"  grouped Sobol' of kv_max, first order / total (+- 95 % bootstrap, "
           f"{sobol['runs']} runs{retried}): " + ", ".join(
               f"{g} {a:.2f}+-{da:.2f}/{b:.2f}+-{db:.2f}" for g, a, da, b, db in
