@@ -97,10 +97,11 @@ that agrees with the sideband ``f_m + 2 f_s`` of the pinion's pitch deviations o
 without pitch deviations K_v is 1.02. At X = 2.34 (the 90 % quantile),
 P(kv_max >= X | pass) = 0.109 [0.056, 0.187] by count (11 of 101). Rank correlations with
 ``kv_max``: pinion F_p +0.64, damping -0.50, torque -0.44, wheel F_p and the reliefs
-|rho| <= 0.08. The grouped Sobol' indices (16 base samples, 112 runs) were not computed: 4
-runs at damping 1.0-1.5 % have no steady state on either solver, where the periodic
-response is not unique (solved speed by speed, K_v reads 4.8-10.4 on a branch with deeper
-separation; the speed sweep follows one with 2.3-2.9).
+|rho| <= 0.08. Grouped Sobol' totals (16 base samples, 112 runs): pinion pitch 0.37, load
+0.25, damping 0.23 (+-0.19-0.27), wheel pitch and relief 0.00; 4 runs at damping 1.0-1.5 %
+enter with a lower bound of their peak (status 21), where the periodic response is not
+unique (solved speed by speed, K_v reads 4.8-10.4 on a branch with deeper separation; the
+speed sweep follows one with 2.3-2.9).
 
 Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]
 [--stage NAME|FILE]``.
