@@ -61,12 +61,13 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
      **1.36e-6 [8.9e-7, 1.83e-6]**, 31.6 effective failing draws, status 0, 1342 rotor runs,
      904 CPU s / 492 s wall: inside both line intervals, and both line estimates inside
      its own. Its coverage against the 420 pooled line terms (:data:`LINES_REFERENCE`,
-     1.52e-6, :func:`mirrored_coverage`), 2000 draws a seed: of seeds 3001-3009, 7 of the
-     8 status-0 intervals hold it (the miss by 0.4 % of its lower end) and the flagged one
-     (status 3) too, about 1300 CPU s a seed; the 8 status-0 estimates average 1.84e-6
-     (standard error 0.10e-6), 2.0 joint standard errors above the lines' (the store,
+     1.52e-6, :func:`mirrored_coverage`), 2000 draws a seed: of seeds 3001-3018, 13 of the
+     15 status-0 intervals hold it and the 3 flagged ones (status 3) too, about
+     1300 CPU s a seed; the status-0 estimates average 1.78e-06 (standard error
+     6.9e-08), 1.8 joint standard errors above the lines' (the store,
      resumable towards 20 seeds:
-     ``docs/data/rotor_mirrored_coverage.jsonl``; docs/benchmarks.md, "Sixth round").
+     ``docs/data/rotor_mirrored_coverage.jsonl``; docs/benchmarks.md, "Sixth round" and
+     "Seventh round").
    - ``subspace``, ``harmonic`` (densities fitted by cross-entropy on the cheap model),
      ``mfis`` and ``subset`` stay available; at this level their weights or levels do not
      vouch for an interval (status 3 or 1; docs/benchmarks.md, "The dynamic question",
