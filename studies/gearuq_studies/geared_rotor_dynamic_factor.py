@@ -61,10 +61,10 @@ over P(pass): a :class:`gearuq.ParallelSystem` of the two limit states, so every
      **1.36e-6 [8.9e-7, 1.83e-6]**, 31.6 effective failing draws, status 0, 1342 rotor runs,
      904 CPU s / 492 s wall: inside both line intervals, and both line estimates inside
      its own. Its coverage against the 420 pooled line terms (:data:`LINES_REFERENCE`,
-     1.52e-6, :func:`mirrored_coverage`), 2000 draws a seed: of seeds 3001-3019, 14 of the
-     16 status-0 intervals hold it and the 3 flagged ones (status 3) too, about
-     1300 CPU s a seed; the status-0 estimates average 1.77e-06 (standard error
-     6.5e-08), 1.7 joint standard errors above the lines' (the store,
+     1.52e-6, :func:`mirrored_coverage`), 2000 draws a seed: of seeds 3001-3020, 15 of the
+     17 status-0 intervals hold it and the 3 flagged ones (status 3) too, about
+     1300 CPU s a seed; the status-0 estimates average 1.76e-06 (standard error
+     6.3e-08), 1.7 joint standard errors above the lines' (the store,
      resumable towards 20 seeds:
      ``docs/data/rotor_mirrored_coverage.jsonl``; docs/benchmarks.md, "Sixth round" and
      "Seventh round").
