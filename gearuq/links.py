@@ -34,7 +34,14 @@ from typing import Any
 
 import numpy as np
 
-from gearuq.model import PLUGIN_STATUS_MIN, Evaluation, Model, Option, Output
+from gearuq.model import (
+    PLUGIN_STATUS_MIN,
+    Evaluation,
+    Model,
+    Option,
+    Output,
+    status_meanings,
+)
 
 __all__ = ["FidelityLink", "LinkOutput", "LowFidelityInputs", "LinkContext",
            "STATUS_LOW_FIDELITY_RANGE"]
@@ -435,9 +442,7 @@ class FidelityLink(Model):
                       meanings: dict[int, str]) -> None:
         """LF status codes into the link's: 1-15 kept, plugin codes moved up by 16."""
         low_status = np.asarray(ds["status"].values, dtype=np.int64)
-        flags = ds["status"].attrs
-        names = dict(zip((int(v) for v in np.atleast_1d(flags.get("flag_values", []))),
-                         str(flags.get("flag_meanings", "")).split(), strict=False))
+        names = status_meanings(ds["status"])
         for code in np.unique(low_status[low_status != 0]):
             code = int(code)
             mine = code + _LF_SHIFT if code >= PLUGIN_STATUS_MIN else code

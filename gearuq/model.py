@@ -741,6 +741,27 @@ def status_attrs(extra: Mapping[int, str] | None = None) -> dict[str, Any]:
     }
 
 
+def status_meanings(status: Any) -> dict[int, str]:
+    """Code -> name of a ``status`` flag variable, the inverse of :func:`status_attrs`.
+
+    Parameters
+    ----------
+    status : xarray.DataArray or mapping
+        A result's ``status`` variable, or its attributes (CF ``flag_values`` and
+        ``flag_meanings``).
+
+    Returns
+    -------
+    dict
+        ``{code: name}`` with the names as stored (words joined by underscores); empty for a
+        variable without flags.
+    """
+    attrs = getattr(status, "attrs", status)
+    codes = np.atleast_1d(attrs.get("flag_values", []))
+    names = str(attrs.get("flag_meanings", "")).split()
+    return {int(c): name for c, name in zip(codes, names, strict=False)}
+
+
 def _brief(value: Any, limit: int = 60) -> str:
     """``repr(value)`` shortened for an error message."""
     text = repr(value)

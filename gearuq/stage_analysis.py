@@ -39,6 +39,7 @@ import numpy as np
 import xarray as xr
 
 from gearuq._version import __version__
+from gearuq.model import status_meanings
 
 __all__ = ["analyse_stage", "geometry_table", "iso6336_table", "mesh_cycle", "reliability",
            "rotor_run_up", "run_up", "write_stage_results"]
@@ -276,8 +277,7 @@ def rotor_run_up(stage: Any, *, n_speeds: int = 32, positions_per_cycle: int = 2
                        {"units": var.attrs.get("units", "1"), "long_name": meaning,
                         "source": src})
     status = int(res["status"].values[0])
-    meanings = dict(zip(res["status"].attrs["flag_values"].tolist(),
-                        res["status"].attrs["flag_meanings"].split(), strict=True))
+    meanings = status_meanings(res["status"])
     out["rotor_status"] = ((), status, {"units": "1", "long_name": "status of the rotor's "
                                         "run-up: " + meanings.get(status, str(status))})
     return out

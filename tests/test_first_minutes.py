@@ -332,6 +332,23 @@ def test_describe_status_of_a_report_and_of_samples():
         describe_status({"status": 0})
 
 
+def test_status_meanings_inverts_the_flag_attributes(tmp_path):
+    """Code -> name from a result's status variable, also after a netCDF round trip, and
+    from a plugin's own codes; a variable without flags gives an empty mapping."""
+    import gearuq
+    from gearuq.model import STATUS_MEANINGS, status_attrs, status_meanings
+
+    attrs = status_attrs({16: "contact lost", 21: "peak not located"})
+    got = status_meanings(attrs)
+    assert got[16] == "contact_lost" and got[21] == "peak_not_located"
+    assert got == {c: n.replace(" ", "_") for c, n in (
+        STATUS_MEANINGS | {16: "contact lost", 21: "peak not located"}).items()}
+    ds = xr.Dataset({"status": ("sample", np.array([0, 21], np.int8), attrs)})
+    gearuq.save(ds, tmp_path / "r.nc")
+    assert status_meanings(gearuq.load(tmp_path / "r.nc")["status"]) == got
+    assert status_meanings(xr.DataArray(0)) == {}
+
+
 def test_quick_run_prints_and_stamps_every_figure_saved_inside(tmp_path, capsys):
     from matplotlib.figure import Figure
 

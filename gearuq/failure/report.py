@@ -274,9 +274,9 @@ def _design_point_vars(ev: LimitStateEvaluator, design_points: Sequence[Mapping[
 
 def _flag_meanings(status: xr.DataArray) -> dict[int, str]:
     """``flag_values`` -> ``flag_meanings`` of a CF flag variable (words, not underscores)."""
-    codes = np.atleast_1d(status.attrs.get("flag_values", []))
-    words = str(status.attrs.get("flag_meanings", "")).split()
-    return {int(c): w.replace("_", " ") for c, w in zip(codes, words, strict=False)}
+    from gearuq.model import status_meanings
+
+    return {c: name.replace("_", " ") for c, name in status_meanings(status).items()}
 
 
 def describe_status(result: xr.Dataset | xr.DataArray | int, *, details: bool = True) -> str:

@@ -56,7 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from gearuq.model import Model, Request
+from gearuq.model import Model, Request, status_meanings
 from gearuq.space import Marginal, ParameterSpace
 
 __all__ = ["to_openturns_function", "to_openturns_distribution", "from_openturns_distribution",
@@ -131,9 +131,7 @@ class _Evaluator:
         failed = np.flatnonzero(status != 0)
         if failed.size:
             i = int(failed[0])
-            attrs = ds["status"].attrs
-            meanings = dict(zip((int(c) for c in attrs.get("flag_values", ())),
-                                str(attrs.get("flag_meanings", "")).split(), strict=False))
+            meanings = status_meanings(ds["status"])
             point = ", ".join(f"{k}={x[i, j]:.17g}" for j, k in enumerate(self.inputs))
             # OpenTURNS has no per-sample status: stop rather than hand it a made-up value
             raise RuntimeError(

@@ -153,6 +153,11 @@ class DynamicRange:
         First non-zero status among the refinement's steady states (0: none failed). A failed
         one ends its peak's search early: that peak is then the largest value found before
         it (never below the grid's), with a bracket wider than asked.
+    kv_run_up : ndarray, (n,)
+        K_v of the run-up alone (the increasing sweep); equal to ``kv`` with
+        ``sweep_direction="up"``.
+    run_down_speeds : int
+        Grid speeds the run-down solved (``sweep_direction="up_and_down"``; 0 otherwise).
     """
 
     speeds: np.ndarray
@@ -167,6 +172,8 @@ class DynamicRange:
     peaks: dict = field(default_factory=dict)
     refinement_runs: int = 0
     refinement_status: int = 0
+    kv_run_up: np.ndarray | None = None
+    run_down_speeds: int = 0
 
     def worst_status(self) -> int:
         """First non-zero harmonic-balance status of the grid (0: every speed converged)."""
@@ -176,6 +183,15 @@ class DynamicRange:
 
 #: Quantities of :class:`DynamicRange` whose peaks are located (name -> mesh-order column).
 PEAK_QUANTITIES = ("kv", "dte_mesh_band_rms", "dte_mesh_orders", "acceleration_mesh_orders")
+
+#: Sweeps of :meth:`GearedRotorProblem.dynamics_over_speeds`: the run-up alone, or the
+#: run-up and a run-down over its contact-loss ranges (both branches where the response is
+#: not unique; docs/theory/geared_rotor.md, "Two periodic responses at one speed").
+SWEEP_DIRECTIONS = ("up", "up_and_down")
+
+#: Per-speed quantities of a sweep's rows, as :class:`DynamicRange` names them.
+_ROW_QUANTITIES = ("kv", "dte_rms", "dte_mesh_band_rms", "dte_mesh_orders",
+                   "acceleration_mesh_orders")
 
 
 def _local_maxima(y: np.ndarray, count: int) -> list[int]:
@@ -469,6 +485,45 @@ class GearedRotorProblem:
                 return again
         return timed
 
+    def _solve_from(self, speed_rpm: float, state: object, kw: dict) -> tuple[dict, object]:
+        """One steady state of a sweep started from ``state``: ``(values, next state)``.
+
+        ``state`` is what an earlier call returned (``None``: the linear start). Here it is
+        the two-sided ``delta`` of a converged contact-loss solution; subclasses whose
+        solvers keep more (GMRES's start) return and restore their own.
+        """
+        values, sol = self.dynamics_at(speed_rpm, initial=state, **kw)
+        return values, (sol.two_sided_delta() if sol.status == 0
+                        and sol.branch != "full_contact" else None)
+
+    def _run_down(self, speeds: np.ndarray, up: list[dict], up_states: list,
+                  kw: dict) -> tuple[list[dict | None], list]:
+        """The run-down over the run-up's contact-loss ranges: the other branch's rows.
+
+        Starts at the top speed of each range of consecutive run-up speeds with the teeth
+        apart, from the run-up's state there, and goes down speed by speed, each started
+        from the last, until both sweeps are in full contact at one speed (where the linear
+        response, unique, joins them). Where the mesh's softening bends a resonance toward
+        lower speeds, the run-up jumps onto the large response only at the top of its range
+        of existence and the run-down follows it to its peak. Returns rows and states
+        (``None`` where the run-down did not solve).
+        """
+        n = speeds.size
+        rows: list[dict | None] = [None] * n
+        states: list = [None] * n
+        active, state = False, None
+        for i in range(n - 1, -1, -1):
+            apart = up[i]["status"] == 0 and up[i]["contact_loss_fraction"] > 0
+            if not active:
+                if apart:  # the top of a contact-loss range: the run-up's state there
+                    active, state = True, up_states[i]
+                continue
+            rows[i], state = self._solve_from(float(speeds[i]), state, kw)
+            states[i] = state
+            if not apart and rows[i]["contact_loss_fraction"] == 0:
+                active = False
+        return rows, states
+
     def dynamics_over_speeds(
         self,
         speeds_rpm: Sequence[float],
@@ -480,17 +535,25 @@ class GearedRotorProblem:
         speed_tol: float = 1.0,
         tol: float = 1e-9,
         continuation: bool = True,
+        sweep_direction: str = "up",
     ) -> DynamicRange:
         """K_v, the mesh-band DTE and the mesh-order responses over a speed grid, peaks resolved.
 
         The grid is swept in order (with contact loss Newton's method starts from the
-        previous speed's solution). For every quantity in ``refine`` (each mesh order
-        separately) the ``peaks_refined`` largest local maxima of the grid are then located
-        by golden-section search between the grid neighbours, to ``speed_tol`` rpm; the
-        reported maximum is the largest value evaluated (grid or refinement), so it never
-        falls below the grid's. A resonance narrower than the grid step can still be missed
-        if no grid speed sees its flank; the grid step should stay below the half-power
-        width ``2 zeta f_n`` of the lowest mode expressed in speed (docs/theory/geared_rotor.md).
+        previous speed's solution). With ``sweep_direction="up_and_down"`` the contact-loss
+        ranges of that run-up are swept down as well (:meth:`_run_down`) and each quantity
+        at each speed is the larger of the two sweeps: where two periodic responses exist
+        (the teeth separate on one of them) the larger counts, as a gearbox that slows down
+        through the range, or is kicked onto it, sees it. For every quantity in ``refine``
+        (each mesh order separately) the ``peaks_refined`` largest local maxima of the grid
+        are then located by golden-section search between the grid neighbours, to
+        ``speed_tol`` rpm, each steady state started from the maximum's own grid speed on the
+        sweep it came from (from the nearest grid speed's if that fails); the reported
+        maximum is the largest value evaluated (grid or refinement), so it never falls below
+        the grid's. A resonance narrower than
+        the grid step can still be missed if no grid speed sees its flank; the grid step
+        should stay below the half-power width ``2 zeta f_n`` of the lowest mode expressed in
+        speed (docs/theory/geared_rotor.md).
 
         Parameters
         ----------
@@ -511,6 +574,9 @@ class GearedRotorProblem:
             Harmonic-balance tolerance.
         continuation : bool
             Start contact-loss solutions from the neighbouring speed's.
+        sweep_direction : {"up", "up_and_down"}
+            The run-up alone, or with the run-down over its contact-loss ranges
+            (``SWEEP_DIRECTIONS``).
 
         Returns
         -------
@@ -525,36 +591,39 @@ class GearedRotorProblem:
             raise ValueError(f"refine={unknown!r} is outside its valid set {PEAK_QUANTITIES}")
         if not (math.isfinite(speed_tol) and speed_tol > 0):
             raise ValueError(f"speed_tol={speed_tol!r} rpm is outside its valid range (0, inf)")
+        if sweep_direction not in SWEEP_DIRECTIONS:
+            raise ValueError(f"sweep_direction={sweep_direction!r} is outside its valid set "
+                             f"{SWEEP_DIRECTIONS}")
         kw = {"mesh_orders": mesh_orders, "acceleration_channel": acceleration_channel,
               "tol": tol}
-        rows, starts = [], []
-        prev: PeriodicSolution | None = None
+        up, up_states = [], []
+        state: object = None
         with single_threaded_blas():
             for s in speeds:
-                init = (prev.two_sided_delta() if continuation and prev is not None
-                        and prev.status == 0 and prev.branch != "full_contact" else None)
-                values, prev = self.dynamics_at(float(s), initial=init, **kw)
-                rows.append(values)
-                starts.append(prev.two_sided_delta() if prev.status == 0
-                              and prev.branch != "full_contact" else None)
-            out = DynamicRange(
-                speeds=speeds, kv=np.array([r["kv"] for r in rows]),
-                dte_rms=np.array([r["dte_rms"] for r in rows]),
-                dte_mesh_band_rms=np.array([r["dte_mesh_band_rms"] for r in rows]),
-                dte_mesh_orders=np.array([r["dte_mesh_orders"] for r in rows]),
-                acceleration_mesh_orders=np.array([r["acceleration_mesh_orders"]
-                                                   for r in rows]),
-                status=np.array([r["status"] for r in rows], dtype=np.int8),
-                iterations=np.array([r["iterations"] for r in rows], dtype=np.int64),
-                contact_loss_fraction=np.array([r["contact_loss_fraction"] for r in rows]))
-            cache: dict[float, dict] = {}
+                values, state = self._solve_from(float(s), state if continuation else None,
+                                                 kw)
+                up.append(values)
+                up_states.append(state)
+            sweeps, states = [up], [up_states]
+            if sweep_direction == "up_and_down":
+                down, down_states = self._run_down(speeds, up, up_states, kw)
+                sweeps.append(down)
+                states.append(down_states)
+            out, origin = _envelope(speeds, sweeps)
+            cache: dict[tuple[float, int], dict] = {}
 
-            def evaluate(s: float) -> dict:
-                if s not in cache:
+            def evaluate(s: float, sweep: int, peak: int) -> dict:
+                """The steady state at ``s`` on the branch of the peak at grid index ``peak``."""
+                if (s, sweep) not in cache:
+                    # from the peak's own state: between two grid speeds a nearer one can
+                    # sit on the other branch (a jump); then from the nearest grid speed's
+                    values = self._solve_from(s, states[sweep][peak] if continuation
+                                              else None, kw)[0]
                     near = int(np.argmin(np.abs(speeds - s)))
-                    cache[s] = self.dynamics_at(s, initial=starts[near] if continuation
-                                                else None, **kw)[0]
-                return cache[s]
+                    if values["status"] != 0 and continuation and near != peak:
+                        values = self._solve_from(s, states[0][near], kw)[0]
+                    cache[s, sweep] = values
+                return cache[s, sweep]
 
             for name in PEAK_QUANTITIES:
                 curves = getattr(out, name)
@@ -562,8 +631,11 @@ class GearedRotorProblem:
                 for c in columns:
                     curve = curves if c is None else curves[:, c]
                     key = name if c is None else f"{name}_{c + 1}"
+                    came_from = origin[name] if c is None else origin[name][:, c]
                     out.peaks[key] = _refined_peak(
-                        speeds, curve, (lambda s, n=name, c=c: _pick(evaluate(s), n, c)),
+                        speeds, curve,
+                        (lambda s, i, n=name, c=c, w=came_from:
+                         _pick(evaluate(s, int(w[i]), i), n, c)),
                         peaks_refined if name in refine else 0, speed_tol)
             out.refinement_runs = len(cache)
             failed = [int(v["status"]) for v in cache.values() if int(v["status"]) != 0]
@@ -599,6 +671,50 @@ class GearedRotorProblem:
         return out
 
 
+def _envelope(speeds: np.ndarray, sweeps: list[list[dict | None]]
+              ) -> tuple[DynamicRange, dict[str, np.ndarray]]:
+    """The :class:`DynamicRange` of one or more sweeps' rows: each quantity the largest.
+
+    ``sweeps[0]`` (the run-up) has a row at every speed, later sweeps where they solved
+    (``None`` elsewhere). A converged row of a later sweep replaces the run-up's value where
+    it is larger (or the run-up's failed); a failed row of a later sweep makes the speed's
+    status its own (that response is not known). Returns the range and, per quantity, the
+    sweep each value came from.
+    """
+    up = sweeps[0]
+    values = {q: np.array([r[q] for r in up], dtype=float) for q in _ROW_QUANTITIES}
+    origin = {q: np.zeros(v.shape, dtype=np.int8) for q, v in values.items()}
+    status = np.array([r["status"] for r in up], dtype=np.int8)
+    iterations = np.array([r["iterations"] for r in up], dtype=np.int64)
+    apart = np.array([r["contact_loss_fraction"] for r in up], dtype=float)
+    kv_up = values["kv"].copy()
+    solved = 0
+    for k, rows in enumerate(sweeps[1:], start=1):
+        for i, row in enumerate(rows):
+            if row is None:
+                continue
+            solved += 1
+            iterations[i] += int(row["iterations"])
+            if int(row["status"]) != 0:
+                if status[i] == 0:
+                    status[i] = int(row["status"])
+                continue
+            base_ok = status[i] == 0
+            for q in _ROW_QUANTITIES:
+                new = np.asarray(row[q], dtype=float)
+                take = (new > values[q][i]) | (not base_ok) | ~np.isfinite(values[q][i])
+                values[q][i] = np.where(take, new, values[q][i])
+                origin[q][i] = np.where(take, k, origin[q][i])
+            apart[i] = max(apart[i], float(row["contact_loss_fraction"]))
+    out = DynamicRange(speeds=speeds, kv=values["kv"], dte_rms=values["dte_rms"],
+                       dte_mesh_band_rms=values["dte_mesh_band_rms"],
+                       dte_mesh_orders=values["dte_mesh_orders"],
+                       acceleration_mesh_orders=values["acceleration_mesh_orders"],
+                       status=status, iterations=iterations, contact_loss_fraction=apart,
+                       kv_run_up=kv_up, run_down_speeds=solved)
+    return out, origin
+
+
 def _band_limited(one_sided: np.ndarray, n: int) -> np.ndarray:
     """Real signal of one-sided harmonics ``c_0..c_m`` on ``n`` equally spaced instants."""
     c = np.zeros(n // 2 + 1, dtype=complex)
@@ -615,12 +731,14 @@ def _pick(values: dict, name: str, column: int | None) -> float:
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
-def _refined_peak(speeds: np.ndarray, curve: np.ndarray, f: Callable[[float], float],
+def _refined_peak(speeds: np.ndarray, curve: np.ndarray,
+                  f: Callable[[float, int], float],
                   count: int, speed_tol: float) -> tuple[float, float, float]:
     """``(largest value, its speed, bracket width [rpm])`` after refining ``count`` maxima.
 
-    Golden-section search between the grid neighbours of each local maximum; a failed
-    evaluation (NaN) ends that search with the best value found so far.
+    Golden-section search between the grid neighbours of each local maximum ``i``, each
+    value ``f(speed, i)``; a failed evaluation (NaN) ends that search with the best value
+    found so far.
     """
     finite = np.isfinite(curve)
     if not finite.any():
@@ -632,16 +750,16 @@ def _refined_peak(speeds: np.ndarray, curve: np.ndarray, f: Callable[[float], fl
         a, b = float(speeds[max(i - 1, 0)]), float(speeds[min(i + 1, speeds.size - 1)])
         found = (float(curve[i]), float(speeds[i]))
         x1, x2 = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
-        f1, f2 = f(x1), f(x2)
+        f1, f2 = f(x1, i), f(x2, i)
         while b - a > speed_tol and math.isfinite(f1) and math.isfinite(f2):
             if f1 >= f2:
                 b, x2, f2 = x2, x1, f1
                 x1 = b - _GOLDEN * (b - a)
-                f1 = f(x1)
+                f1 = f(x1, i)
             else:
                 a, x1, f1 = x1, x2, f2
                 x2 = a + _GOLDEN * (b - a)
-                f2 = f(x2)
+                f2 = f(x2, i)
         for x, v in ((x1, f1), (x2, f2)):
             if math.isfinite(v) and v > found[0]:
                 found = (v, x)

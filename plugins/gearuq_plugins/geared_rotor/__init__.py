@@ -217,6 +217,10 @@ _OPTIONS = (
     _O("kv_iso_class", 6, "ISO 1328-1 accuracy class of kv_iso_* for samples with "
        "iso_grade = 0 (their pitch deviations are not given as a class)", kind=int, lower=1,
        upper=12),
+    _O("sweep_direction", "up", "speeds of the range swept 'up' (a run-up), or 'up_and_down' "
+       "(the run-up, then a run-down over its contact-loss ranges; each range output the "
+       "larger of the two: where the teeth separate two periodic responses can coexist, "
+       "docs/theory/geared_rotor.md)", choices=("up", "up_and_down")),
     _O("peak_speed_tol", 1.0, "width of the final speed bracket of a located peak", lower=1e-3,
        upper=1000.0, units="rpm"),
     _O("end_inertias", "parameters", "drive and load inertias on the shaft ends: the "

@@ -167,6 +167,7 @@ class LongPeriodProblem(GearedRotorProblem):
         self._previous_timed: PeriodicSolution | None = None  # a time-integrated previous
         self._continued = False  # GMRES starts from _previous (inside dynamics_over_speeds)
         self._spent = 0  # GMRES iterations of the current dynamics_over_speeds call
+        self._budget = SWEEP_GMRES_BUDGET  # what that call may spend (twice with a run-down)
         if solver == "gmres":
             self.krylov = prepare_krylov(excitation, self.mesh_harmonics)
             self.kept = np.arange(self._H + 1)
@@ -225,19 +226,37 @@ class LongPeriodProblem(GearedRotorProblem):
     def dynamics_over_speeds(self, speeds_rpm: Any, **kw: Any) -> Any:
         """As :meth:`GearedRotorProblem.dynamics_over_speeds`, BLAS limited once for all.
 
-        With ``continuation`` (default True), each GMRES solve starts from the previous
-        steady state of this call (grid in order, then the peak refinement), so a call's
+        With ``continuation`` (default True), each GMRES solve starts from the steady state
+        before it on its sweep (the grid in order; a run-down from the speed above; a peak's
+        refinement from the nearest grid speed of the sweep the peak came from), so a call's
         results depend on its arguments alone, to the GMRES tolerance.
         """
         with single_threaded_blas():
             self._blas_limited = True
             self._continued = bool(kw.get("continuation", True))
             self._spent = 0
+            # the run-down's steady states get an account as large as the run-up's
+            self._budget = SWEEP_GMRES_BUDGET * (
+                2 if kw.get("sweep_direction", "up") == "up_and_down" else 1)
             try:
                 return super().dynamics_over_speeds(speeds_rpm, **kw)
             finally:
                 self._blas_limited = self._continued = False
                 self._previous = self._previous_remainder = self._previous_timed = None
+
+    def _solve_from(self, speed_rpm: float, state: object, kw: dict) -> tuple[dict, object]:
+        """As :meth:`GearedRotorProblem._solve_from`; GMRES's state is its start.
+
+        With GMRES the state is ``(delta, remainder, timed)``, what :meth:`_solve` keeps for
+        the next speed (the last converged ``delta``; after full contact its remainder;
+        a time-integrated solution), restored before the solve and read after it.
+        """
+        if self.solver != "gmres":
+            return super()._solve_from(speed_rpm, state, kw)
+        self._previous, self._previous_remainder, self._previous_timed = (
+            state if state is not None else (None, None, None))
+        values, _ = self.dynamics_at(speed_rpm, **kw)
+        return values, (self._previous, self._previous_remainder, self._previous_timed)
 
     def peak_mesh_force(self, sol: PeriodicSolution) -> float:
         """Largest mesh force [N] from its harmonics on the kept orders.
@@ -265,8 +284,8 @@ class LongPeriodProblem(GearedRotorProblem):
         if self.solver == "gmres":
             start = self._previous if self._continued else None
             budget = min(GMRES_BUDGET, NEWTON_GMRES_BEFORE_INTEGRATION,
-                         max(SWEEP_GMRES_BUDGET - self._spent, SPENT_SWEEP_GMRES))
-            account = not self._blas_limited or self._spent < SWEEP_GMRES_BUDGET
+                         max(self._budget - self._spent, SPENT_SWEEP_GMRES))
+            account = not self._blas_limited or self._spent < self._budget
             # next to a speed that needed the time integration Newton gets a short try, then
             # the integration continues from that speed's state
             timed_before = self._previous_timed if start is not None and account else None

@@ -564,7 +564,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     status = np.zeros(n, dtype=np.int8)
     extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
                                               "drift", "range_newton_iterations",
-                                              "n_mesh_harmonics", "peak_refinement_runs")}
+                                              "n_mesh_harmonics", "peak_refinement_runs",
+                                              "run_down_speeds", "kv_grid_max_run_up")}
     branch = np.full(n, -1, dtype=np.int8)
     with single_threaded_blas():
         for i in range(n):
@@ -586,13 +587,17 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                     speeds, mesh_orders=options["range_mesh_harmonics"], tol=options["tol"],
                     refine=sorted({_DYNAMIC_OUTPUTS[o][0] for o in dynamic}),
                     peaks_refined=options["peaks_refined"],
-                    speed_tol=options["peak_speed_tol"])
+                    speed_tol=options["peak_speed_tol"],
+                    sweep_direction=options["sweep_direction"])
                 status[i] = _FROM_SOLVER[dyn.worst_status()]
                 if status[i] == 0 and dyn.refinement_status != 0:
                     status[i] = STATUS_PEAK_NOT_LOCATED
                 _fill_dynamic(data, i, dyn, dynamic)
                 extra["range_newton_iterations"][i] = float(dyn.iterations.sum())
                 extra["peak_refinement_runs"][i] = float(dyn.refinement_runs)
+                extra["run_down_speeds"][i] = float(dyn.run_down_speeds)
+                if np.any(np.isfinite(dyn.kv_run_up)):
+                    extra["kv_grid_max_run_up"][i] = float(np.nanmax(dyn.kv_run_up))
                 if "dte_rms_max" in ranged or "speed_at_dte_rms_max" in ranged:
                     j = int(np.nanargmax(dyn.dte_rms)) if np.any(np.isfinite(dyn.dte_rms)) \
                         else 0
@@ -639,6 +644,13 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
             "peak_refinement_runs": ("sample", extra["peak_refinement_runs"], {
                 "units": "1", "long_name": "steady states solved to locate the peaks of the "
                 "range outputs beyond the grid (NaN: not computed)"}),
+            "run_down_speeds": ("sample", extra["run_down_speeds"], {
+                "units": "1", "long_name": "grid speeds solved by the run-down over the "
+                "run-up's contact-loss ranges (sweep_direction='up_and_down'; NaN: range not "
+                "computed)"}),
+            "kv_grid_max_run_up": ("sample", extra["kv_grid_max_run_up"], {
+                "units": "1", "long_name": "largest K_v of the run-up's grid speeds (beside "
+                "kv_max, which also has the run-down and the located peaks)"}),
             "n_mesh_harmonics": ("sample", extra["n_mesh_harmonics"], {"units": "1",
                                  "long_name": "mesh harmonics of the steady state"}),
             "hb_residual": ("sample", extra["hb_residual"], {"units": "1"}),
