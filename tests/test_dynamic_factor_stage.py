@@ -76,6 +76,34 @@ def test_the_stage_option_routes_and_refuses_what_a_stage_does_not_use(tmp_path)
     assert vars(args) == {"stage": STAGE, "n_per_level": 0}
     with pytest.raises(ValueError, match=r"sobol_base=1 is outside its valid range: 0"):
         study.run(out=tmp_path, sobol_base=1, stage=STAGE)
+    # the rare level on a stage: subset simulation only, at an X given by name
+    with pytest.raises(ValueError, match=r"rare_methods=\('lines',\) is outside what a stage"):
+        study.run(out=tmp_path, rare_methods=("lines",), stage=STAGE)
+    with pytest.raises(ValueError, match=r"rare_x=0.5 is outside its valid range"):
+        study.run(out=tmp_path, rare_x=0.5, stage=STAGE)
+    with pytest.raises(ValueError, match=r"rare_per_level=3 is outside its valid range"):
+        study.run(out=tmp_path, rare_per_level=3, stage=STAGE)
+
+
+def test_the_stage_gets_rare_x_only_when_it_is_given(tmp_path, monkeypatch):
+    """The paper's RARE_X is not the stage's: without --rare-x no rare level runs on a
+    stage; with it, its value and samples per level reach the stage's run."""
+    import functools
+
+    calls = []
+    real = study.run_on_stage
+
+    @functools.wraps(real)
+    def recorded(stage, **kw):
+        calls.append(kw)
+        return 0
+
+    monkeypatch.setattr(study, "run_on_stage", recorded)
+    study.run(out=tmp_path, stage=STAGE)
+    study.run(out=tmp_path, stage=STAGE, rare_x=3.0, rare_per_level=50,
+              rare_methods=("subset",))
+    assert "rare_x" not in calls[0]
+    assert calls[1]["rare_x"] == 3.0 and calls[1]["rare_per_level"] == 50
 
 
 def test_sobol_groups_put_every_input_of_a_stage_under_one_cause():

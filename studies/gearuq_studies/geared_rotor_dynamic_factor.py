@@ -83,31 +83,33 @@ under a minute of CPU, and marks every figure "quick: N runs, not a result".
 the population stage on the stage's own rotor and speed range. Inputs: the pitch germ of its
 tooth numbers (26 + 78 normals for 27/79), each gear at its own class (6 and 7) under the
 capable process, the pair kept when both pass inspection; each relief of the drawing as an
-inspected normal (8 +- 3 um per gear, 1 % of the process beyond, as the paper's relief);
-the torque uniform on the stage's operating range (50-250 N m, the range its file's
-``[random.mean_force]`` spans) and the damping ratio as the file declares it (uniform 1-5 %).
-ISO 6336-1 Method B takes the coarser class, 7. The steady states are solved by GMRES on
+inspected normal (8 +- 3 um per gear, 1 % of the process beyond, as the paper's relief); the
+torque uniform on the stage's operating range (50-250 N m, the range its file's
+``[random.mean_force]`` spans) and the damping ratio as the file declares it (uniform 1-5
+%). ISO 6336-1 Method B takes the coarser class, 7. The steady states are solved by GMRES on
 every harmonic, the reduced rotor integrated in time where Newton's method stagnates under
-contact loss (:data:`STAGE_SOLVER`). The rare level and ``--grade`` do not apply on a stage;
-subset simulation at the moderate X runs with ``n_per_level`` > 0, the grouped Sobol'
-indices with ``sobol_base`` > 0 (a run without a steady state is solved again on the
-spectral orders, :data:`STAGE_FALLBACK_SOLVER`; runs that stay without one void the
-indices, said so). Measured on the e-axle (112 runs, seed 2028; docs/benchmarks.md, "On the
-e-axle 27/79 stage", seventh round): every run has a steady state; 101 pairs pass inspection
-(0.95^2 = 90.25 % expected) with ``kv_max`` 1.18 / 1.67 / 2.64 (5 / 50 / 95 %) against
-Method B's 1.41 / 1.52 / 2.06; 98 of them peak at 11 440-12 330 rpm, below the crossing of
-``f_m`` with the 5.82 kHz mode (15 % of its strain energy in the mesh) at 12 960 rpm, a speed
-that agrees with the sideband ``f_m + 2 f_s`` of the pinion's pitch deviations on it;
-without pitch deviations K_v is 1.02. At X = 2.34 (the 90 % quantile),
-P(kv_max >= X | pass) = 0.109 [0.056, 0.187] by count (11 of 101). Rank correlations with
-``kv_max``: pinion F_p +0.64, damping -0.50, torque -0.44, wheel F_p and the reliefs
-|rho| <= 0.08. Grouped Sobol' totals (16 base samples, 112 runs): pinion pitch 0.37, load
-0.25, damping 0.23 (+-0.19-0.27), wheel pitch and relief 0.00; one run (damping 1.0 %)
-enters with a lower bound of its peak (status 21: at 11 776 rpm it has no periodic response).
-The speeds are swept up and, over the run-up's contact-loss ranges, down
+contact loss (:data:`STAGE_SOLVER`). ``--grade`` does not apply on a stage; subset
+simulation at the moderate X runs with ``n_per_level`` > 0; the grouped Sobol' indices with
+``sobol_base`` > 0 (a run without a steady state is solved again on the spectral orders,
+:data:`STAGE_FALLBACK_SOLVER`; runs that stay without one void the indices, said so); the
+rare level with ``--rare-x`` (subset simulation, :func:`rare_subset_on_stage`,
+``--rare-per-level`` a level; the rotor's other rare methods need its cheap model or its
+known direction and are refused on a stage). Measured on the e-axle (112 runs, seed 2028;
+docs/benchmarks.md, "On the e-axle 27/79 stage", seventh round): every run has a steady
+state; 101 pairs pass inspection (0.95^2 = 90.25 % expected) with ``kv_max`` 1.18 / 1.67 /
+2.64 (5 / 50 / 95 %) against Method B's 1.41 / 1.52 / 2.06; 98 of them peak at 11 440-12 330
+rpm, below the crossing of ``f_m`` with the 5.82 kHz mode (15 % of its strain energy in the
+mesh) at 12 960 rpm, a speed that agrees with the sideband ``f_m + 2 f_s`` of the pinion's
+pitch deviations on it; without pitch deviations K_v is 1.02. At X = 2.34 (the 90 %
+quantile), P(kv_max >= X | pass) = 0.109 [0.056, 0.187] by count (11 of 101). Rank
+correlations with ``kv_max``: pinion F_p +0.64, damping -0.50, torque -0.44, wheel F_p and
+the reliefs |rho| <= 0.08. Grouped Sobol' totals (16 base samples, 112 runs): pinion pitch
+0.37, load 0.25, damping 0.23 (+-0.19-0.27), wheel pitch and relief 0.00; one run (damping
+1.0 %) enters with a lower bound of its peak (status 21: at 11 776 rpm it has no periodic
+response). The speeds are swept up and, over the run-up's contact-loss ranges, down
 (``sweep_direction="up_and_down"``): where the teeth separate two periodic responses can
-coexist and the larger counts; on the e-axle the run-down raised ``kv_max`` by 0.02 on two of
-112 draws (docs/benchmarks.md, eighth round).
+coexist and the larger counts; on the e-axle the run-down raised ``kv_max`` by 0.02 on two
+of 112 draws (docs/benchmarks.md, eighth round).
 
 Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]
 [--stage NAME|FILE]``.
@@ -1190,7 +1192,8 @@ def peak_sites(ds: Any, modes: list[tuple[float, float]]) -> list[dict[str, floa
 def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = False,
                  seed: int = 2028, executor: Any = DEFAULT_EXECUTION["executor"],
                  chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
-                 n_per_level: int = 200, sobol_base: int = 16) -> int:
+                 n_per_level: int = 200, sobol_base: int = 16, rare_x: float | None = None,
+                 rare_per_level: int = 200) -> int:
     """The population stage of the dynamic question on a gear stage (``--stage``).
 
     The stage's rotor, classes, reliefs, load and speed range (:func:`study_space`), the
@@ -1199,7 +1202,9 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     the 90 % quantile of accepted ``kv_max`` with P(kv_max >= X | pass) by counting and by
     subset simulation on the parallel system (not in ``quick``), the rank correlations of
     ``kv_max`` with its causes, and (not in ``quick``) the grouped Sobol' indices of
-    ``kv_max`` (:func:`grouped_sobol`). The rare level is not run on a stage.
+    ``kv_max`` (:func:`grouped_sobol`). With ``rare_x``, P(kv_max >= rare_x | pass) by
+    subset simulation on the same system (:func:`rare_subset_on_stage`), the one rare method
+    that needs neither a cheap model nor a known direction of the stage's failure set.
 
     Parameters
     ----------
@@ -1218,6 +1223,10 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
         simulation).
     sobol_base : int
         Saltelli base samples of the grouped Sobol' indices (``7 sobol_base`` runs; 0: none).
+    rare_x : float, optional
+        X of the rare level on the stage (default: none run; not in ``quick``).
+    rare_per_level : int
+        Subset-simulation samples per level at ``rare_x``.
 
     Returns
     -------
@@ -1225,6 +1234,12 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
         0.
     """
     stage = load_stage(stage)
+    if rare_x is not None and not (math.isfinite(rare_x) and rare_x > 1.0):
+        raise ValueError(f"rare_x={rare_x!r} is outside its valid range: a K_v level in "
+                         "(1, inf)")
+    if int(rare_per_level) != rare_per_level or rare_per_level < 10:
+        raise ValueError(f"rare_per_level={rare_per_level!r} is outside its valid range: "
+                         "integers >= 10")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if int(n_runs) != n_runs or n_runs < 10:
@@ -1259,6 +1274,12 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             sobol = grouped_sobol(int(sobol_base), seed + 2, 0, run_on, stage,
                                   out / f"sobol_store_{stage.name}")
             stages["sobol"] = tuple(np.subtract(clock(), (t2, c2)))
+        rare = None
+        if not quick and rare_x is not None:
+            t3, c3 = clock()
+            rare = rare_subset_on_stage(stage, float(rare_x), seed + 3, int(rare_per_level),
+                                        run_on, out / f"rare_subset_store_{stage.name}")
+            stages["rare_subset"] = tuple(np.subtract(clock(), (t3, c3)))
     modes = mesh_mode_speeds(0, stage)
     paths = figures(out, ds, x, modes, sobol, 0, stage)
     p_pass = (1.0 - OPTIONS["process_share_beyond"]) ** 2
@@ -1269,7 +1290,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
                                                              stage.wheel.iso_grade],
             "seed": seed, "X": x, "crude_mc": conditional_count(ds, x),
             "crude_mc_invalid_as_failures": invalid_as_failures(ds, x), "subset": ss,
-            "sobol": sobol,
+            "sobol": sobol, "rare_subset": rare,
             "accepted_share": int(ok.sum()) / max(n_ok, 1), "accepted_share_interval":
             clopper_pearson_interval(int(ok.sum()), n_ok), "accepted_share_closed_form": p_pass,
             "accepted_probability_counted": (*accepted_probability(0, stage, n_germs),
@@ -1291,6 +1312,30 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
         v.tolist() if hasattr(v, "tolist") else float(v))))
     _print_stage(info, out, paths)
     return 0
+
+
+#: Most conditional levels of the rare subset simulation on a stage (``p0 = 0.1``: 1e-7).
+STAGE_RARE_LEVELS = 7
+
+
+def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int,
+                         execution: dict[str, Any], store: Path) -> dict[str, Any]:
+    """P(kv_max >= x | pass) on a stage by subset simulation on the parallel system.
+
+    The stage's model, space and options (:func:`stage_options`), the gate's P(pass) counted
+    on germ pairs, at most :data:`STAGE_RARE_LEVELS` levels (below ``0.1^7`` the run stops
+    and says so: its value is then an upper end, not an estimate). The run is stored in
+    ``store`` and resumes from it. Besides :func:`given_acceptance`'s fields: ``x`` and
+    ``levels``, the conditional levels run.
+    """
+    system = gearuq.ParallelSystem([kv_exceeds(x), accepted()])
+    rep = failure_probability(study_model(stage=stage), study_space(stage), system,
+                              method="subset", rng=seed, n_per_level=n_per_level,
+                              max_levels=STAGE_RARE_LEVELS, model_options=stage_options(stage),
+                              store=store, **execution)
+    levels = int(np.size(rep["level_threshold"])) if "level_threshold" in rep else 0
+    return {**given_acceptance(rep, accepted_probability(0, stage)), "x": x,
+            "levels": levels}
 
 
 def acceptance_line(info: dict[str, Any]) -> str:
@@ -1330,6 +1375,12 @@ def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
         f"{k} {v:+.2f}" for k, v in info["kv_rank_correlations"].items()))
     if info["sobol"] is not None:
         _print_sobol(info["sobol"])
+    rare = info.get("rare_subset")
+    if rare is not None:
+        print(f"  rare     : P(kv_max >= {rare['x']:.4g} | pass) = {rare['pf']:.3g} "
+              f"[{rare['lower']:.3g}, {rare['upper']:.3g}] by subset simulation, status "
+              f"{rare['status']} ({rare['message']}), {rare['runs']} rotor runs, "
+              f"{rare['levels']} levels")
     print("  peaks nearest: " + ", ".join(
         f"{p['speed']:.0f} rpm (h {p['harmonic']}) {p['peaks']}" for p in info["peak_sites"]
         if p["peaks"]))
@@ -1369,13 +1420,20 @@ def _stage_route(run_paper: Any) -> Any:
         if settings.pop("stage") is None:
             return run_paper(*args, **kwargs)
         own = inspect.signature(run_on_stage).parameters
-        for name, value in settings.items():
-            if name not in own and value != signature.parameters[name].default:
+        given = {k: v for k, v in settings.items() if v != signature.parameters[k].default}
+        methods = tuple(given.pop("rare_methods", ("subset",)))
+        if methods != ("subset",):
+            raise ValueError(f"rare_methods={methods!r} is outside what a stage runs: "
+                             "('subset',), subset simulation at --rare-x (the other methods "
+                             "need the paper's rotor's cheap model or its known direction)")
+        for name, value in given.items():
+            if name not in own:
                 raise ValueError(f"{name}={value!r} is not used on a stage (it takes its "
-                                 "classes from its file and has no rare stage); "
-                                 "valid: the default")
-        return run_on_stage(bound.arguments["stage"], **{k: v for k, v in settings.items()
-                                                         if k in own})
+                                 "classes from its file); valid: the default")
+        # rare_x is the stage's only when given: its default is the paper's rotor's level
+        keep = {k: v for k, v in settings.items() if k in own and k != "rare_x"}
+        return run_on_stage(bound.arguments["stage"], **keep,
+                            **({"rare_x": given["rare_x"]} if "rare_x" in given else {}))
 
     return run
 
@@ -1417,7 +1475,8 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         ``sobol_base`` runs, at least 2; on a stage 0 skips them (``quick``: none).
     rare_x : float
         X of the rare stage (default :data:`RARE_X`, P near 1e-6); ``quick`` runs the stage
-        at the moderate X instead, with a few dozen runs.
+        at the moderate X instead, with a few dozen runs. On a stage the rare level runs
+        only when this is given (subset simulation, :func:`rare_subset_on_stage`).
     rare_per_level : int
         Samples per level of subset simulation in the rare stage.
     rare_methods : tuple of str
@@ -1431,7 +1490,7 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         ``"harmonic"`` (the same, its density centred in the harmonic planes of
         :func:`harmonic_planes`), ``"mfis"`` (:func:`mfis_given_acceptance`, the Gaussian
         mixture over all inputs) and ``"subset"`` (:func:`subset_given_acceptance` on the
-        rotor).
+        rotor; on a stage the only one).
     stage : str, optional
         A built-in stage name (``e_axle_27_79``) or a stage TOML path: the population
         stage on that stage instead (:func:`run_on_stage`); default: the paper's rotor.
