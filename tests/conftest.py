@@ -150,3 +150,28 @@ def pytest_sessionstart(session: pytest.Session) -> None:
                 gearuq.get_model(name).response({}, t, outputs=spec["outputs"])
         except Exception as err:  # the model's own tests report it; the warm-up only times
             print(f"conftest warm-up of {name} failed: {err!r}", file=sys.stderr)
+
+
+@pytest.fixture
+def separating_long_period():
+    """A long-period problem whose teeth separate: ``(problem, speeds)``.
+
+    A synthetic 7/11 pattern over 77 mesh cycles on Yuan, Liu and Liu's rotor (GMRES route),
+    losing contact over up to 36 % of the long period on the 12 speeds of 3000-5200 rpm (at
+    3400 rpm Newton's method stagnates). Built fresh for each test (its solver keeps state).
+    """
+    import numpy as np
+
+    from gearuq.rotor.examples import seed002_rotor
+    from gearuq.rotor.excitation import MeshExcitation
+    from gearuq_plugins.geared_rotor.long_period import LongPeriodProblem
+
+    L = 77
+    exc = MeshExcitation.synthetic(
+        6e8, 1.5e4, n_cycles=L, positions_per_cycle=12,
+        stiffness_harmonics={L: 0.15, 2 * L: 0.05j},
+        error_harmonics={7: 3e-6, 11: 2e-6j, L: 12e-6, L - 7: 3e-6, L + 11: 2e-6},
+        mean_error=1e-6)
+    problem = LongPeriodProblem(lambda k: seed002_rotor(k), exc, pinion_teeth=30,
+                                mesh_harmonics=3)
+    return problem, np.linspace(3000.0, 5200.0, 12)

@@ -434,7 +434,8 @@ def test_speed_range_gmres_account_bounds_a_sample(rotor_13_17, monkeypatch):
     np.testing.assert_array_equal(again.kv, full.kv)
 
 
-def test_stagnating_newton_falls_back_to_the_time_integration(monkeypatch):
+def test_stagnating_newton_falls_back_to_the_time_integration(monkeypatch,
+                                                            separating_long_period):
     """Where Newton's method under contact loss runs out of its GMRES iterations, the
     speed's steady state comes from the reduced rotor integrated in time (status 0, not 1),
     and the next speeds that separate start there: a synthetic 7/11 pattern losing contact
@@ -445,20 +446,9 @@ def test_stagnating_newton_falls_back_to_the_time_integration(monkeypatch):
     its step error on this coarse pattern, 12 instants per mesh cycle: docs/theory/
     geared_rotor.md), the same contact-loss shares to 2 grid instants."""
     import gearuq.rotor.sideband_balance as sb
-    from gearuq.rotor.examples import seed002_rotor
-    from gearuq.rotor.excitation import MeshExcitation as RotorExcitation
     from gearuq_plugins.geared_rotor import long_period
-    from gearuq_plugins.geared_rotor.long_period import LongPeriodProblem
 
-    L = 77
-    exc = RotorExcitation.synthetic(
-        6e8, 1.5e4, n_cycles=L, positions_per_cycle=12,
-        stiffness_harmonics={L: 0.15, 2 * L: 0.05j},
-        error_harmonics={7: 3e-6, 11: 2e-6j, L: 12e-6, L - 7: 3e-6, L + 11: 2e-6},
-        mean_error=1e-6)
-    problem = LongPeriodProblem(lambda k: seed002_rotor(k), exc, pinion_teeth=30,
-                                mesh_harmonics=3)
-    speeds = np.linspace(3000.0, 5200.0, 12)
+    problem, speeds = separating_long_period
     kw = {"peaks_refined": 0, "refine": ()}
     newton = problem.dynamics_over_speeds(speeds, **kw)
     assert np.all(newton.status == 0) and newton.contact_loss_fraction.max() > 0.3

@@ -105,23 +105,13 @@ def test_the_plugin_option_is_refused_by_name_and_recorded():
     assert ds["kv_grid_max_run_up"].values[0] == pytest.approx(ds["kv_max"].values[0])
 
 
-def test_the_long_period_route_restores_gmres_state_per_sweep():
-    """The GMRES route (a synthetic 7/11 pattern over 77 mesh cycles losing contact over up
-    to 36 % of the period, one response at every speed): the run-up's values are those of
-    the run-up alone bit for bit (its starts restored from each sweep's own state), and the
-    run-down, started from the top, reads the same response within the solvers' errors."""
-    from gearuq.rotor.excitation import MeshExcitation as RotorExcitation
-    from gearuq_plugins.geared_rotor.long_period import LongPeriodProblem
-
-    L = 77
-    exc = RotorExcitation.synthetic(
-        6e8, 1.5e4, n_cycles=L, positions_per_cycle=12,
-        stiffness_harmonics={L: 0.15, 2 * L: 0.05j},
-        error_harmonics={7: 3e-6, 11: 2e-6j, L: 12e-6, L - 7: 3e-6, L + 11: 2e-6},
-        mean_error=1e-6)
-    problem = LongPeriodProblem(lambda k: seed002_rotor(k), exc, pinion_teeth=30,
-                                mesh_harmonics=3)
-    speeds = np.linspace(3000.0, 5200.0, 12)
+def test_the_long_period_route_restores_gmres_state_per_sweep(separating_long_period):
+    """The GMRES route (conftest's synthetic 7/11 pattern over 77 mesh cycles, losing
+    contact over up to 36 % of the period, one response at every speed): the run-up's
+    values are those of the run-up alone bit for bit (its starts restored from each sweep's
+    own state), and the run-down, started from the top, reads the same response within the
+    solvers' errors."""
+    problem, speeds = separating_long_period
     kw = {"peaks_refined": 0, "refine": ()}
     up = problem.dynamics_over_speeds(speeds, **kw)
     both = problem.dynamics_over_speeds(speeds, sweep_direction="up_and_down", **kw)
