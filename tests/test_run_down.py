@@ -44,6 +44,9 @@ def softening():
     return prob, both, up
 
 
+# about 5 s of CPU: CI runs it with the end-to-end runs (-m e2e); the default suite keeps the
+# run-down's cheaper checks below
+@pytest.mark.e2e
 def test_the_run_down_finds_the_larger_of_two_stable_responses(softening):
     """At 3500 and 3600 rpm the run-up reads the full-contact response (K_v 1.7-2.0) and the
     run-down one with the teeth apart (K_v about 3); the time integration of the rotor from
