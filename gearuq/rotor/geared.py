@@ -550,10 +550,9 @@ class GearedRotorProblem:
         ``speed_tol`` rpm, each steady state started from the maximum's own grid speed on the
         sweep it came from (from the nearest grid speed's if that fails); the reported
         maximum is the largest value evaluated (grid or refinement), so it never falls below
-        the grid's. A resonance narrower than
-        the grid step can still be missed if no grid speed sees its flank; the grid step
-        should stay below the half-power width ``2 zeta f_n`` of the lowest mode expressed in
-        speed (docs/theory/geared_rotor.md).
+        the grid's. A resonance narrower than the grid step can still be missed if no grid
+        speed sees its flank; the grid step should stay below the half-power width
+        ``2 zeta f_n`` of the lowest mode expressed in speed (docs/theory/geared_rotor.md).
 
         Parameters
         ----------

@@ -377,14 +377,25 @@ def accepted_probability(grade: int, stage: GearStage | None = None,
 
 def subset_given_acceptance(x: float, seed: int, grade: int, n_per_level: int,
                             execution: dict[str, Any],
-                            options: dict[str, Any] | None = None) -> dict[str, Any]:
-    """P(fail and pass) by subset simulation on the parallel system, over P(pass)."""
-    model, space = study_model(grade), study_space()
+                            options: dict[str, Any] | None = None,
+                            stage: GearStage | None = None, **settings: Any) -> dict[str, Any]:
+    """P(fail and pass) by subset simulation on the parallel system, over P(pass).
+
+    On the paper's rotor at class ``grade``, or on ``stage`` (its model, space and
+    :func:`stage_options`; ``grade`` not used). ``settings`` go to
+    :func:`gearuq.failure.failure_probability` (``max_levels``, ``store``). Besides
+    :func:`given_acceptance`'s fields: ``levels``, the conditional levels run.
+    """
+    if stage is not None:
+        grade = 0
+    model, space = study_model(grade, stage), study_space(stage)
     system = gearuq.ParallelSystem([kv_exceeds(x), accepted()])
+    default = OPTIONS if stage is None else stage_options(stage)
     rep = failure_probability(model, space, system, method="subset", rng=seed,
-                              n_per_level=n_per_level, model_options=options or OPTIONS,
-                              **execution)
-    return given_acceptance(rep, accepted_probability(grade))
+                              n_per_level=n_per_level, model_options=options or default,
+                              **settings, **execution)
+    levels = int(np.size(rep["level_threshold"])) if "level_threshold" in rep else 0
+    return {**given_acceptance(rep, accepted_probability(grade, stage)), "levels": levels}
 
 
 def mfis_given_acceptance(x: float, seed: int, grade: int, settings: dict[str, Any],
@@ -1266,11 +1277,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
         x = float(np.quantile(ds["kv_max"].values[ok], 0.9))
         ss = None
         if not quick and n_per_level:
-            system = gearuq.ParallelSystem([kv_exceeds(x), accepted()])
-            ss = given_acceptance(failure_probability(
-                study_model(stage=stage), study_space(stage), system, method="subset",
-                rng=seed + 1, n_per_level=int(n_per_level), model_options=stage_options(stage),
-                **run_on), accepted_probability(0, stage))
+            ss = subset_given_acceptance(x, seed + 1, 0, int(n_per_level), run_on,
+                                         stage=stage)
             stages["subset"] = tuple(np.subtract(clock(), (t1, c1)))
         sobol = None
         if not quick and sobol_base:
@@ -1329,17 +1337,10 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
     The stage's model, space and options (:func:`stage_options`), the gate's P(pass) counted
     on germ pairs, at most :data:`STAGE_RARE_LEVELS` levels (below ``0.1^7`` the run stops
     and says so: its value is then an upper end, not an estimate). The run is stored in
-    ``store`` and resumes from it. Besides :func:`given_acceptance`'s fields: ``x`` and
-    ``levels``, the conditional levels run.
+    ``store`` and resumes from it. :func:`subset_given_acceptance`'s fields and ``x``.
     """
-    system = gearuq.ParallelSystem([kv_exceeds(x), accepted()])
-    rep = failure_probability(study_model(stage=stage), study_space(stage), system,
-                              method="subset", rng=seed, n_per_level=n_per_level,
-                              max_levels=STAGE_RARE_LEVELS, model_options=stage_options(stage),
-                              store=store, **execution)
-    levels = int(np.size(rep["level_threshold"])) if "level_threshold" in rep else 0
-    return {**given_acceptance(rep, accepted_probability(0, stage)), "x": x,
-            "levels": levels}
+    return {**subset_given_acceptance(x, seed, 0, n_per_level, execution, stage=stage,
+                                      max_levels=STAGE_RARE_LEVELS, store=store), "x": x}
 
 
 def acceptance_line(info: dict[str, Any]) -> str:

@@ -228,7 +228,7 @@ class LongPeriodProblem(GearedRotorProblem):
 
         With ``continuation`` (default True), each GMRES solve starts from the steady state
         before it on its sweep (the grid in order; a run-down from the speed above; a peak's
-        refinement from the nearest grid speed of the sweep the peak came from), so a call's
+        refinement from the peak's own grid speed on the sweep it came from), so a call's
         results depend on its arguments alone, to the GMRES tolerance.
         """
         with single_threaded_blas():
