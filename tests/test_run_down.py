@@ -97,18 +97,24 @@ def test_an_unknown_sweep_direction_is_refused_by_name():
 
 
 def test_the_plugin_option_is_refused_by_name_and_recorded():
-    """``sweep_direction`` is a declared option of geared_rotor: a wrong value is refused
-    naming it and its choices; a run records it and the run-down's count."""
+    """``sweep_direction`` and ``aperiodic_response`` are declared options of geared_rotor: a
+    wrong value is refused naming it; a run records them, the run-down's count and the
+    speeds read from a window."""
     from gearuq_plugins.geared_rotor import GearedRotor
 
     model = GearedRotor()
     with pytest.raises(ValueError, match="sweep_direction"):
         model.response({"torque": [1000.0]}, outputs=["kv_max"], sweep_direction="down")
+    with pytest.raises(ValueError, match="aperiodic_response"):
+        model.response({"torque": [1000.0]}, outputs=["kv_max"], aperiodic_response="nan")
     ds = model.response({"torque": [1000.0]}, outputs=["kv_max"], n_speeds=3,
                         speed_min=1000.0, speed_max=2000.0, positions_per_cycle=8, n_pts=6,
-                        peaks_refined=0, sweep_direction="up_and_down")
+                        peaks_refined=0, sweep_direction="up_and_down",
+                        aperiodic_response="window_max")
     assert '"sweep_direction": "up_and_down"' in ds.attrs["options"]
+    assert '"aperiodic_response": "window_max"' in ds.attrs["options"]
     assert ds["run_down_speeds"].values[0] == 0  # nothing parts at 1000-2000 rpm
+    assert ds["aperiodic_speeds"].values[0] == 0
     assert ds["kv_grid_max_run_up"].values[0] == pytest.approx(ds["kv_max"].values[0])
 
 

@@ -158,6 +158,10 @@ class DynamicRange:
         ``sweep_direction="up"``.
     run_down_speeds : int
         Grid speeds the run-down solved (``sweep_direction="up_and_down"``; 0 otherwise).
+    aperiodic_speeds : int
+        Speeds (grid, run-down and refinement) with no periodic response whose values were
+        read from the time integration's window (``aperiodic_response="window_max"``; with
+        ``"invalid"`` such a speed keeps its non-zero status and counts 0 here).
     """
 
     speeds: np.ndarray
@@ -174,6 +178,7 @@ class DynamicRange:
     refinement_status: int = 0
     kv_run_up: np.ndarray | None = None
     run_down_speeds: int = 0
+    aperiodic_speeds: int = 0
 
     def worst_status(self) -> int:
         """First non-zero harmonic-balance status of the grid (0: every speed converged)."""
@@ -188,6 +193,16 @@ PEAK_QUANTITIES = ("kv", "dte_mesh_band_rms", "dte_mesh_orders", "acceleration_m
 #: run-up and a run-down over its contact-loss ranges (both branches where the response is
 #: not unique; docs/theory/geared_rotor.md, "Two periodic responses at one speed").
 SWEEP_DIRECTIONS = ("up", "up_and_down")
+
+#: What a speed whose response is not periodic reports (the time integration did not return
+#: to its state within its long periods: subharmonic, quasi-periodic or chaotic rattle):
+#: ``"invalid"``, its non-zero status and no value, or ``"window_max"``, K_v as the largest
+#: mesh force over the integration's last ``WINDOW_PERIODS`` long periods (what a test rig
+#: measuring over that window would read; a lower bound of the response's supremum) and
+#: the other quantities from the last long period's harmonics, counted in
+#: ``DynamicRange.aperiodic_speeds`` (docs/theory/geared_rotor.md, "Responses that are not
+#: periodic").
+APERIODIC_RESPONSES = ("invalid", "window_max")
 
 #: Per-speed quantities of a sweep's rows, as :class:`DynamicRange` names them.
 _ROW_QUANTITIES = ("kv", "dte_rms", "dte_mesh_band_rms", "dte_mesh_orders",
@@ -414,12 +429,14 @@ class GearedRotorProblem:
 
     def dynamics_at(self, speed_rpm: float, *, mesh_orders: int | None = None,
                     acceleration_channel: str = "bearing 1 acceleration y", tol: float = 1e-9,
-                    initial: np.ndarray | None = None) -> tuple[dict, PeriodicSolution]:
+                    initial: np.ndarray | None = None, aperiodic_response: str = "invalid"
+                    ) -> tuple[dict, PeriodicSolution]:
         """K_v, DTE measures and mesh-order amplitudes of the steady state at one speed.
 
         Returns ``(values, solution)``; ``values`` has the per-speed fields of
         :class:`DynamicRange` (``dte_mesh_orders`` and ``acceleration_mesh_orders`` of
-        length ``mesh_orders``, default every mesh harmonic of the steady state).
+        length ``mesh_orders``, default every mesh harmonic of the steady state) and
+        ``aperiodic`` (:func:`read_aperiodic`, by ``aperiodic_response``).
         """
         nc = self.excitation.n_cycles
         M = self.n_harmonics // nc if mesh_orders is None else int(mesh_orders)
@@ -452,7 +469,8 @@ class GearedRotorProblem:
             "status": sol.status, "iterations": sol.iterations,
             "contact_loss_fraction": sol.contact_loss_fraction,
         }
-        return values, sol
+        return read_aperiodic(values, sol, self.excitation.normal_force,
+                              aperiodic_response), sol
 
     def _through_integration(self, model: ModalModel, T: float, omega: float,
                              failed: PeriodicSolution, rec: dict, names: list[str],
@@ -536,6 +554,7 @@ class GearedRotorProblem:
         tol: float = 1e-9,
         continuation: bool = True,
         sweep_direction: str = "up",
+        aperiodic_response: str = "invalid",
     ) -> DynamicRange:
         """K_v, the mesh-band DTE and the mesh-order responses over a speed grid, peaks resolved.
 
@@ -576,6 +595,8 @@ class GearedRotorProblem:
         sweep_direction : {"up", "up_and_down"}
             The run-up alone, or with the run-down over its contact-loss ranges
             (``SWEEP_DIRECTIONS``).
+        aperiodic_response : {"invalid", "window_max"}
+            What a speed without a periodic response reports (``APERIODIC_RESPONSES``).
 
         Returns
         -------
@@ -593,8 +614,11 @@ class GearedRotorProblem:
         if sweep_direction not in SWEEP_DIRECTIONS:
             raise ValueError(f"sweep_direction={sweep_direction!r} is outside its valid set "
                              f"{SWEEP_DIRECTIONS}")
+        if aperiodic_response not in APERIODIC_RESPONSES:
+            raise ValueError(f"aperiodic_response={aperiodic_response!r} is outside its valid "
+                             f"set {APERIODIC_RESPONSES}")
         kw = {"mesh_orders": mesh_orders, "acceleration_channel": acceleration_channel,
-              "tol": tol}
+              "tol": tol, "aperiodic_response": aperiodic_response}
         up, up_states = [], []
         state: object = None
         with single_threaded_blas():
@@ -639,6 +663,7 @@ class GearedRotorProblem:
             out.refinement_runs = len(cache)
             failed = [int(v["status"]) for v in cache.values() if int(v["status"]) != 0]
             out.refinement_status = failed[0] if failed else 0
+            out.aperiodic_speeds += sum(int(v.get("aperiodic", 0)) for v in cache.values())
         return out
 
     def sweep(self, speeds_rpm: Sequence[float], *, continuation: bool = True,
@@ -688,6 +713,8 @@ def _envelope(speeds: np.ndarray, sweeps: list[list[dict | None]]
     apart = np.array([r["contact_loss_fraction"] for r in up], dtype=float)
     kv_up = values["kv"].copy()
     solved = 0
+    aperiodic = sum(int(r.get("aperiodic", 0)) for rows in sweeps for r in rows
+                    if r is not None)
     for k, rows in enumerate(sweeps[1:], start=1):
         for i, row in enumerate(rows):
             if row is None:
@@ -710,8 +737,23 @@ def _envelope(speeds: np.ndarray, sweeps: list[list[dict | None]]
                        dte_mesh_orders=values["dte_mesh_orders"],
                        acceleration_mesh_orders=values["acceleration_mesh_orders"],
                        status=status, iterations=iterations, contact_loss_fraction=apart,
-                       kv_run_up=kv_up, run_down_speeds=solved)
+                       kv_run_up=kv_up, run_down_speeds=solved, aperiodic_speeds=aperiodic)
     return out, origin
+
+
+def read_aperiodic(values: dict, sol: PeriodicSolution, static_force: float,
+                   aperiodic_response: str) -> dict:
+    """Apply ``aperiodic_response`` (``APERIODIC_RESPONSES``) to one speed's ``values``.
+
+    Sets ``values["aperiodic"]`` (1 where the values were read from the window of a
+    response that is not periodic) and, with ``"window_max"``, K_v from the window's largest
+    force and the speed's status 0. Returns ``values``.
+    """
+    values["aperiodic"] = 0
+    if (aperiodic_response == "window_max" and sol.status == STATUS_APERIODIC
+            and math.isfinite(sol.window_peak_force)):
+        values.update(kv=sol.window_peak_force / static_force, status=0, aperiodic=1)
+    return values
 
 
 def _band_limited(one_sided: np.ndarray, n: int) -> np.ndarray:

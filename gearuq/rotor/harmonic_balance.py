@@ -172,6 +172,12 @@ class PeriodicSolution:
         smoothed and sharpened in steps); "time_integration" when the state was found by
         integrating the reduced rotor in time
         (:func:`gearuq.rotor.sideband_balance.solve_periodic_by_integration`).
+    window_peak_force : float
+        Largest mesh force [N] over the last ``window_periods`` long periods of a time
+        integration (NaN when the state was not integrated): for a response that is not
+        periodic, the largest force a measurement over that window would read.
+    window_periods : int
+        Long periods of that window (0: not integrated).
     """
 
     period: float
@@ -190,6 +196,8 @@ class PeriodicSolution:
     stable: bool | None = None
     drift: float = math.nan
     min_approach: float = math.nan
+    window_peak_force: float = math.nan
+    window_periods: int = 0
 
     @property
     def n_harmonics(self) -> int:

@@ -831,6 +831,23 @@ def solve_periodic_krylov(
 #: the steady state the return map settled in 2-10 on the 27/79 stage, 0.1 s each; a 13/17
 #: stage rattling on the back flank at damping ratio 0.01 took 37, 4 ms each).
 INTEGRATION_PERIODS = 100
+#: Long periods at the end of an integration whose largest mesh force is kept
+#: (``PeriodicSolution.window_peak_force``): what K_v reads where no periodic response is
+#: found and the option ``aperiodic_response="window_max"`` asks for a value (on the 27/79
+#: stage 10 long periods are 21 330 mesh cycles, 2-3 s of running at 10 000 rpm).
+WINDOW_PERIODS = 10
+#: Mesh cycles over which the state's change over a long period must shrink for the
+#: integration of a long-period problem to go on (``stall_periods`` of
+#: :func:`solve_periodic_by_integration`, at least ``MIN_STALL_PERIODS`` periods): the
+#: transients of the rotor's modes decay within a few hundred mesh cycles at 1 % damping,
+#: so a change that has not shrunk over 20 000 mesh cycles belongs to a response that is
+#: not periodic on the long period (quasi-periodic, chaotic, or a subharmonic of it). On
+#: the 27/79 stage (2133 mesh cycles, about 0.1 s of CPU a long period) the integration then
+#: stops after 20 periods at the earliest instead of 100. A one-cycle mesh can take hundreds
+#: of periods to leave an unstable response (the test's 3700 rpm: the change grows from
+#: 0.05 to 0.67 over 100 periods toward a period-2 response): there the rule never acts.
+STALL_MESH_CYCLES = 20_000
+MIN_STALL_PERIODS = 10
 
 #: Relative change of the state over one long period (energy norm) taken as periodic (below
 #: the step's own error; 1e-8 took a period more per speed and moved K_v by 2.5e-8).
@@ -869,6 +886,8 @@ def solve_periodic_by_integration(
     steps_per_instant: int = 2,
     receptance: dict[str, np.ndarray] | None = None,
     channels: list[str] | None = None,
+    window_periods: int = WINDOW_PERIODS,
+    stall_periods: int | None = None,
 ) -> PeriodicSolution:
     """Periodic steady state of the reduced rotor by integrating it in time, long period by
     long period, until its state returns to itself (front flank, apart, back flank).
@@ -908,6 +927,14 @@ def solve_periodic_by_integration(
         docs/theory/geared_rotor.md).
     receptance, channels
         As :func:`solve_periodic_krylov`.
+    window_periods : int
+        Last long periods integrated whose largest mesh force (on the ``n_time`` instants)
+        is returned as ``window_peak_force`` (>= 1; at most the second half of the periods
+        integrated, so that the start's transient stays out of it).
+    stall_periods : int, optional
+        The integration stops without a periodic response once the state's change over a
+        period is no smaller than ``stall_periods`` periods before (>= 1; default never:
+        ``max_periods`` are integrated; :data:`STALL_MESH_CYCLES`).
 
     Returns
     -------
@@ -916,7 +943,10 @@ def solve_periodic_by_integration(
         returned to itself within ``tol``, 3 when it did not within ``max_periods`` (no
         periodic response on the long period was found: subharmonic, quasi-periodic or
         chaotic), 1 when the state left the finite numbers; ``iterations`` the long periods
-        integrated, ``residual`` the last period's relative change.
+        integrated (fewer than ``max_periods`` where the return map stalled),
+        ``residual`` the last period's relative change; ``window_peak_force`` the largest
+        force of the last ``window_periods`` periods (at most half of those integrated)
+        and ``window_periods`` their number.
     """
     from gearuq.rotor._spectral_kernels import rk4_long_period  # numba: imported for cost
 
@@ -933,6 +963,10 @@ def solve_periodic_by_integration(
             or steps_per_instant < 1):
         raise ValueError(f"steps_per_instant={steps_per_instant!r} is outside its valid range: "
                          "integers >= 1")
+    stall = int(max_periods) + 1 if stall_periods is None else stall_periods
+    for name, value in (("window_periods", window_periods), ("stall_periods", stall)):
+        if isinstance(value, bool) or int(value) != value or value < 1:
+            raise ValueError(f"{name}={value!r} is outside its valid range: integers >= 1")
     if abs(prep.mean_stiffness - model.mean_stiffness) > 1e-9 * model.mean_stiffness:
         raise ValueError("the model's mean mesh stiffness differs from the excitation's")
     H, N = prep.n_harmonics, prep.n_time
@@ -955,12 +989,15 @@ def solve_periodic_by_integration(
     weight = np.concatenate([np.sqrt(w2), np.ones(model.n_modes)])
     delta_t, force_t = np.empty(N), np.empty(N)
     status, change, done = STATUS_APERIODIC, math.inf, 0
+    peaks: list[float] = []  # largest force of each period (the window is the last ones)
+    changes: list[float] = []
     while done < int(max_periods):
         done += 1
         before = y.copy()
         rk4_long_period(y, k_fine, ke_fine, float(period), w2, D, model.mesh, model.load,
                         float(dres), float(model.mean_stiffness), float(model.mesh_residual),
                         float(backlash), delta_t, force_t)
+        peaks.append(float(force_t.max()))
         if not np.all(np.isfinite(y)):
             status = STATUS_NOT_CONVERGED
             break
@@ -969,6 +1006,9 @@ def solve_periodic_by_integration(
         if change <= tol:
             status = STATUS_CONVERGED
             break
+        changes.append(change)
+        if done >= 2 * stall and change >= changes[-1 - int(stall)]:
+            break  # the return map has stalled: no periodic response is on its way
     x = _fft.rfft(delta_t)[:H + 1] / N
     force_hat = _fft.rfft(force_t)[:H + 1] / N
     r = force_hat - model.mean_stiffness * x
@@ -978,4 +1018,8 @@ def solve_periodic_by_integration(
         iterations=done, residual=change, contact_loss_fraction=n_sep,
         back_contact_fraction=n_back, min_force=float(force_t.min()),
         branch=contact_branch(n_back > 0, n_sep > 0), start="time_integration",
-        min_approach=float(delta_t.min())).with_channels(model, receptance, names)
+        min_approach=float(delta_t.min()),
+        window_peak_force=max(peaks[-min(int(window_periods), max(done // 2, 1)):],
+                              default=math.nan),
+        window_periods=min(int(window_periods), max(done // 2, 1)),
+    ).with_channels(model, receptance, names)

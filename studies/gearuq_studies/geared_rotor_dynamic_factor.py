@@ -231,9 +231,14 @@ def load_stage(stage: str | Path | GearStage) -> GearStage:
 #: CPU s a run and the spectral orders read ``kv_max`` 0.016-0.072 low (docs/benchmarks.md,
 #: "On the e-axle 27/79 stage", seventh round). The speeds are swept up and, over the
 #: run-up's contact-loss ranges, down (both of two coexisting responses seen; eighth round:
-#: 15 % more GMRES iterations, ``kv_max`` 0.02 higher on two of 112 draws).
+#: 15 % more GMRES iterations, ``kv_max`` 0.02 higher on two of 112 draws). A speed whose
+#: response is not periodic on the long period (a rattle at 1-2 % damping) reads K_v as the
+#: largest mesh force over the time integration's last 10 long periods
+#: (``aperiodic_response="window_max"``, counted per run in ``aperiodic_speeds``): without
+#: it those runs had no value and filled the rare level's walk (ninth round).
 STAGE_SOLVER: dict[str, Any] = {"long_period_solver": "gmres",
-                                "sweep_direction": "up_and_down"}
+                                "sweep_direction": "up_and_down",
+                                "aperiodic_response": "window_max"}
 #: Where GMRES finds no steady state on a stage (its iteration budget spent under deep
 #: contact loss), the grouped Sobol' design's run is solved again on the spectral orders
 #: (the setting before :data:`STAGE_SOLVER`; ``kv_max`` 0.00-0.11 lower, 0.04 on average,
@@ -1313,6 +1318,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             "speed_at_kv_max_quantiles": np.quantile(ds["speed_at_kv_max"].values[ok],
                                                      [0.05, 0.5, 0.95]),
             "kv_rank_correlations": kv_drivers(ds), "mesh_mode_speeds": modes,
+            "aperiodic_runs": aperiodic_runs(ds),
             "peak_sites": peak_sites(ds, modes), "options": stage_options(stage, quick),
             "space": [m for m in study_space(stage).to_dict()["parameters"]
                       if not m["name"].startswith("pitch_xi_")],
@@ -1341,6 +1347,16 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
     """
     return {**subset_given_acceptance(x, seed, 0, n_per_level, execution, stage=stage,
                                       max_levels=STAGE_RARE_LEVELS, store=store), "x": x}
+
+
+def aperiodic_runs(ds: Any) -> dict[str, int]:
+    """Runs (and their speeds) whose values were read from a time window because the
+    response there is not periodic (``aperiodic_speeds`` > 0; zeros for a run made before
+    the variable existed)."""
+    if "aperiodic_speeds" not in ds:
+        return {"runs": 0, "speeds": 0}
+    counts = np.nan_to_num(ds["aperiodic_speeds"].values).astype(int)
+    return {"runs": int((counts > 0).sum()), "speeds": int(counts.sum())}
 
 
 def acceptance_line(info: dict[str, Any]) -> str:
@@ -1374,6 +1390,11 @@ def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
     if ss is not None:
         print(f"  subset   : {ss['pf']:.3g} [{ss['lower']:.3g}, {ss['upper']:.3g}], status "
               f"{ss['status']} ({ss['message']}), {ss['runs']} rotor runs")
+    window = info.get("aperiodic_runs", {"runs": 0})
+    if window["runs"]:
+        print(f"  {window['runs']} runs read K_v from a time window at {window['speeds']} "
+              "speeds (no periodic response there: the largest mesh force over 10 long "
+              "periods)")
     print("  kv_max 5/50/95 %: " + ", ".join(f"{v:.3f}" for v in info["kv_max_quantiles"])
           + "; ISO Method B: " + ", ".join(f"{v:.3f}" for v in info["kv_iso_max_quantiles"]))
     print("  rank correlation with kv_max: " + ", ".join(

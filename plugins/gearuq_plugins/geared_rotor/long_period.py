@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from gearuq.rotor.excitation import MeshExcitation
-from gearuq.rotor.geared import GearedRotorProblem, single_threaded_blas
+from gearuq.rotor.geared import GearedRotorProblem, read_aperiodic, single_threaded_blas
 from gearuq.rotor.harmonic_balance import STATUS_NOT_CONVERGED, PeriodicSolution
 
 #: Longest period [mesh cycles] solved by the dense balance; above it, this module.
@@ -191,7 +191,8 @@ class LongPeriodProblem(GearedRotorProblem):
 
     def dynamics_at(self, speed_rpm: float, *, mesh_orders: int | None = None,
                     acceleration_channel: str = "bearing 1 acceleration y", tol: float = 1e-9,
-                    initial: np.ndarray | None = None) -> tuple[dict, PeriodicSolution]:
+                    initial: np.ndarray | None = None, aperiodic_response: str = "invalid"
+                    ) -> tuple[dict, PeriodicSolution]:
         """K_v, DTE measures and mesh-order amplitudes at one speed, on the kept orders.
 
         As :meth:`GearedRotorProblem.dynamics_at`; ``initial`` is a two-sided
@@ -221,7 +222,8 @@ class LongPeriodProblem(GearedRotorProblem):
             "status": sol.status, "iterations": sol.iterations,
             "contact_loss_fraction": sol.contact_loss_fraction,
         }
-        return values, sol
+        return read_aperiodic(values, sol, self.excitation.normal_force,
+                              aperiodic_response), sol
 
     def dynamics_over_speeds(self, speeds_rpm: Any, **kw: Any) -> Any:
         """As :meth:`GearedRotorProblem.dynamics_over_speeds`, BLAS limited once for all.
@@ -276,6 +278,8 @@ class LongPeriodProblem(GearedRotorProblem):
         """One steady state on the kept orders by the chosen solver."""
         from gearuq.rotor.sideband_balance import (
             GMRES_BUDGET,
+            MIN_STALL_PERIODS,
+            STALL_MESH_CYCLES,
             solve_periodic_by_integration,
             solve_periodic_krylov,
             solve_periodic_orders,
@@ -318,7 +322,9 @@ class LongPeriodProblem(GearedRotorProblem):
                 # the reduced rotor integrated in time from Newton's best iterate
                 timed = solve_periodic_by_integration(
                     model, self.krylov, T, omega, start=timed_before or sol,
-                    backlash=self.backlash, receptance=rec, channels=names)
+                    backlash=self.backlash, receptance=rec, channels=names,
+                    stall_periods=max(MIN_STALL_PERIODS, math.ceil(
+                        STALL_MESH_CYCLES / self.excitation.n_cycles)))
                 if self._blas_limited:
                     self._spent += INTEGRATION_PERIOD_GMRES * timed.iterations
                 if timed.status != STATUS_NOT_CONVERGED:  # periodic (0) or not (3): said so

@@ -565,7 +565,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
     extra = {k: np.full(n, np.nan) for k in ("n_modes", "hb_iterations", "hb_residual",
                                               "drift", "range_newton_iterations",
                                               "n_mesh_harmonics", "peak_refinement_runs",
-                                              "run_down_speeds", "kv_grid_max_run_up")}
+                                              "run_down_speeds", "kv_grid_max_run_up",
+                                              "aperiodic_speeds")}
     branch = np.full(n, -1, dtype=np.int8)
     with single_threaded_blas():
         for i in range(n):
@@ -588,7 +589,8 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                     refine=sorted({_DYNAMIC_OUTPUTS[o][0] for o in dynamic}),
                     peaks_refined=options["peaks_refined"],
                     speed_tol=options["peak_speed_tol"],
-                    sweep_direction=options["sweep_direction"])
+                    sweep_direction=options["sweep_direction"],
+                    aperiodic_response=options["aperiodic_response"])
                 status[i] = _FROM_SOLVER[dyn.worst_status()]
                 if status[i] == 0 and dyn.refinement_status != 0:
                     status[i] = STATUS_PEAK_NOT_LOCATED
@@ -596,6 +598,7 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                 extra["range_newton_iterations"][i] = float(dyn.iterations.sum())
                 extra["peak_refinement_runs"][i] = float(dyn.refinement_runs)
                 extra["run_down_speeds"][i] = float(dyn.run_down_speeds)
+                extra["aperiodic_speeds"][i] = float(dyn.aperiodic_speeds)
                 if np.any(np.isfinite(dyn.kv_run_up)):
                     extra["kv_grid_max_run_up"][i] = float(np.nanmax(dyn.kv_run_up))
                 if "dte_rms_max" in ranged or "speed_at_dte_rms_max" in ranged:
@@ -648,6 +651,11 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                 "units": "1", "long_name": "grid speeds solved by the run-down over the "
                 "run-up's contact-loss ranges (sweep_direction='up_and_down'; NaN: range not "
                 "computed)"}),
+            "aperiodic_speeds": ("sample", extra["aperiodic_speeds"], {
+                "units": "1", "long_name": "speeds of the range (grid, run-down and located "
+                "peaks) without a periodic response whose values were read from the time "
+                "integration's last long periods (aperiodic_response='window_max'; NaN: "
+                "range not computed)"}),
             "kv_grid_max_run_up": ("sample", extra["kv_grid_max_run_up"], {
                 "units": "1", "long_name": "largest K_v of the run-up's grid speeds (beside "
                 "kv_max, which also has the run-down and the located peaks)"}),
