@@ -159,9 +159,10 @@ class DynamicRange:
     run_down_speeds : int
         Grid speeds the run-down solved (``sweep_direction="up_and_down"``; 0 otherwise).
     aperiodic_speeds : int
-        Speeds (grid, run-down and refinement) with no periodic response whose values were
-        read from the time integration's window (``aperiodic_response="window_max"``; with
-        ``"invalid"`` such a speed keeps its non-zero status and counts 0 here).
+        Grid speeds whose K_v was read from a time integration's window (on the sweep that
+        supplied it) plus the distinct speeds of the peak refinement read so
+        (``aperiodic_response="window_max"``; with ``"invalid"`` such a speed keeps its
+        non-zero status and counts 0 here).
     """
 
     speeds: np.ndarray
@@ -196,9 +197,10 @@ SWEEP_DIRECTIONS = ("up", "up_and_down")
 
 #: What a speed whose response is not periodic reports (the time integration did not return
 #: to its state within its long periods: subharmonic, quasi-periodic or chaotic rattle):
-#: ``"invalid"``, its non-zero status and no value, or ``"window_max"``, K_v as the largest
-#: mesh force over the integration's last ``WINDOW_PERIODS`` long periods (what a test rig
-#: measuring over that window would read; a lower bound of the response's supremum) and
+#: ``"invalid"``, its non-zero status (the sample is flagged), or ``"window_max"``, K_v as
+#: the largest mesh force over the integration's last ``WINDOW_PERIODS`` long periods (what
+#: a test rig recording over that window would read: on a settled response a lower bound of
+#: its supremum, on a transient still under way that transient's largest force) and
 #: the other quantities from the last long period's harmonics, counted in
 #: ``DynamicRange.aperiodic_speeds`` (docs/theory/geared_rotor.md, "Responses that are not
 #: periodic").
@@ -531,7 +533,9 @@ class GearedRotorProblem:
         states: list = [None] * n
         active, state = False, None
         for i in range(n - 1, -1, -1):
-            apart = up[i]["status"] == 0 and up[i]["contact_loss_fraction"] > 0
+            # a speed read from a time window has no periodic state to start from
+            apart = (up[i]["status"] == 0 and not up[i].get("aperiodic", 0)
+                     and up[i]["contact_loss_fraction"] > 0)
             if not active:
                 if apart:  # the top of a contact-loss range: the run-up's state there
                     active, state = True, up_states[i]
@@ -643,8 +647,15 @@ class GearedRotorProblem:
                     values = self._solve_from(s, states[sweep][peak] if continuation
                                               else None, kw)[0]
                     near = int(np.argmin(np.abs(speeds - s)))
-                    if values["status"] != 0 and continuation and near != peak:
-                        values = self._solve_from(s, states[0][near], kw)[0]
+                    if ((values["status"] != 0 or values["aperiodic"]) and continuation
+                            and near != peak):
+                        # a periodic response from the other start is preferred to a
+                        # window, a window to a failure
+                        other = self._solve_from(s, states[0][near], kw)[0]
+                        rank = [(v["status"] == 0) + (v["status"] == 0
+                                                      and not v["aperiodic"])
+                                for v in (values, other)]
+                        values = other if rank[1] > rank[0] else values
                     cache[s, sweep] = values
                 return cache[s, sweep]
 
@@ -663,7 +674,8 @@ class GearedRotorProblem:
             out.refinement_runs = len(cache)
             failed = [int(v["status"]) for v in cache.values() if int(v["status"]) != 0]
             out.refinement_status = failed[0] if failed else 0
-            out.aperiodic_speeds += sum(int(v.get("aperiodic", 0)) for v in cache.values())
+            out.aperiodic_speeds += len({s for (s, _), v in cache.items()
+                                         if v["status"] == 0 and v["aperiodic"]})
         return out
 
     def sweep(self, speeds_rpm: Sequence[float], *, continuation: bool = True,
@@ -713,8 +725,6 @@ def _envelope(speeds: np.ndarray, sweeps: list[list[dict | None]]
     apart = np.array([r["contact_loss_fraction"] for r in up], dtype=float)
     kv_up = values["kv"].copy()
     solved = 0
-    aperiodic = sum(int(r.get("aperiodic", 0)) for rows in sweeps for r in rows
-                    if r is not None)
     for k, rows in enumerate(sweeps[1:], start=1):
         for i, row in enumerate(rows):
             if row is None:
@@ -732,6 +742,9 @@ def _envelope(speeds: np.ndarray, sweeps: list[list[dict | None]]
                 values[q][i] = np.where(take, new, values[q][i])
                 origin[q][i] = np.where(take, k, origin[q][i])
             apart[i] = max(apart[i], float(row["contact_loss_fraction"]))
+    # grid speeds whose K_v came from a window (of the sweep that supplied it)
+    aperiodic = sum(int(sweeps[k][i].get("aperiodic", 0))
+                    for i, k in enumerate(origin["kv"]) if sweeps[k][i] is not None)
     out = DynamicRange(speeds=speeds, kv=values["kv"], dte_rms=values["dte_rms"],
                        dte_mesh_band_rms=values["dte_mesh_band_rms"],
                        dte_mesh_orders=values["dte_mesh_orders"],

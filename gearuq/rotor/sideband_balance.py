@@ -838,14 +838,16 @@ INTEGRATION_PERIODS = 100
 WINDOW_PERIODS = 10
 #: Mesh cycles over which the state's change over a long period must shrink for the
 #: integration of a long-period problem to go on (``stall_periods`` of
-#: :func:`solve_periodic_by_integration`, at least ``MIN_STALL_PERIODS`` periods): the
-#: transients of the rotor's modes decay within a few hundred mesh cycles at 1 % damping,
-#: so a change that has not shrunk over 20 000 mesh cycles belongs to a response that is
-#: not periodic on the long period (quasi-periodic, chaotic, or a subharmonic of it). On
-#: the 27/79 stage (2133 mesh cycles, about 0.1 s of CPU a long period) the integration then
-#: stops after 20 periods at the earliest instead of 100. A one-cycle mesh can take hundreds
-#: of periods to leave an unstable response (the test's 3700 rpm: the change grows from
-#: 0.05 to 0.67 over 100 periods toward a period-2 response): there the rule never acts.
+#: :func:`solve_periodic_by_integration`, at least ``MIN_STALL_PERIODS`` periods; checked
+#: from twice that on): the transients of the rotor's modes decay within a few hundred mesh
+#: cycles at 1 % damping, so a change that has not shrunk over 20 000 mesh cycles belongs to
+#: a response that is not periodic on the long period (quasi-periodic, chaotic, a
+#: subharmonic of it) or to a departure from an unstable one still under way. On the 27/79
+#: stage (2133 mesh cycles, about 0.1 s of CPU a long period) the integration then stops
+#: after 20 periods at the earliest instead of 100. A one-cycle mesh can take a hundred
+#: periods to leave an unstable response (the test's 3700 rpm: the change grows from 0.05 to
+#: 0.67 toward a period-2 response): with fewer than 400 mesh cycles a long period the rule
+#: cannot act within 100 periods.
 STALL_MESH_CYCLES = 20_000
 MIN_STALL_PERIODS = 10
 
@@ -997,10 +999,10 @@ def solve_periodic_by_integration(
         rk4_long_period(y, k_fine, ke_fine, float(period), w2, D, model.mesh, model.load,
                         float(dres), float(model.mean_stiffness), float(model.mesh_residual),
                         float(backlash), delta_t, force_t)
-        peaks.append(float(force_t.max()))
         if not np.all(np.isfinite(y)):
             status = STATUS_NOT_CONVERGED
             break
+        peaks.append(float(force_t.max()))
         change = float(np.linalg.norm(weight * (y - before))
                        / max(np.linalg.norm(weight * y), 1e-300))
         if change <= tol:
