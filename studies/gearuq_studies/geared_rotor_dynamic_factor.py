@@ -114,6 +114,10 @@ pitch and relief 0.00; one run (damping 1.0 %) enters with a lower bound of its 
 run-up's contact-loss ranges, down (``sweep_direction="up_and_down"``): where the teeth
 separate two periodic responses can coexist and the larger counts; on the e-axle the
 run-down raised ``kv_max`` by 0.02 on two of 112 draws (docs/benchmarks.md, eighth round).
+Where a lightly damped draw rattles without a periodic response, K_v at that speed is the
+largest mesh force over the time integration's last 10 long periods
+(``aperiodic_response="window_max"``; the screen says how many runs and speeds were read
+so).
 
 Run: ``gearuq study geared_rotor_dynamic_factor [--quick] [--out DIR] [--grade 6|7]
 [--stage NAME|FILE]``.
