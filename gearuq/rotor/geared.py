@@ -534,8 +534,7 @@ class GearedRotorProblem:
         active, state = False, None
         for i in range(n - 1, -1, -1):
             # a speed read from a time window has no periodic state to start from
-            apart = (up[i]["status"] == 0 and not up[i].get("aperiodic", 0)
-                     and up[i]["contact_loss_fraction"] > 0)
+            apart = (_quality(up[i]) == 2 and up[i]["contact_loss_fraction"] > 0)
             if not active:
                 if apart:  # the top of a contact-loss range: the run-up's state there
                     active, state = True, up_states[i]
@@ -652,10 +651,7 @@ class GearedRotorProblem:
                         # a periodic response from the other start is preferred to a
                         # window, a window to a failure
                         other = self._solve_from(s, states[0][near], kw)[0]
-                        rank = [(v["status"] == 0) + (v["status"] == 0
-                                                      and not v["aperiodic"])
-                                for v in (values, other)]
-                        values = other if rank[1] > rank[0] else values
+                        values = other if _quality(other) > _quality(values) else values
                     cache[s, sweep] = values
                 return cache[s, sweep]
 
@@ -743,8 +739,7 @@ def _envelope(speeds: np.ndarray, sweeps: list[list[dict | None]]
                 origin[q][i] = np.where(take, k, origin[q][i])
             apart[i] = max(apart[i], float(row["contact_loss_fraction"]))
     # grid speeds whose K_v came from a window (of the sweep that supplied it)
-    aperiodic = sum(int(sweeps[k][i].get("aperiodic", 0))
-                    for i, k in enumerate(origin["kv"]) if sweeps[k][i] is not None)
+    aperiodic = sum(int(sweeps[k][i]["aperiodic"]) for i, k in enumerate(origin["kv"]))
     out = DynamicRange(speeds=speeds, kv=values["kv"], dte_rms=values["dte_rms"],
                        dte_mesh_band_rms=values["dte_mesh_band_rms"],
                        dte_mesh_orders=values["dte_mesh_orders"],
@@ -767,6 +762,11 @@ def read_aperiodic(values: dict, sol: PeriodicSolution, static_force: float,
             and math.isfinite(sol.window_peak_force)):
         values.update(kv=sol.window_peak_force / static_force, status=0, aperiodic=1)
     return values
+
+
+def _quality(values: dict) -> int:
+    """0 a failed speed, 1 one read from a time window, 2 a periodic steady state."""
+    return 0 if values["status"] != 0 else 1 if values["aperiodic"] else 2
 
 
 def _band_limited(one_sided: np.ndarray, n: int) -> np.ndarray:

@@ -851,6 +851,12 @@ WINDOW_PERIODS = 10
 STALL_MESH_CYCLES = 20_000
 MIN_STALL_PERIODS = 10
 
+
+def stall_periods_for(n_cycles: int) -> int:
+    """``stall_periods`` of a long period of ``n_cycles`` mesh cycles: the periods that
+    hold :data:`STALL_MESH_CYCLES`, at least :data:`MIN_STALL_PERIODS`."""
+    return max(MIN_STALL_PERIODS, math.ceil(STALL_MESH_CYCLES / n_cycles))
+
 #: Relative change of the state over one long period (energy norm) taken as periodic (below
 #: the step's own error; 1e-8 took a period more per speed and moved K_v by 2.5e-8).
 INTEGRATION_TOL = 1e-6
@@ -1011,6 +1017,7 @@ def solve_periodic_by_integration(
         changes.append(change)
         if done >= 2 * stall and change >= changes[-1 - int(stall)]:
             break  # the return map has stalled: no periodic response is on its way
+    window = min(int(window_periods), max(done // 2, 1))
     x = _fft.rfft(delta_t)[:H + 1] / N
     force_hat = _fft.rfft(force_t)[:H + 1] / N
     r = force_hat - model.mean_stiffness * x
@@ -1021,7 +1028,5 @@ def solve_periodic_by_integration(
         back_contact_fraction=n_back, min_force=float(force_t.min()),
         branch=contact_branch(n_back > 0, n_sep > 0), start="time_integration",
         min_approach=float(delta_t.min()),
-        window_peak_force=max(peaks[-min(int(window_periods), max(done // 2, 1)):],
-                              default=math.nan),
-        window_periods=min(int(window_periods), max(done // 2, 1)),
+        window_peak_force=max(peaks[-window:], default=math.nan), window_periods=window,
     ).with_channels(model, receptance, names)

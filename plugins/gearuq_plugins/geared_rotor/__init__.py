@@ -223,9 +223,10 @@ _OPTIONS = (
        "docs/theory/geared_rotor.md)", choices=("up", "up_and_down")),
     _O("aperiodic_response", "invalid", "what a speed of the range without a periodic "
        "response reports (the time integration did not return to itself: subharmonic, "
-       "quasi-periodic or chaotic rattle): 'invalid' (the sample's status 18 or 21, no "
-       "value) or 'window_max' (K_v the largest mesh force over the integration's last 10 "
-       "long periods, counted in aperiodic_speeds; docs/theory/geared_rotor.md)",
+       "quasi-periodic or chaotic rattle): 'invalid' (the sample is flagged: status 18, "
+       "or 21 during a peak's search) or 'window_max' (K_v the largest mesh force over "
+       "the integration's last 10 long periods, counted in aperiodic_speeds; "
+       "docs/theory/geared_rotor.md)",
        choices=("invalid", "window_max")),
     _O("peak_speed_tol", 1.0, "width of the final speed bracket of a located peak", lower=1e-3,
        upper=1000.0, units="rpm"),

@@ -278,11 +278,10 @@ class LongPeriodProblem(GearedRotorProblem):
         """One steady state on the kept orders by the chosen solver."""
         from gearuq.rotor.sideband_balance import (
             GMRES_BUDGET,
-            MIN_STALL_PERIODS,
-            STALL_MESH_CYCLES,
             solve_periodic_by_integration,
             solve_periodic_krylov,
             solve_periodic_orders,
+            stall_periods_for,
         )
 
         if self.solver == "gmres":
@@ -323,8 +322,7 @@ class LongPeriodProblem(GearedRotorProblem):
                 timed = solve_periodic_by_integration(
                     model, self.krylov, T, omega, start=timed_before or sol,
                     backlash=self.backlash, receptance=rec, channels=names,
-                    stall_periods=max(MIN_STALL_PERIODS, math.ceil(
-                        STALL_MESH_CYCLES / self.excitation.n_cycles)))
+                    stall_periods=stall_periods_for(self.excitation.n_cycles))
                 if self._blas_limited:
                     self._spent += INTEGRATION_PERIOD_GMRES * timed.iterations
                 if timed.status != STATUS_NOT_CONVERGED:  # periodic (0) or not (3): said so

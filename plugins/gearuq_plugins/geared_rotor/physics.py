@@ -652,10 +652,10 @@ def evaluate(model: Any, params: dict[str, np.ndarray], t: np.ndarray, outputs: 
                 "run-up's contact-loss ranges (sweep_direction='up_and_down'; NaN: range not "
                 "computed)"}),
             "aperiodic_speeds": ("sample", extra["aperiodic_speeds"], {
-                "units": "1", "long_name": "speeds of the range (grid, run-down and located "
-                "peaks) without a periodic response whose values were read from the time "
-                "integration's last long periods (aperiodic_response='window_max'; NaN: "
-                "range not computed)"}),
+                "units": "1", "long_name": "grid speeds whose K_v was read from the time "
+                "integration's last long periods (no periodic response there; on the sweep "
+                "that supplied it) plus the distinct speeds of the peak search read so "
+                "(aperiodic_response='window_max'; NaN: range not computed)"}),
             "kv_grid_max_run_up": ("sample", extra["kv_grid_max_run_up"], {
                 "units": "1", "long_name": "largest K_v of the run-up's grid speeds (beside "
                 "kv_max, which also has the run-down and the located peaks)"}),
