@@ -24,7 +24,8 @@ from gearuq.model import Model, Request
 from gearuq.space import ParameterSpace
 
 __all__ = ["resolve_model", "resolve_model_and_space", "resolve_seed", "provenance",
-           "check_positive_int", "merge_model_options", "route_keywords", "space_json"]
+           "check_positive_int", "merge_model_options", "route_keywords", "space_json",
+           "setting_text"]
 
 _MAX_SEED = 2**63 - 1
 
@@ -139,9 +140,18 @@ def provenance(engine: str, model: Model, request: Request | None, space: Parame
     if seed is not None:
         attrs["seed"] = int(seed)
     for k, v in settings.items():
-        attrs[k] = json.dumps(v, sort_keys=True, default=repr) if isinstance(v, (dict, list)) \
+        attrs[k] = json.dumps(v, sort_keys=True, default=setting_text) \
+            if isinstance(v, (dict, list)) \
             else ("none" if v is None else v)
     return attrs
+
+
+def setting_text(value: Any) -> str:
+    """A setting JSON cannot hold, as text that is the same in every process: a function by
+    its qualified name (its repr holds a memory address), anything else by its repr."""
+    if callable(value) and hasattr(value, "__qualname__"):
+        return f"{value.__module__}.{value.__qualname__}"
+    return repr(value)
 
 
 def merge_model_options(model_options: Mapping[str, Any] | None, options: Mapping[str, Any],

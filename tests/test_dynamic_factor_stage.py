@@ -76,9 +76,12 @@ def test_the_stage_option_routes_and_refuses_what_a_stage_does_not_use(tmp_path)
     assert vars(args) == {"stage": STAGE, "n_per_level": 0}
     with pytest.raises(ValueError, match=r"sobol_base=1 is outside its valid range: 0"):
         study.run(out=tmp_path, sobol_base=1, stage=STAGE)
-    # the rare level on a stage: subset simulation only, at an X given by name
+    # the rare level on a stage: the gated walk, then lines along its failing mean, at an X
+    # given by name; lines alone have no direction
     with pytest.raises(ValueError, match=r"rare_methods=\('lines',\) is outside what a stage"):
         study.run(out=tmp_path, rare_methods=("lines",), stage=STAGE)
+    with pytest.raises(ValueError, match=r"rare_methods=\('subset', 'mirrored'\) is outside"):
+        study.run(out=tmp_path, rare_methods=("subset", "mirrored"), stage=STAGE)
     with pytest.raises(ValueError, match=r"rare_x=0.5 is outside its valid range"):
         study.run(out=tmp_path, rare_x=0.5, stage=STAGE)
     with pytest.raises(ValueError, match=r"rare_per_level=3 is outside its valid range"):
@@ -102,8 +105,10 @@ def test_the_stage_gets_rare_x_only_when_it_is_given(tmp_path, monkeypatch):
     study.run(out=tmp_path, stage=STAGE)
     study.run(out=tmp_path, stage=STAGE, rare_x=3.0, rare_per_level=50,
               rare_methods=("subset",))
+    study.run(out=tmp_path, stage=STAGE, rare_x=3.0, rare_methods=("subset", "lines"))
     assert "rare_x" not in calls[0]
     assert calls[1]["rare_x"] == 3.0 and calls[1]["rare_per_level"] == 50
+    assert not calls[1]["rare_lines"] and calls[2]["rare_lines"]
 
 
 def test_sobol_groups_put_every_input_of_a_stage_under_one_cause():
@@ -326,3 +331,35 @@ def test_grouped_sobol_solves_a_failed_run_again_and_reports_what_stays_failed(m
     assert "S1" not in res and res["failed"] == 1 and res["retried"] == 2
     assert res["lower_bounds"] == 1
     assert res["failed_status"] == {16: 1} and "not computed" in res["message"]
+
+
+def test_the_stage_walk_samples_the_accepted_law(tmp_path, monkeypatch):
+    """The rare walk on a stage: K_v's limit state alone behind inspection's gate (no
+    parallel system), modified Metropolis, the gate a named object whose verdict is the
+    plugin's margin formula on the germs; the direction of the lines is checked by name."""
+    e_axle = GearStage.example(STAGE)
+    seen = {}
+
+    def fake(model, space, limit_state, **kw):
+        seen.update(kw, limit_state=limit_state, space=space)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(study, "failure_probability", fake)
+    with pytest.raises(RuntimeError, match="stop here"):
+        study.rare_subset_on_stage(e_axle, 5.0, 1, 100, {"executor": "serial"}, tmp_path)
+    gate = seen["gate"]
+    assert isinstance(seen["limit_state"], gearuq.LimitState)
+    assert seen["limit_state"].name == "kv_max >= 5" and seen["method"] == "subset"
+    assert repr(gate) == "AcceptanceGate(stage='e_axle_27_79')"
+    u = np.random.default_rng(3).standard_normal((4000, len(seen["space"].names)))
+    verdict = gate(u)
+    np.testing.assert_array_equal(verdict,
+                                  study.germ_acceptance_margin(u, 0, e_axle) >= 0.0)
+    # the declared process: 5 % of each gear beyond F_pT, so about 0.95^2 pass
+    assert abs(verdict.mean() - 0.9025) < 4 * math.sqrt(0.9025 * 0.0975 / 4000)
+    dim = len(seen["space"].names)  # 26 + 78 germs, two reliefs, load, damping
+    assert dim == 108
+    for bad in (np.zeros(dim), np.ones(dim - 2)):
+        with pytest.raises(ValueError, match=r"direction: a nonzero vector of 108"):
+            study.lines_on_stage(e_axle, 5.0, bad, 1, study.STAGE_LINES,
+                                 {"executor": "serial"})

@@ -41,7 +41,7 @@ from gearuq.execution import workers_for_run
 from gearuq.failure.evaluator import LimitStateEvaluator
 from gearuq.failure.methods import akmcs, form, importance, line_sampling, mc, mfis, subset
 from gearuq.model import Model, Option
-from gearuq.runs import resolve_model, resolve_seed, route_keywords
+from gearuq.runs import resolve_model, resolve_seed, route_keywords, setting_text
 from gearuq.space import ParameterSpace
 
 __all__ = ["failure_probability", "method_settings", "validate_settings", "check_method",
@@ -207,7 +207,10 @@ def failure_probability(
 
 
 def _jsonable(settings: Mapping[str, Any]) -> dict[str, Any]:
-    """Settings for a store's fingerprint: a model by its name and version, not its repr."""
+    """Settings for a store's fingerprint: a model by its name and version, not its repr; a
+    function by its qualified name and an object that is callable by its repr (stable from
+    one process to the next, unlike a function's repr)."""
     return {k: (f"{v.name} {v.version}" if isinstance(v, Model)
-                else v.tolist() if isinstance(v, np.ndarray) else v)
+                else v.tolist() if isinstance(v, np.ndarray)
+                else setting_text(v) if callable(v) else v)
             for k, v in settings.items()}

@@ -521,21 +521,45 @@ def germ_acceptance_margin(u: np.ndarray, grade: int,
     return np.minimum(*margins)
 
 
-def _acceptance_gate(grade: int, stage: GearStage | None = None) -> Any:
+class AcceptanceGate:
     """``gate(u) -> bool mask``: inspection accepts the pair of the germs in ``u``
-    (:func:`germ_acceptance_margin` at least 0), the gate the rare methods take."""
-    return lambda u: germ_acceptance_margin(u, grade, stage) >= 0.0
+    (:func:`germ_acceptance_margin` at least 0), the gate the rare methods take.
+
+    An object rather than a closure so that its ``repr`` names the class and stage: a
+    resumable run's store recognises the same gate in the next process.
+    """
+
+    def __init__(self, grade: int, stage: GearStage | None = None) -> None:
+        self.grade, self.stage = grade, stage
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        return germ_acceptance_margin(u, self.grade, self.stage) >= 0.0
+
+    def __repr__(self) -> str:
+        where = f"stage={self.stage.name!r}" if self.stage else f"grade={self.grade}"
+        return f"AcceptanceGate({where})"
+
+
+def _acceptance_gate(grade: int, stage: GearStage | None = None) -> AcceptanceGate:
+    """The inspection gate of the paper's pair at class ``grade`` or of ``stage``."""
+    return AcceptanceGate(grade, stage)
 
 
 def _kv_on_normals(model: gearuq.Model, options: dict[str, Any], execution: dict[str, Any],
-                   x: float) -> Any:
-    """``limit(u) -> (x - kv_max, ok)`` of the model on standard normal draws ``u``."""
-    space = study_space()
+                   x: float, stage: GearStage | None = None, store: Path | None = None) -> Any:
+    """``limit(u) -> (x - kv_max, ok)`` of the model on standard normal draws ``u`` (of the
+    paper's rotor's space, or of ``stage``'s). With a ``store``, call ``k`` keeps its runs
+    in ``store/call_k``: a method whose calls are a deterministic sequence resumes."""
+    space = study_space(stage)
     request = model.prepare(None, outputs=["kv_max"], **options)
+    calls = [0]
 
     def limit(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         design = {n: space.marginal(n).from_normal(u[:, j]) for j, n in enumerate(space.names)}
-        ds = evaluate_chunks(model, design, request, progress=False, **execution)
+        where = None if store is None else {"store": store / f"call_{calls[0]:04d}"}
+        calls[0] += 1
+        ds = evaluate_chunks(model, design, request, progress=False, **execution,
+                             **(where or {}))
         ok = ds["status"].values == 0
         return np.where(ok, x - ds["kv_max"].values, np.nan), ok
 
@@ -1217,7 +1241,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
                  seed: int = 2028, executor: Any = DEFAULT_EXECUTION["executor"],
                  chunk_size: int | None = DEFAULT_EXECUTION["chunk_size"], n_runs: int = 400,
                  n_per_level: int = 200, sobol_base: int = 16, rare_x: float | None = None,
-                 rare_per_level: int = 200) -> int:
+                 rare_per_level: int = 200, rare_lines: bool = False) -> int:
     """The population stage of the dynamic question on a gear stage (``--stage``).
 
     The stage's rotor, classes, reliefs, load and speed range (:func:`study_space`), the
@@ -1227,8 +1251,10 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     subset simulation on the parallel system (not in ``quick``), the rank correlations of
     ``kv_max`` with its causes, and (not in ``quick``) the grouped Sobol' indices of
     ``kv_max`` (:func:`grouped_sobol`). With ``rare_x``, P(kv_max >= rare_x | pass) by
-    subset simulation on the same system (:func:`rare_subset_on_stage`), the one rare method
-    that needs neither a cheap model nor a known direction of the stage's failure set.
+    subset simulation behind inspection's gate (:func:`rare_subset_on_stage`), the rare
+    method that needs neither a cheap model nor a known direction of the stage's failure
+    set; with ``rare_lines`` also by line sampling along the walk's failing mean
+    (:func:`lines_on_stage`), a second estimator.
 
     Parameters
     ----------
@@ -1251,6 +1277,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
         X of the rare level on the stage (default: none run; not in ``quick``).
     rare_per_level : int
         Subset-simulation samples per level at ``rare_x``.
+    rare_lines : bool
+        After the walk, line sampling at ``rare_x`` (:data:`STAGE_LINES`).
 
     Returns
     -------
@@ -1295,12 +1323,18 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             sobol = grouped_sobol(int(sobol_base), seed + 2, 0, run_on, stage,
                                   out / f"sobol_store_{stage.name}")
             stages["sobol"] = tuple(np.subtract(clock(), (t2, c2)))
-        rare = None
+        rare, rare_lines_est = None, None
         if not quick and rare_x is not None:
             t3, c3 = clock()
             rare = rare_subset_on_stage(stage, float(rare_x), seed + 3, int(rare_per_level),
-                                        run_on, out / f"rare_subset_store_{stage.name}")
+                                        run_on, out / f"rare_gated_store_{stage.name}")
             stages["rare_subset"] = tuple(np.subtract(clock(), (t3, c3)))
+            if rare_lines and rare["failure_mean_u"] is not None:
+                t4, c4 = clock()
+                rare_lines_est = lines_on_stage(stage, float(rare_x), rare["failure_mean_u"],
+                                                seed + 6, STAGE_LINES, run_on,
+                                                out / f"rare_lines_store_{stage.name}")
+                stages["rare_lines"] = tuple(np.subtract(clock(), (t4, c4)))
     modes = mesh_mode_speeds(0, stage)
     paths = figures(out, ds, x, modes, sobol, 0, stage)
     p_pass = (1.0 - OPTIONS["process_share_beyond"]) ** 2
@@ -1311,7 +1345,7 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
                                                              stage.wheel.iso_grade],
             "seed": seed, "X": x, "crude_mc": conditional_count(ds, x),
             "crude_mc_invalid_as_failures": invalid_as_failures(ds, x), "subset": ss,
-            "sobol": sobol, "rare_subset": rare,
+            "sobol": sobol, "rare_subset": rare, "rare_lines": rare_lines_est,
             "accepted_share": int(ok.sum()) / max(n_ok, 1), "accepted_share_interval":
             clopper_pearson_interval(int(ok.sum()), n_ok), "accepted_share_closed_form": p_pass,
             "accepted_probability_counted": (*accepted_probability(0, stage, n_germs),
@@ -1342,15 +1376,88 @@ STAGE_RARE_LEVELS = 7
 
 def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int,
                          execution: dict[str, Any], store: Path) -> dict[str, Any]:
-    """P(kv_max >= x | pass) on a stage by subset simulation on the parallel system.
+    """P(kv_max >= x | pass) on a stage by subset simulation behind inspection's gate.
 
-    The stage's model, space and options (:func:`stage_options`), the gate's P(pass) counted
-    on germ pairs, at most :data:`STAGE_RARE_LEVELS` levels (below ``0.1^7`` the run stops
-    and says so: its value is then an upper end, not an estimate). The run is stored in
-    ``store`` and resumes from it. :func:`subset_given_acceptance`'s fields and ``x``.
+    Inspection is a function of the germs alone (:func:`germ_acceptance_margin`), so the walk
+    samples the accepted law itself (subset's ``gate``): level 0 keeps the first
+    ``n_per_level`` accepted draws, and a chain's candidate that inspection rejects is
+    refused without a rotor run. On the parallel system ``kv_max >= x and pass`` the walk
+    spent most of its deeper levels on rejected pairs (72 % of the e-axle's level 3 at
+    X = 5, ninth round), since a rejected pair lies inside every level whose threshold is
+    still above 0. The stage's model, space and options (:func:`stage_options`); at most
+    :data:`STAGE_RARE_LEVELS` levels (below ``0.1^7`` the run stops and says so: its value
+    is then an upper end, not an estimate). Stored in ``store``; resumes from it.
+
+    Returns
+    -------
+    dict
+        ``pf``, ``lower``, ``upper`` (95 %, given acceptance), ``status``, ``message``,
+        ``runs``, ``wall``, ``levels``, ``x``, ``level_kv`` (the K_v of each level),
+        ``p_pass`` (counted, for the joint probability ``pf p_pass``) and
+        ``failure_mean_u`` (the last level's failing mean, :func:`lines_on_stage`'s
+        direction; None when none failed).
     """
-    return {**subset_given_acceptance(x, seed, 0, n_per_level, execution, stage=stage,
-                                      max_levels=STAGE_RARE_LEVELS, store=store), "x": x}
+    rep = failure_probability(study_model(0, stage), study_space(stage), kv_exceeds(x),
+                              method="subset", rng=seed, n_per_level=n_per_level,
+                              gate=_acceptance_gate(0, stage), max_levels=STAGE_RARE_LEVELS,
+                              store=store, model_options=stage_options(stage), **execution)
+    thresholds = x - np.atleast_1d(rep["level_threshold"].values) \
+        if "level_threshold" in rep else np.array([])
+    mean = rep["failure_mean_u"].values.tolist() if "failure_mean_u" in rep else None
+    return {"pf": float(rep["pf"]), "lower": float(rep["pf_lower"]),
+            "upper": float(rep["pf_upper"]), "status": int(rep["status"]),
+            "message": describe_status(rep), "runs": int(rep["n_model_runs"]),
+            "wall": float(rep["wall_time"]), "levels": int(thresholds.size), "x": x,
+            "level_kv": thresholds.tolist(), "p_pass": accepted_probability(0, stage)[0],
+            "failure_mean_u": mean}
+
+
+#: Line sampling on a stage (:func:`lines_on_stage`), the rare level's second method beside
+#: the gated walk: straight lines along the walk's failing mean (the important direction),
+#: origins standard normal, inspection's verdict exact along each line. ``t_grid`` brackets
+#: the failure boundary near the walk's reliability index; points at negative ``t`` look for
+#: a failure set on the far side.
+STAGE_LINES: dict[str, Any] = {"n_lines": 30, "t_grid": (-6.0, 0.0, 3.0, 4.5, 6.0, 8.0),
+                               "root_tol": 0.01, "chunk_lines": 30}
+
+
+def lines_on_stage(stage: GearStage, x: float, direction: Any, seed: int,
+                   settings: dict[str, Any], execution: dict[str, Any],
+                   store: Path | None = None) -> dict[str, Any]:
+    """P(kv_max >= x | pass) on a stage by line sampling behind inspection's gate.
+
+    Lines parallel to ``direction`` (standard normal space of :func:`study_space`; the
+    gated walk's ``failure_mean_u``); inspection's verdict along each line exact without the
+    rotor; the rotor runs on the accepted part (:func:`gated_line_sampling`, an estimator
+    that shares no code with subset simulation's: the direction steers its variance, not
+    its mean). P(fail and pass) divided by the counted P(pass). ``settings`` as
+    :data:`STAGE_LINES`; runs kept in ``store`` (resumable).
+
+    Returns
+    -------
+    dict
+        ``pf``, ``lower``, ``upper`` (95 %, given acceptance), ``cov``, ``status``,
+        ``message``, ``runs``, ``n_lines``, ``n_effective``, ``lines_by_crossings``,
+        ``direction_norm`` (the walk's failing mean's distance from the origin), ``x``.
+    """
+    direction = np.asarray(direction, dtype=float)
+    norm = float(np.linalg.norm(direction))
+    if direction.shape != (len(study_space(stage).names),) or not norm > 0:
+        raise ValueError(f"direction: a nonzero vector of {len(study_space(stage).names)} "
+                         f"standard normal coordinates, got shape {direction.shape}")
+    limit = _kv_on_normals(study_model(0, stage), stage_options(stage), execution, x, stage,
+                           store)
+    est = gated_line_sampling(limit, (direction / norm)[:, None],
+                              n_lines=int(settings["n_lines"]), seed=seed,
+                              gate=_acceptance_gate(0, stage),
+                              t_grid=np.array(settings["t_grid"], dtype=float),
+                              root_tol=settings["root_tol"],
+                              chunk_lines=int(settings["chunk_lines"]))
+    p_pass, se_pass = accepted_probability(0, stage)
+    return {**given_gate(est, p_pass, se_pass),
+            **{k: est[k] for k in ("status", "message", "runs", "n_lines", "n_effective",
+                                   "lines_by_crossings")},
+            "direction_norm": norm, "x": x, "line_pf": est["line_pf"].tolist()}
 
 
 def aperiodic_runs(ds: Any) -> dict[str, int]:
@@ -1409,8 +1516,16 @@ def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
     if rare is not None:
         print(f"  rare     : P(kv_max >= {rare['x']:.4g} | pass) = {rare['pf']:.3g} "
               f"[{rare['lower']:.3g}, {rare['upper']:.3g}] by subset simulation, status "
-              f"{rare['status']} ({rare['message']}), {rare['runs']} rotor runs, "
-              f"{rare['levels']} levels")
+              f"{rare['status']} ({rare['message']}), {rare['runs']} rotor runs of accepted "
+              f"pairs, {rare['levels']} levels (K_v " + ", ".join(
+                  f"{v:.3g}" for v in rare.get("level_kv", [])) + ")")
+    lines = info.get("rare_lines")
+    if lines is not None:
+        print(f"  rare     : {lines['pf']:.3g} [{lines['lower']:.3g}, {lines['upper']:.3g}] by "
+              f"line sampling along the walk's failing mean (|u| = "
+              f"{lines['direction_norm']:.2f}), status {lines['status']} ({lines['message']}), "
+              f"{lines['runs']} rotor runs, {lines['n_lines']} lines, "
+              f"{lines['n_effective']:.1f} effective")
     print("  peaks nearest: " + ", ".join(
         f"{p['speed']:.0f} rpm (h {p['harmonic']}) {p['peaks']}" for p in info["peak_sites"]
         if p["peaks"]))
@@ -1452,17 +1567,19 @@ def _stage_route(run_paper: Any) -> Any:
         own = inspect.signature(run_on_stage).parameters
         given = {k: v for k, v in settings.items() if v != signature.parameters[k].default}
         methods = tuple(given.pop("rare_methods", ("subset",)))
-        if methods != ("subset",):
+        if set(methods) not in ({"subset"}, {"subset", "lines"}):
             raise ValueError(f"rare_methods={methods!r} is outside what a stage runs: "
-                             "('subset',), subset simulation at --rare-x (the other methods "
-                             "need the paper's rotor's cheap model or its known direction)")
+                             "('subset',), the gated walk at --rare-x, or ('subset', "
+                             "'lines'), then line sampling along the walk's failing mean (the "
+                             "other methods need the paper's rotor's cheap model or its known "
+                             "direction)")
         for name, value in given.items():
             if name not in own:
                 raise ValueError(f"{name}={value!r} is not used on a stage (it takes its "
                                  "classes from its file); valid: the default")
         # rare_x is the stage's only when given: its default is the paper's rotor's level
         keep = {k: v for k, v in settings.items() if k in own and k != "rare_x"}
-        return run_on_stage(bound.arguments["stage"], **keep,
+        return run_on_stage(bound.arguments["stage"], **keep, rare_lines="lines" in methods,
                             **({"rare_x": given["rare_x"]} if "rare_x" in given else {}))
 
     return run
@@ -1506,7 +1623,8 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
     rare_x : float
         X of the rare stage (default :data:`RARE_X`, P near 1e-6); ``quick`` runs the stage
         at the moderate X instead, with a few dozen runs. On a stage the rare level runs
-        only when this is given (subset simulation, :func:`rare_subset_on_stage`).
+        only when this is given (subset simulation behind inspection's gate,
+        :func:`rare_subset_on_stage`).
     rare_per_level : int
         Samples per level of subset simulation in the rare stage.
     rare_methods : tuple of str
@@ -1520,7 +1638,9 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         ``"harmonic"`` (the same, its density centred in the harmonic planes of
         :func:`harmonic_planes`), ``"mfis"`` (:func:`mfis_given_acceptance`, the Gaussian
         mixture over all inputs) and ``"subset"`` (:func:`subset_given_acceptance` on the
-        rotor; on a stage the only one).
+        rotor). On a stage: ``"subset"`` (the walk behind inspection's gate,
+        :func:`rare_subset_on_stage`), with ``"lines"`` then line sampling along the
+        walk's failing mean (:func:`lines_on_stage`).
     stage : str, optional
         A built-in stage name (``e_axle_27_79``) or a stage TOML path: the population
         stage on that stage instead (:func:`run_on_stage`); default: the paper's rotor.
