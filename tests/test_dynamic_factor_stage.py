@@ -359,6 +359,14 @@ def test_the_stage_walk_samples_the_accepted_law(tmp_path, monkeypatch):
     assert abs(verdict.mean() - 0.9025) < 4 * math.sqrt(0.9025 * 0.0975 / 4000)
     dim = len(seen["space"].names)  # 26 + 78 germs, two reliefs, load, damping
     assert dim == 108
+    # the lines' direction: the walk's failing mean without its 104 germ coordinates
+    mean = np.arange(1.0, dim + 1.0)
+    direction = study.stage_line_direction(e_axle, mean)
+    kept = [n for n, v in zip(seen["space"].names, direction, strict=True) if v != 0.0]
+    assert sorted(kept) == sorted(n for n in seen["space"].names
+                                  if not n.startswith("pitch_xi_")) and len(kept) == 4
+    with pytest.raises(ValueError, match=r"failure_mean_u: 108 standard normal"):
+        study.stage_line_direction(e_axle, mean[:-1])
     for bad in (np.zeros(dim), np.ones(dim - 2)):
         with pytest.raises(ValueError, match=r"direction: a nonzero vector of 108"):
             study.lines_on_stage(e_axle, 5.0, bad, 1, study.STAGE_LINES,

@@ -92,9 +92,12 @@ contact loss (:data:`STAGE_SOLVER`). ``--grade`` does not apply on a stage; subs
 simulation at the moderate X runs with ``n_per_level`` > 0; the grouped Sobol' indices with
 ``sobol_base`` > 0 (a run without a steady state is solved again on the spectral orders,
 :data:`STAGE_FALLBACK_SOLVER`; runs that stay without one void the indices, said so); the
-rare level with ``--rare-x`` (subset simulation, :func:`rare_subset_on_stage`,
-``--rare-per-level`` a level; the rotor's other rare methods need its cheap model or its
-known direction and are refused on a stage). Measured on the e-axle (112 runs, seed 2028;
+rare level with ``--rare-x`` (subset simulation behind inspection's gate: the walk samples
+the accepted law and a rejected pair costs no run, :func:`rare_subset_on_stage`,
+``--rare-per-level`` a level; with ``--rare-methods subset,lines`` then line sampling along
+the walk's failing mean in damping, torque and relief, :func:`lines_on_stage`; the rotor's
+other rare methods need its cheap model or its known direction and are refused on a stage).
+Measured on the e-axle (112 runs, seed 2028;
 docs/benchmarks.md, "On the e-axle 27/79 stage", seventh round): every run has a steady
 state; 101 pairs pass inspection (0.95^2 = 90.25 % expected) with ``kv_max`` 1.18 / 1.67 /
 2.64 (5 / 50 / 95 %) against Method B's 1.41 / 1.52 / 2.06; 98 of them peak at 11 440-12 330
@@ -1253,7 +1256,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
     ``kv_max`` (:func:`grouped_sobol`). With ``rare_x``, P(kv_max >= rare_x | pass) by
     subset simulation behind inspection's gate (:func:`rare_subset_on_stage`), the rare
     method that needs neither a cheap model nor a known direction of the stage's failure
-    set; with ``rare_lines`` also by line sampling along the walk's failing mean
+    set; with ``rare_lines`` also by line sampling along the walk's failing mean in the
+    inputs that are not pitch germs (:func:`stage_line_direction`)
     (:func:`lines_on_stage`), a second estimator.
 
     Parameters
@@ -1331,7 +1335,8 @@ def run_on_stage(stage: str | Path | GearStage, out: str | Path, quick: bool = F
             stages["rare_subset"] = tuple(np.subtract(clock(), (t3, c3)))
             if rare_lines and rare["failure_mean_u"] is not None:
                 t4, c4 = clock()
-                rare_lines_est = lines_on_stage(stage, float(rare_x), rare["failure_mean_u"],
+                rare_lines_est = lines_on_stage(stage, float(rare_x), stage_line_direction(
+                                                    stage, rare["failure_mean_u"]),
                                                 seed + 6, STAGE_LINES, run_on,
                                                 out / f"rare_lines_store_{stage.name}")
                 stages["rare_lines"] = tuple(np.subtract(clock(), (t4, c4)))
@@ -1413,12 +1418,32 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
 
 
 #: Line sampling on a stage (:func:`lines_on_stage`), the rare level's second method beside
-#: the gated walk: straight lines along the walk's failing mean (the important direction),
-#: origins standard normal, inspection's verdict exact along each line. ``t_grid`` brackets
-#: the failure boundary near the walk's reliability index; points at negative ``t`` look for
-#: a failure set on the far side.
-STAGE_LINES: dict[str, Any] = {"n_lines": 30, "t_grid": (-6.0, 0.0, 3.0, 4.5, 6.0, 8.0),
-                               "root_tol": 0.01, "chunk_lines": 30}
+#: the gated walk: straight lines along :func:`stage_line_direction` (the walk's failing mean
+#: in the inputs that are not pitch germs: damping, torque, reliefs), origins standard
+#: normal, inspection's verdict exact along each line (constant along it: the germs do not
+#: move). K_v grows as damping and torque fall, so the failure set lies at positive ``t``;
+#: the grid starts at 0.
+STAGE_LINES: dict[str, Any] = {"n_lines": 20, "t_grid": (0.0, 2.0, 3.5, 5.0, 8.0),
+                               "root_tol": 0.02, "chunk_lines": 20}
+
+
+def stage_line_direction(stage: GearStage, failure_mean_u: Any) -> np.ndarray:
+    """The lines' direction on a stage: the walk's failing mean with its pitch-germ
+    coordinates set to 0.
+
+    Damping and torque carry the walk's failures consistently (on the e-axle's level 1 at
+    K_v >= 2.82 their means are -1.4 and -1.9 standard units with spreads 0.5 and 0.2),
+    while each of the 104 germ coordinates averages a few correlated failing samples whose
+    spread is about 1: their mean is mostly noise, and inspection bounds what the germs can
+    do. Along this direction the germs stay fixed, so inspection's verdict is that of the
+    line's origin.
+    """
+    names = study_space(stage).names
+    mean = np.asarray(failure_mean_u, dtype=float)
+    if mean.shape != (len(names),):
+        raise ValueError(f"failure_mean_u: {len(names)} standard normal coordinates, got "
+                         f"shape {mean.shape}")
+    return np.where([n.startswith("pitch_xi_") for n in names], 0.0, mean)
 
 
 def lines_on_stage(stage: GearStage, x: float, direction: Any, seed: int,
@@ -1426,8 +1451,9 @@ def lines_on_stage(stage: GearStage, x: float, direction: Any, seed: int,
                    store: Path | None = None) -> dict[str, Any]:
     """P(kv_max >= x | pass) on a stage by line sampling behind inspection's gate.
 
-    Lines parallel to ``direction`` (standard normal space of :func:`study_space`; the
-    gated walk's ``failure_mean_u``); inspection's verdict along each line exact without the
+    Lines parallel to ``direction`` (standard normal space of :func:`study_space`;
+    :func:`stage_line_direction` of the gated walk); inspection's verdict along each line
+    exact without the
     rotor; the rotor runs on the accepted part (:func:`gated_line_sampling`, an estimator
     that shares no code with subset simulation's: the direction steers its variance, not
     its mean). P(fail and pass) divided by the counted P(pass). ``settings`` as
@@ -1438,7 +1464,7 @@ def lines_on_stage(stage: GearStage, x: float, direction: Any, seed: int,
     dict
         ``pf``, ``lower``, ``upper`` (95 %, given acceptance), ``cov``, ``status``,
         ``message``, ``runs``, ``n_lines``, ``n_effective``, ``lines_by_crossings``,
-        ``direction_norm`` (the walk's failing mean's distance from the origin), ``x``.
+        ``direction_norm`` (the norm of ``direction``), ``x``.
     """
     direction = np.asarray(direction, dtype=float)
     norm = float(np.linalg.norm(direction))
@@ -1522,7 +1548,8 @@ def _print_stage(info: dict[str, Any], out: Path, paths: list[Path]) -> None:
     lines = info.get("rare_lines")
     if lines is not None:
         print(f"  rare     : {lines['pf']:.3g} [{lines['lower']:.3g}, {lines['upper']:.3g}] by "
-              f"line sampling along the walk's failing mean (|u| = "
+              f"line sampling along the walk's failing mean in damping, torque and relief "
+              f"(|u| = "
               f"{lines['direction_norm']:.2f}), status {lines['status']} ({lines['message']}), "
               f"{lines['runs']} rotor runs, {lines['n_lines']} lines, "
               f"{lines['n_effective']:.1f} effective")
@@ -1640,7 +1667,7 @@ def run(out: str | Path = "gearuq_geared_rotor_dynamic_factor", quick: bool = Fa
         mixture over all inputs) and ``"subset"`` (:func:`subset_given_acceptance` on the
         rotor). On a stage: ``"subset"`` (the walk behind inspection's gate,
         :func:`rare_subset_on_stage`), with ``"lines"`` then line sampling along the
-        walk's failing mean (:func:`lines_on_stage`).
+        walk's failing mean in damping, torque and relief (:func:`lines_on_stage`).
     stage : str, optional
         A built-in stage name (``e_axle_27_79``) or a stage TOML path: the population
         stage on that stage instead (:func:`run_on_stage`); default: the paper's rotor.
