@@ -153,3 +153,33 @@ def test_resumes_from_its_store(tmp_path):
     assert n_first > 200 and _CALLS.runs == n_first
     assert float(again["pf"]) == float(first["pf"])
     assert "test_subset_gate._gate" in first.attrs["settings"]
+
+
+def test_a_walk_at_a_lower_level_reuses_the_runs_it_shares(tmp_path):
+    """Same seed, same store, two levels of ``y = u1``: the walk to 3.0 makes the same
+    designs as the walk to 3.5 until its threshold passes 3.0 (the thresholds are quantiles
+    of y, whatever the level), so it reads every run back; its answer is bit for bit that
+    of a walk at 3.0 without a store. The stored chunks are model outputs tied to their
+    inputs by the design's digest, not to the limit state."""
+    from gearuq.failure.modes import LimitState
+
+    model = FunctionModel(_counted_y, ["x1", "x2"], ["y"], name="exceedance")
+    _CALLS.runs = 0
+
+    def walk(level, store):
+        return failure_probability(model, standard_normal_space(2), LimitState.upper(
+            "y", level), method="subset", rng=11, executor="serial", n_per_level=300,
+            gate=_gate, second_walk="never", **({"store": store} if store else {}))
+
+    deep = walk(3.5, tmp_path / "walk")
+    after_deep = _CALLS.runs
+    shallow = walk(3.0, tmp_path / "walk")
+    assert _CALLS.runs == after_deep  # nothing ran again
+    fresh = walk(3.0, None)
+    assert float(shallow["pf"]) == float(fresh["pf"]) > float(deep["pf"])
+    assert shallow.sizes["level"] < deep.sizes["level"]
+
+
+def _counted_y(x1, x2):
+    _CALLS.runs += np.size(x1)
+    return np.asarray(x1, float) + 0.0 * np.asarray(x2, float)

@@ -34,14 +34,13 @@ import time
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
-import numpy as np
 import xarray as xr
 
 from gearuq.execution import workers_for_run
 from gearuq.failure.evaluator import LimitStateEvaluator
 from gearuq.failure.methods import akmcs, form, importance, line_sampling, mc, mfis, subset
 from gearuq.model import Model, Option
-from gearuq.runs import resolve_model, resolve_seed, route_keywords, setting_text
+from gearuq.runs import resolve_model, resolve_seed, route_keywords
 from gearuq.space import ParameterSpace
 
 __all__ = ["failure_probability", "method_settings", "validate_settings", "check_method",
@@ -197,20 +196,9 @@ def failure_probability(
     with workers_for_run(executor) as runner:
         ev = LimitStateEvaluator(model, space, limit_state, t, model_options=model_options,
                                  executor=runner, chunk_size=chunk_size, store=store,
-                                 engine=f"failure_probability/{key}", seed=seed,
-                                 fingerprint={"settings": _jsonable(s)})
+                                 engine=f"failure_probability/{key}", seed=seed)
         report = METHOD_TABLE[key].run(ev, s, seed, float(confidence))
     worker_cpu = ev.worker_cpu + sum(c.worker_cpu for c in ev.companions)
     report["cpu_time"] = ((), time.process_time() - cpu_start + worker_cpu, {
         "units": "s", "long_name": "CPU time of the method, its worker processes included"})
     return report
-
-
-def _jsonable(settings: Mapping[str, Any]) -> dict[str, Any]:
-    """Settings for a store's fingerprint: a model by its name and version, not its repr; a
-    function by its qualified name and an object that is callable by its repr (stable from
-    one process to the next, unlike a function's repr)."""
-    return {k: (f"{v.name} {v.version}" if isinstance(v, Model)
-                else v.tolist() if isinstance(v, np.ndarray)
-                else setting_text(v) if callable(v) else v)
-            for k, v in settings.items()}

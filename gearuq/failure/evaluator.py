@@ -77,7 +77,8 @@ class LimitStateEvaluator:
     seed : int, optional
         Recorded in the stores' fingerprints.
     fingerprint : mapping, optional
-        Extra entries of the stores' fingerprints (the method settings).
+        Not used (kept for callers): a store's chunks are tied to their inputs by the design's
+        digest, and neither the limit state nor a method's settings change a model run.
     """
 
     def __init__(self, model: Model | str, space: ParameterSpace | Mapping[str, Any],
@@ -208,8 +209,10 @@ class LimitStateEvaluator:
             raise ValueError(f"{self.engine} ({tag}): {bad[0]}{hint}")
         n = u.shape[0]
         store = None if self.store is None else self.store / tag
-        fp = {"engine": self.engine, "tag": tag, "seed": self.seed,
-              "limit_state": self.limit_state.to_json(), **self.extra_fingerprint}
+        # the stored chunks are model outputs, tied to their inputs by the design's digest
+        # (evaluate_chunks): neither the limit state nor the method's settings change them,
+        # so a walk at another threshold with the same seed reuses every run its levels share
+        fp = {"engine": self.engine, "tag": tag, "seed": self.seed}
         try:
             # small designs (a gradient, an MCMC step) are one chunk; large ones chunk by the
             # driver's default (at most 64 MB of result per chunk)
