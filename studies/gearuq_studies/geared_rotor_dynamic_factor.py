@@ -1380,7 +1380,8 @@ STAGE_RARE_LEVELS = 7
 
 
 def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int,
-                         execution: dict[str, Any], store: Path) -> dict[str, Any]:
+                         execution: dict[str, Any], store: Path, **settings: Any
+                         ) -> dict[str, Any]:
     """P(kv_max >= x | pass) on a stage by subset simulation behind inspection's gate.
 
     Inspection is a function of the germs alone (:func:`germ_acceptance_margin`), so the walk
@@ -1391,7 +1392,9 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
     X = 5, ninth round), since a rejected pair lies inside every level whose threshold is
     still above 0. The stage's model, space and options (:func:`stage_options`); at most
     :data:`STAGE_RARE_LEVELS` levels (below ``0.1^7`` the run stops and says so: its value
-    is then an upper end, not an estimate). Stored in ``store``; resumes from it.
+    is then an upper end, not an estimate). Stored in ``store``; resumes from it; a walk at
+    another ``x`` with the same seed reads back every run the two share. ``settings`` go to
+    subset simulation (``second_walk``).
 
     Returns
     -------
@@ -1405,14 +1408,16 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
     rep = failure_probability(study_model(0, stage), study_space(stage), kv_exceeds(x),
                               method="subset", rng=seed, n_per_level=n_per_level,
                               gate=_acceptance_gate(0, stage), max_levels=STAGE_RARE_LEVELS,
-                              store=store, model_options=stage_options(stage), **execution)
+                              store=store, model_options=stage_options(stage),
+                              **settings, **execution)
     thresholds = x - np.atleast_1d(rep["level_threshold"].values) \
         if "level_threshold" in rep else np.array([])
     mean = rep["failure_mean_u"].values.tolist() if "failure_mean_u" in rep else None
     return {"pf": float(rep["pf"]), "lower": float(rep["pf_lower"]),
             "upper": float(rep["pf_upper"]), "status": int(rep["status"]),
             "message": describe_status(rep), "runs": int(rep["n_model_runs"]),
-            "wall": float(rep["wall_time"]), "levels": int(thresholds.size), "x": x,
+            "wall": float(rep["wall_time"]), "cpu": float(rep["cpu_time"]),
+            "levels": int(thresholds.size), "x": x,
             "level_kv": thresholds.tolist(), "p_pass": accepted_probability(0, stage)[0],
             "failure_mean_u": mean}
 
