@@ -195,3 +195,20 @@ def test_a_handful_of_lines_is_not_vouched_for():
     that too few lines were drawn for the normal interval, in words."""
     res = gated_line_sampling(_limit, _basis(), n_lines=10, seed=1, gate=_gate)
     assert res["status"] != 0 and "lines" in res["message"]
+
+
+def test_lines_that_all_miss_bound_pf_by_the_share_they_could_miss() -> None:
+    """A failure set only origins with u1 >= 3 reach (P = Phi(-2) Phi(-3) = 3.1e-5) and 20
+    lines along u0: none crosses, and the upper end is the share of lines 20 could all miss
+    at 97.5 %, 1 - 0.025^(1/20) = 0.168 (it was the mass beyond c_max, 1e-15, below the
+    truth)."""
+    def corner(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.maximum(2.0 - u[:, 0], 3.0 - u[:, 1]), np.ones(len(u), bool)
+
+    basis = np.zeros((4, 1))
+    basis[0, 0] = 1.0
+    est = gated_line_sampling(corner, basis, n_lines=20, seed=3,
+                              t_grid=np.array([-8.0, 0.0, 2.5, 8.0]))
+    assert est["status"] == 4 and est["pf"] == 0.0
+    assert est["upper"] >= stats.norm.sf(2.0) * stats.norm.sf(3.0)
+    assert est["upper"] == pytest.approx(1.0 - 0.025 ** (1.0 / 20.0), rel=1e-9)

@@ -166,6 +166,24 @@ def test_no_failing_line_is_an_upper_bound() -> None:
     assert float(rep["pf"]) >= stats.norm.sf(3.0) >= stats.norm.sf(3.5)
 
 
+def _corner(**u):
+    """Fails where the line's coordinate s >= 2 and u1 >= 3: only origins with u1 >= 3
+    (0.13 %) meet it; P = Phi(-2) Phi(-3) = 3.1e-5."""
+    return np.maximum(2.0 - _named(u) @ ALPHA, 3.0 - u["u1"])
+
+
+def test_lines_that_all_miss_do_not_exclude_a_failure_set() -> None:
+    """20 lines along ALPHA, none of whose origins has u1 >= 3: no crossing, status 4, and
+    pf_upper must still hold the true 3.1e-5 (the mass beyond c_max alone, about 1e-15,
+    did not): 20 lines can all miss a set that 16 % of origins reach."""
+    truth = stats.norm.sf(2.0) * stats.norm.sf(3.0)
+    rep = _run(_corner, 9, n_lines=20, direction=ALPHA)
+    assert int(rep["status"]) == 4 and int(rep["pf_is_upper_bound"]) == 1
+    assert float(rep["pf_upper"]) >= truth
+    assert float(rep["pf_upper"]) == pytest.approx(1.0 - 0.025 ** (1.0 / 20.0), rel=1e-9)
+    assert "did not exclude one" in gearuq.describe_status(rep)
+
+
 def test_more_than_two_crossings_are_flagged() -> None:
     def _bands(**u):
         s = _named(u) @ ALPHA

@@ -1426,8 +1426,9 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
 #: the gated walk: straight lines along :func:`stage_line_direction` (the walk's failing mean
 #: in the inputs that are not pitch germs: damping, torque, reliefs), origins standard
 #: normal, inspection's verdict exact along each line (constant along it: the germs do not
-#: move). K_v grows as damping and torque fall, so the failure set lies at positive ``t``;
-#: the grid starts at 0.
+#: move). K_v grows as damping and torque fall, so the failure set lies at positive ``t``:
+#: the grid's points are at ``t >= 0``, besides the line's ends at -8 and 8 that every line
+#: evaluates (six runs a line before its crossing is refined).
 STAGE_LINES: dict[str, Any] = {"n_lines": 20, "t_grid": (0.0, 2.0, 3.5, 5.0, 8.0),
                                "root_tol": 0.02, "chunk_lines": 20}
 

@@ -78,6 +78,7 @@ from gearuq.failure.methods.line_sampling import (
     _refine,
     line_estimate,
     line_mass,
+    no_crossing_upper,
 )
 
 __all__ = ["gated_line_sampling", "gate_pieces", "projected_normal_logpdf"]
@@ -377,8 +378,10 @@ def gated_line_sampling(limit: Limit, basis: np.ndarray, *, n_lines: int, seed: 
         reasons.append((1, f"only {lines['est'].size} lines: too few for the normal interval "
                         f"of their mean to be trusted (at least {MIN_EFFECTIVE_LINES:.0f})"))
     counts = np.bincount(np.minimum(lines["n_crossings"], 3), minlength=4)
-    pf = e["pf"]
-    return {"pf": pf, "lower": e["pf_lower"], "upper": e["pf_upper"], "se": e["se"],
+    pf, upper = e["pf"], e["pf_upper"]
+    if pf == 0.0:  # lines that all missed do not exclude a set only a few origins reach
+        upper = max(upper, no_crossing_upper(w.size, float(np.max(w)), confidence))
+    return {"pf": pf, "lower": e["pf_lower"], "upper": upper, "se": e["se"],
             "cov": e["se"] / pf if pf > 0 else math.inf, "n_effective": e["n_effective"],
             "status": reasons[0][0] if reasons else 0,
             "message": "; ".join(m for _, m in reasons) or (

@@ -59,7 +59,7 @@ from gearuq.failure.methods.form import FORM_SETTINGS, design_point_search
 from gearuq.failure.report import Reason, failure_report
 from gearuq.model import Option
 
-__all__ = ["SETTINGS", "run_line_sampling", "line_mass", "important_subspace",
+__all__ = ["SETTINGS", "run_line_sampling", "line_mass", "important_subspace", "no_crossing_upper",
            "line_estimate", "MIN_EFFECTIVE_LINES"]
 
 #: Fewer effective lines than this (and than half the lines), ``(sum p_i)^2 / sum p_i^2``,
@@ -375,6 +375,20 @@ def line_estimate(est: np.ndarray, low: np.ndarray, high: np.ndarray, confidence
             "n_effective": float(np.sum(est)) ** 2 / square if square > 0 else 0.0}
 
 
+def no_crossing_upper(n_lines: int, largest_term: float, confidence: float) -> float:
+    """Upper end of pf when none of ``n_lines`` i.i.d. lines met failure.
+
+    Each line's term lies in ``[0, largest_term]`` (its failing mass, at most 1, times its
+    weight). That none of ``n`` was positive bounds the share of lines that would be by
+    ``1 - ((1 - confidence) / 2)^(1/n)`` at the one-sided level of the two-sided interval
+    (the rule of three's exact form), so pf is at most that share times the largest term:
+    a failure set that only a few origins reach is not excluded by lines that missed it
+    (the mass beyond ``c_max`` alone, the bound before, excluded it).
+    """
+    share = 1.0 - (0.5 * (1.0 - float(confidence))) ** (1.0 / int(n_lines))
+    return float(share * largest_term)
+
+
 def _reasons(lines: Mapping[str, np.ndarray], pf: float, n_eff: float, s: Mapping[str, Any]
              ) -> list[Reason]:
     """What the run cannot vouch for, in words."""
@@ -382,7 +396,10 @@ def _reasons(lines: Mapping[str, np.ndarray], pf: float, n_eff: float, s: Mappin
     reasons: list[Reason] = []
     if pf == 0.0:
         reasons.append((4, f"no line of {n} crosses into failure within |t| <= "
-                        f"{s['c_max']:g}: pf is the upper bound, the mass beyond c_max"))
+                        f"{s['c_max']:g}: pf is an upper bound, the share of lines that "
+                        f"{n} lines could all miss (1 - (alpha/2)^(1/{n})) times the largest "
+                        "a line can carry, plus the mass beyond c_max; the lines found no "
+                        "failure set, they did not exclude one"))
     elif n_eff < min(MIN_EFFECTIVE_LINES, 0.5 * n):
         reasons.append((3, f"{n_eff:.1f} effective lines of {n} ((sum p)^2 / sum p^2) carry "
                         "the estimate: the direction serves this failure set poorly and the "
@@ -416,6 +433,8 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
     bound = pf == 0.0
     counts = np.bincount(np.minimum(lines["n_crossings"], 3), minlength=4)
     n = lines["est"].size
+    if bound:
+        upper = max(upper, no_crossing_upper(n, 1.0, confidence))
     extra = {
         "line_pf": (("line",), lines["est"], {"units": "1", "long_name": (
             "failure probability along each line (its mean is pf; its spread shows how well "
