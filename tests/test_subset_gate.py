@@ -137,8 +137,9 @@ def _counted(x1, x2):
 
 
 def test_resumes_from_its_store(tmp_path):
-    """The gate's qualified name is in the store's fingerprint: a second call with the same
-    gate reads every run back (the model is not called again) and gives the same answer."""
+    """A second call with the same gate and store reads every run back (the model is not
+    called again) and gives the same answer; the report names the gate by its qualified
+    name."""
     model = FunctionModel(_counted, ["x1", "x2"], ["g"], name="counted_offset")
     _CALLS.runs = 0
 
