@@ -76,16 +76,13 @@ class LimitStateEvaluator:
         Name recorded in the stores' fingerprints.
     seed : int, optional
         Recorded in the stores' fingerprints.
-    fingerprint : mapping, optional
-        Not used (kept for callers): a store's chunks are tied to their inputs by the design's
-        digest, and neither the limit state nor a method's settings change a model run.
     """
 
     def __init__(self, model: Model | str, space: ParameterSpace | Mapping[str, Any],
                  limit_state: Any, t: Any = None, *, model_options: Mapping[str, Any] | None
                  = None, executor: Any = None, chunk_size: int | None = None,
                  store: str | os.PathLike | None = None, engine: str = "failure_probability",
-                 seed: int | None = None, fingerprint: Mapping[str, Any] | None = None) -> None:
+                 seed: int | None = None) -> None:
         self.model, self.space = resolve_model_and_space(model, space)
         self.limit_state = as_limit_state(limit_state)
         known = set(self.model.output_names) | set(self.model.parameter_names)
@@ -112,7 +109,6 @@ class LimitStateEvaluator:
         self.executor, self.chunk_size = executor, chunk_size
         self.store = None if store is None else Path(store)
         self.engine, self.seed = engine, seed
-        self.extra_fingerprint = dict(fingerprint or {})
         self.n_runs = 0  # samples passed to the model, re-runs of bisected chunks included
         self.worker_cpu = 0.0  # CPU seconds of model runs in worker processes
         #: evaluators of other models the method runs beside this one (MFIS's cheap model):

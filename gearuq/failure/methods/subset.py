@@ -348,9 +348,6 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
     last level's failing samples of a cheap model.
     """
     n, p0 = s["n_per_level"], s["p0"]
-    # a system: its components' g divided by their gradients at the origin, so that the
-    # level thresholds follow every component alike whatever its units (failure set unchanged)
-    ev.calibrate_scales()
     gate = s.get("gate")
     if gate is not None and s["mcmc"] != "mma":
         # measured on a wedge (g = 3.5 - u1 behind u1 - u2 <= 1.5, 100 seeds of 500 a level):
@@ -363,7 +360,11 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
     n_seeds = max(1, int(round(n * p0)))
     n_states = int(math.ceil(n / n_seeds))
     rng0 = np.random.default_rng(np.random.SeedSequence([seed, 0]))
+    # the gate's refusals first: a refused gate costs no run of the calibration below
     u = _level0_draws(rng0, n, ev.dim, gate)
+    # a system: its components' g divided by their gradients at the origin, so that the
+    # level thresholds follow every component alike whatever its units (failure set unchanged)
+    ev.calibrate_scales()
     res = ev.evaluate(u, f"{tag}/level0")
     # an invalid run is read as failed while exploring (g = -inf): the chains then enter where
     # the model fails, and the last level tells which share of the failing samples is valid
