@@ -26,6 +26,7 @@ def test_four_branch_single_output_within_interval_and_150_runs():
     assert np.all(np.diff(hist) >= 0) and hist[-1] == int(rep["n_model_runs"])
 
 
+@pytest.mark.e2e
 def test_four_branch_as_series_system_learns_each_branch():
     """One Kriging model per branch (AK-SYS): the kinks are in the min, not in a surrogate."""
     p = rp.reliability_problems()["four_branch_system"]
@@ -38,6 +39,7 @@ def test_four_branch_as_series_system_learns_each_branch():
         rep["pf"])
 
 
+@pytest.mark.e2e
 def test_oscillator_within_interval_with_fewer_than_100_runs():
     rep = failure_probability(rp.oscillator_model(), rp.oscillator_space(), "g",
                               method="akmcs", rng=2, n_mc=30_000, executor="serial")

@@ -24,6 +24,7 @@ from tests.test_run_down import LOAD, SPEEDS, _problem
 RPM = 3700.0
 
 
+@pytest.mark.e2e
 def test_the_window_peak_is_what_an_independent_integrator_reads():
     """From the static state, 8 periods with a tolerance no transient meets (status 3), the
     window of the last 3: its largest force is the largest force of DOP853 on the same
@@ -76,6 +77,7 @@ def test_a_stalled_return_map_ends_the_integration_and_a_shrinking_one_does_not(
             assert run[1].window_peak_force == run[0].window_peak_force
 
 
+@pytest.mark.e2e
 def test_window_max_gives_the_speed_its_window():
     """At 3700 rpm the run-up's integration (from Newton's iterate, 100 long periods) does
     not settle (status 3). With ``"window_max"`` the speed gets K_v from its window of 10

@@ -72,6 +72,7 @@ def exact_optimum() -> np.ndarray:
     return res.x
 
 
+@pytest.mark.e2e
 def test_exact_oracle_agrees_with_the_published_optimum(exact_optimum):
     # the FORM optimum and the exact-probability optimum differ by FORM's error only
     assert np.allclose(exact_optimum, PUBLISHED_D, atol=0.01)
@@ -87,6 +88,7 @@ def youn_choi_reweight():
                            grid=5, confirm_samples=50_000, executor="serial")
 
 
+@pytest.mark.e2e
 def test_youn_choi_optimum_within_tolerance(youn_choi_reweight, exact_optimum):
     r = youn_choi_reweight
     d = np.array([float(r["design_d1"]), float(r["design_d2"])])
@@ -113,6 +115,7 @@ def test_youn_choi_confirmation_intervals_hold(youn_choi_reweight):
     assert "straddles" in r.attrs["message"]
 
 
+@pytest.mark.e2e
 def test_youn_choi_runs_against_the_nested_loop(youn_choi_reweight):
     r = youn_choi_reweight
     nested = optimize_design(youn_choi_problem(), strategy="nested", n_samples=10_000, rng=3,
@@ -169,6 +172,7 @@ def test_short_column_exact_oracle_beside_the_published_optimum():
     assert res.fun == pytest.approx(SC_PUBLISHED_F, rel=0.005)
 
 
+@pytest.mark.e2e
 def test_short_column_optimum_within_tolerance():
     """Correlated inputs and parameter-type design variables: the surrogate strategy."""
     from gearuq.design.benchmarks import SHORT_COLUMN_PUBLISHED, short_column_problem
@@ -203,6 +207,7 @@ def _shift_problem(objective=None, constraints=(), bounds=(-2.0, 2.0), sigma=1.0
                          constraints)
 
 
+@pytest.mark.e2e
 def test_reweighted_pool_matches_closed_forms():
     """Runs spread over the box serve every design: Pf(d) = Phi(d - 3), q_0.9 = d + 1.2816,
     mean = d, std = 1. Coverage over 20 independent pools (one pool's intervals at
@@ -402,6 +407,7 @@ def test_levels_bad_input_names_the_option():
         optimize_levels(p, "spread", ["plain", "round"])
 
 
+@pytest.mark.e2e
 def test_landscape_of_three_variables_is_the_slice_through_the_choice():
     """Pf(d) = P(|X| > 3), X ~ N(d, I_3): a non-central chi-square tail, least at d = 0. The
     landscape spans the first two variables with the third held at its chosen value, and
@@ -439,6 +445,7 @@ def _narrow_well_problem():
                          Moment("y", name="mean_y"))
 
 
+@pytest.mark.e2e
 def test_supplied_start_design_is_kept_when_it_is_the_optimum():
     """A start design at the optimum (as the deterministic optimum seeds an RBDO search): the
     search runs it and ends there; without it the same search misses the well."""

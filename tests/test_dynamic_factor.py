@@ -64,6 +64,7 @@ def test_kv_tends_to_one_in_the_quasi_static_limit(model, damping_ratio, order):
     assert sol.force[0].real == pytest.approx(prob.excitation.normal_force, rel=1e-9)
 
 
+@pytest.mark.e2e
 def test_kv_peaks_where_the_mesh_frequency_meets_the_mesh_mode(problem):
     """The mode with the largest mesh strain energy below 8000 rpm: z1 n / 60 = f_r."""
     f, share = _mesh_modes(problem)
@@ -137,6 +138,7 @@ def test_peak_mesh_force_agrees_with_time_integration(problem):
     assert values["kv"] - 1.0 == pytest.approx(kv_time - 1.0, rel=0.03)
 
 
+@pytest.mark.e2e
 def test_range_outputs_of_the_plugin(model):
     """kv_max is at least the grid curve's maximum and within it by the located peak."""
     opts = COARSE | {"speed_min": 3500.0, "speed_max": 6000.0, "n_speeds": 11}
@@ -267,6 +269,7 @@ def _total_deviation_draws(z, amplitude, sigma, n, seed):
                                                           sigma=sigma)) for x in xi])
 
 
+@pytest.mark.e2e
 def test_capable_process_puts_the_stated_share_beyond_F_pT():
     from gearuq.gears.deviations import capable_pitch_scatter, iso1328_pitch_tolerances
     from gearuq.gears.geometry import seed002_pair
@@ -302,6 +305,7 @@ def test_inspected_normal_is_the_capable_process_truncated_to_the_tolerance():
                                           norm.pdf(2.5758) / 0.99), rel=0.05)
 
 
+@pytest.mark.e2e
 def test_failure_given_acceptance_is_a_parallel_system(model):
     """P(F_p1 > 0.9 F_pT | both gears pass) from the failure package against plain counting."""
     from gearuq import ParallelSystem
@@ -361,6 +365,7 @@ def test_quick_dynamic_factor_study(tmp_path):
                                                        "campbell_map.png"}
 
 
+@pytest.mark.e2e
 def test_a_failed_steady_state_while_locating_a_peak_is_flagged(problem, monkeypatch):
     """Golden-section search that meets a failed steady state stops with the largest value
     found so far; the range says so (refinement_status) instead of reporting a resolved
@@ -435,6 +440,7 @@ def test_rare_stage_against_an_independent_count():
     _agrees_with_a_crude_count(res, small, x)
 
 
+@pytest.mark.e2e
 def test_germ_acceptance_margin_is_the_plugins_output(model):
     """The rare stage's vectorised gate equals the rotor's own ``pitch_acceptance_margin``
     (no dynamics run: pitch outputs need none), and accepts 0.95^2 of the capable process."""

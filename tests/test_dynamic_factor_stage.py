@@ -247,6 +247,7 @@ def test_quick_dynamic_factor_study_on_the_stage(tmp_path):
     assert set(info["kv_rank_correlations"]) >= {"damping_ratio", "torque"}
 
 
+@pytest.mark.e2e
 def test_germ_acceptance_margin_on_the_stage_is_the_plugins_output():
     """The vectorised margin on the e-axle (26 + 78 germ normals, classes 6 and 7) equals
     the rotor's own ``pitch_acceptance_margin`` (pitch outputs run no dynamics), and the
@@ -267,6 +268,7 @@ def test_germ_acceptance_margin_on_the_stage_is_the_plugins_output():
     assert p == pytest.approx(0.95**2, abs=0.004)
 
 
+@pytest.mark.e2e
 def test_acceptance_line_names_the_counted_and_the_closed_form_values():
     """The stage's screen line names the runs' share, P(pass) counted on germ pairs with its
     standard error, and the closed form (0.95)^2 = 0.9025, each for what it is; the count
@@ -333,6 +335,7 @@ def test_grouped_sobol_solves_a_failed_run_again_and_reports_what_stays_failed(m
     assert res["failed_status"] == {16: 1} and "not computed" in res["message"]
 
 
+@pytest.mark.e2e
 def test_the_stage_walk_samples_the_accepted_law(tmp_path, monkeypatch):
     """The rare walk on a stage: K_v's limit state alone behind inspection's gate (no
     parallel system), modified Metropolis, the gate a named object whose verdict is the

@@ -24,6 +24,7 @@ def _unit_response(t):
     return x[0]
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("rule", ["random", "lhs"])
 def test_pf_of_displacement_at_several_instants_and_bands(model, rule):
     """F ~ N(10, 2): x(t) = F h(t) is normal; P(x outside band) is exact."""

@@ -65,6 +65,7 @@ def _check_invalid_report(rep) -> None:
     assert _holds(rep, NAN_TRUTH), _summary(rep, NAN_TRUTH)
 
 
+@pytest.mark.e2e
 def test_nan_outputs_mc_flagged_and_interval_covers_truth():
     """Ten seeds. Every report is flagged; the truth is the mean of the reading that counts
     the invalid runs as failed, so the interval's upper end (a 97.5 % one-sided Wilson bound
@@ -86,6 +87,7 @@ def test_nan_outputs_mc_flagged_and_interval_covers_truth():
     assert held >= 8
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("n_per_level", [1000, 4000])
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_nan_outputs_subset_flagged_and_interval_covers_truth(seed, n_per_level):
@@ -119,6 +121,7 @@ def _all_fail_report(method: str, kind: str):
                                       executor="serial", **kw)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("kind", ["raise", "nan"])
 @pytest.mark.parametrize("method", ["mc", "subset"])
 def test_all_runs_failing_is_model_failure(method, kind):
@@ -188,6 +191,7 @@ def gp_reference():
     return ref, se
 
 
+@pytest.mark.e2e
 def test_first_passage_coarse_grid_is_flagged(gp_reference):
     ref, se = gp_reference
     model, space = _gp_model_space()
@@ -302,6 +306,7 @@ def _union_exact() -> float:
                for a, b in zip(edges[:-1], edges[1:], strict=True))
 
 
+@pytest.mark.e2e
 def test_series_form_is_deterministic_and_exact_on_four_half_spaces():
     exact = _union_exact()
     # the overlap matters: the sum of the four single-point FORM values is 14 % above the union
@@ -380,6 +385,7 @@ def _akmcs_report(seed: int):
 AK_SEEDS = [0, 1, 2, 3, 4]
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("seed", AK_SEEDS)
 def test_akmcs_bound_or_confident_interval_holds(seed):
     rep = _akmcs_report(seed)
@@ -389,6 +395,7 @@ def test_akmcs_bound_or_confident_interval_holds(seed):
         assert _holds(rep, AK_TRUTH), _summary(rep, AK_TRUTH)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("seed", AK_SEEDS)
 def test_akmcs_cov_target_missed_sets_status(seed):
     rep = _akmcs_report(seed)

@@ -63,6 +63,7 @@ def _module_graph() -> dict[str, set[str]]:
     return graph
 
 
+@pytest.mark.e2e
 def test_no_import_cycle_in_gearuq():
     """Tarjan's strongly connected components over every gearuq module: none larger than one.
 
@@ -139,6 +140,7 @@ def test_window_outside_the_instants_is_refused():
                             n_samples=10)
 
 
+@pytest.mark.e2e
 def test_series_form_is_deterministic_and_exact_on_half_spaces():
     """Four half-spaces in the plane: the polar integral against the closed form (the safe
     set is a rectangle in coordinates rotated by 45 degrees)."""
@@ -182,6 +184,7 @@ def test_every_run_failing_is_a_model_failure(method):
     assert int(rep["pf_is_upper_bound"]) == 0
 
 
+@pytest.mark.e2e
 def test_coarse_time_grid_sets_a_status_and_a_fine_one_holds():
     """A stationary Gaussian process at 5 instants per mean period: the grid misses
     first passages; at 150 per period the estimate agrees with a finer reference."""
@@ -215,6 +218,7 @@ def test_akmcs_missed_cov_target_is_not_status_0():
     assert int(rep["status"]) != 0 and "CoV" in rep.attrs["message"]
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("seed", [11, 12, 13])
 def test_importance_sampling_on_four_design_points(seed):
     """Four branches of comparable weight: the default search finds all four (or says it

@@ -149,6 +149,7 @@ save(xr.Dataset({"y": ("sample", values)}), sys.argv[1], checksum=False)
 """
 
 
+@pytest.mark.e2e
 def test_temporary_of_a_killed_save_is_removed_by_the_next_save(tmp_path):
     target = tmp_path / "result.nc"
     script = tmp_path / "killed_save.py"

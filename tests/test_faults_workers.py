@@ -129,6 +129,7 @@ def _product(x1, x2):
     return x1 * x2
 
 
+@pytest.mark.e2e
 @pytest.mark.skipif(sys.platform == "win32", reason="no forkserver on Windows")
 def test_forkserver_workers_watch_their_real_parent():
     # a forkserver worker's parent is the fork server, not the run: the guard must not

@@ -39,6 +39,7 @@ def _gear_like_series(offset: float, amp: float, period: float, n_periods: int =
     return t, x, v
 
 
+@pytest.mark.e2e
 def test_time_panels_tick_labels_do_not_overlap():
     period = 6.3471
     t, xp, vp = _gear_like_series(-204.5, 0.55, period)

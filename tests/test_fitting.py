@@ -196,6 +196,7 @@ def test_no_bootstrap_gives_only_labelled_naive_pvalue():
 
 
 # =========================================================================== tail probability
+@pytest.mark.e2e
 def test_upper_tail_pf_from_fit_close_to_exact():
     true = stats.lognorm(0.5, scale=1.0)
     thr = true.isf(1e-3)

@@ -30,6 +30,7 @@ def test_offset_form_and_sorm_exact():
     assert int(rep["status"]) == 0 and rep.attrs["interval_kind"].startswith("none")
 
 
+@pytest.mark.e2e
 def test_linear_100d_form_exact():
     """g = 3.5 sqrt(100) - sum(x): beta = 3.5, u* = 0.35 in every direction."""
     rep = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
@@ -50,6 +51,7 @@ def test_linear_100d_form_exact():
     assert float(auto["pf"]) == pytest.approx(rp.LINEAR_100D_PF, rel=1e-6)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("rho", [0.0, 0.3])
 def test_resistance_load_tvedt_within_one_percent(rho):
     """R lognormal (10, 1) minus S normal (5, 1.5): Tvedt within 1 % of quadrature (also with
@@ -65,6 +67,7 @@ def test_resistance_load_tvedt_within_one_percent(rho):
     assert abs(float(rep["pf_breitung"]) / ref - 1) < abs(form_error)
 
 
+@pytest.mark.e2e
 def test_paraboloid_curvature_and_sorm():
     """G = 3 - u2 + 0.1 u1^2: curvature 0.2; Pf = int phi(u1) Phi(-(3 + 0.1 u1^2)) du1."""
     model = FunctionModel(lambda u1, u2: 3.0 - u2 + 0.1 * u1**2, ["u1", "u2"], ["g"])
@@ -107,6 +110,7 @@ def test_sensitivities_and_importance_with_correlation():
     np.testing.assert_allclose(rep["dpf_dmean"], -stats.norm.pdf(beta) * rep["dbeta_dmean"])
 
 
+@pytest.mark.e2e
 def test_two_design_points_are_found_and_reported():
     """Der Kiureghian and Dakessian's parabola: the nearest design point alone misses 39 % of
     Pf; the series FORM over both found design points is within 7 %."""
@@ -128,6 +132,7 @@ def _fragile(x1, x2):
     return 4.0 - x1 + 0 * x2
 
 
+@pytest.mark.e2e
 def test_model_failing_near_the_design_point_is_flagged():
     model = FunctionModel(_fragile, ["x1", "x2"], ["g"])
     rep = failure_probability(model, standard_normal_space(2), "g", method="form", rng=0,

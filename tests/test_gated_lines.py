@@ -44,6 +44,7 @@ def _basis() -> np.ndarray:
     return np.eye(D)[:, :2]
 
 
+@pytest.mark.e2e
 def test_gated_annulus_intervals_hold_over_seeds():
     """20 seeds of 200 lines each: at least 18 of 20 95 % intervals hold the exact value,
     their mean is within 5 % of it, every run is vouched for (status 0), the lines cross
@@ -103,6 +104,7 @@ def test_bad_settings_are_refused_by_name(kwargs, name):
         gated_line_sampling(_limit, np.ones((D, 2)), n_lines=10, seed=0)
 
 
+@pytest.mark.e2e
 def test_projected_normal_density_against_the_parabolic_cylinder_function():
     """``log PN(e; m)`` against ``Gamma(k) exp(b^2/4) D_-k(-b)`` (scipy's ``pbdv``, an
     independent special function), and its mean ratio to the uniform density over uniform
@@ -135,6 +137,7 @@ def _gate_u3(u: np.ndarray) -> np.ndarray:
     return u[:, 3] <= 1.5
 
 
+@pytest.mark.e2e
 def test_directions_drawn_towards_a_half_space_vouch_for_the_interval():
     """A half-space ``u0 >= 4.5`` behind the gate ``u3 <= 1.5`` (exact
     ``Phi(-4.5) Phi(1.5)``), radial lines in the 3-D subspace (u0, u1, u2): uniform
@@ -159,6 +162,7 @@ def test_directions_drawn_towards_a_half_space_vouch_for_the_interval():
                             direction_means=np.zeros((1, 2)))
 
 
+@pytest.mark.e2e
 def test_origins_drawn_towards_failure_vouch_for_straight_lines():
     """Straight lines along u0 (k = 1) for ``u0 - u2 >= 5.5`` behind ``u3 <= 1.5`` (exact
     ``Phi(-5.5 / sqrt 2) Phi(1.5)``): each line's probability ``Phi(-(5.5 + u2))`` depends on

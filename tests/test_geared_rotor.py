@@ -146,6 +146,7 @@ def test_dte_rms_max_is_the_largest_rms_of_the_per_speed_steady_states(model):
     assert ds["status"].values[0] == 0
 
 
+@pytest.mark.e2e
 def test_continuation_along_speed_gives_the_same_contact_loss_states_with_fewer_iterations(
         model):
     from gearuq.rotor.geared import single_threaded_blas

@@ -50,6 +50,7 @@ def routes_13_17():
     return model, params, full, table
 
 
+@pytest.mark.e2e
 def test_table_route_equals_full_route_on_13_17(routes_13_17):
     _, _, full, table = routes_13_17
     assert np.all(full["status"].values == 0) and np.all(table["status"].values == 0)
@@ -75,6 +76,7 @@ def test_table_route_equals_full_route_on_13_17(routes_13_17):
                                full["lpms_tangent_spectrum"].values, atol=0.1)
 
 
+@pytest.mark.e2e
 def test_table_route_reuses_one_table_per_torque_level(routes_13_17):
     model, params, _, table = routes_13_17
     tables = [k for k in model._cache if k[0] == "table"]
@@ -202,6 +204,7 @@ def _dense_twin(problem):
                               cutoff_factor=problem.cutoff_factor, backlash=problem.backlash)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("solver, energy, tol, gmres_tol", [("gmres", 0.99, 1e-9, 1e-12),
                                                              ("gmres", 0.99, 1e-6, None),
                                                              ("spectral_orders", 1.0, 1e-9, None),
@@ -309,6 +312,7 @@ def test_table_route_honours_the_contract():
                 n_samples=2)
 
 
+@pytest.mark.e2e
 def test_gmres_falls_back_to_back_flank_contact(rotor_13_17):
     """Grade 11 gears at 10 N m with 0.5 um of backlash rattle onto the back flank: GMRES has
     no back flank, the fallback (order balance on every harmonic) equals the dense balance."""

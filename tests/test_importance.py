@@ -25,6 +25,7 @@ def test_offset_within_15_percent_with_at_most_6500_runs():
     assert 0 < int(rep["n_form_runs"]) < int(rep["n_model_runs"])
 
 
+@pytest.mark.e2e
 def test_linear_100d_within_interval():
     rep = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
                               method="importance", rng=5, executor="serial")
@@ -32,6 +33,7 @@ def test_linear_100d_within_interval():
     assert float(rep["pf"]) == pytest.approx(rp.LINEAR_100D_PF, rel=0.15)
 
 
+@pytest.mark.e2e
 def test_mixture_over_two_design_points():
     """One design point misses 39 % of the parabola's Pf. With one FORM start the status says
     that design points were not looked for; the default multi-start search finds both and the
@@ -64,6 +66,7 @@ def test_weights_exact_for_a_single_shift():
                                rtol=1e-10)
 
 
+@pytest.mark.e2e
 def test_degenerate_weights_are_reported():
     """A density far too narrow for 100 dimensions: a few samples carry the estimate."""
     rep = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
@@ -78,6 +81,7 @@ def _two_margins(x1, x2):
     return {"g1": 3.0 - x1, "g2": 3.0 - x2}
 
 
+@pytest.mark.e2e
 def test_a_parallel_system_without_a_design_point_stops_after_its_first_starts():
     """``max(3 - x1, 3 - x2) <= 0`` (a parallel system, Pf = Phi(-3)^2): its failure set has a
     corner, no smooth nearest point, and no FORM start converges. Importance sampling stops

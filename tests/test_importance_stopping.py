@@ -75,6 +75,7 @@ def _bias_in_standard_errors(pf: np.ndarray) -> float:
     return float((pf.mean() - EXACT) / (pf.std(ddof=1) / math.sqrt(pf.size)))
 
 
+@pytest.mark.e2e
 def test_the_two_stage_rule_is_unbiased_where_the_sequential_one_leans_high(monkeypatch):
     """600 runs of each rule. The sequential rule's mean lies more than 3 standard errors
     above the exact value (the same rule inside MFIS on a two-input problem, 400 seeds:

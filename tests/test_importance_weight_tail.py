@@ -75,6 +75,7 @@ def test_a_component_as_narrow_as_the_failing_samples_understates_the_cov() -> N
     assert _exact_cov(mix) > 2.0 * _median_sample_cov(mix)
 
 
+@pytest.mark.e2e
 def test_two_modes_in_different_units_hold_over_seeds() -> None:
     """The system of two margins 1e6 apart in units (reference: one minus a bivariate normal
     cdf): status-0 intervals hold; the reported CoV is within 35 % of the runs' scatter."""

@@ -6,6 +6,8 @@ import ast
 import graphlib
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -19,6 +21,7 @@ def _imports(path: Path) -> set[str]:
     return names
 
 
+@pytest.mark.e2e
 def test_generic_code_imports_no_plugin():
     offenders = {str(p.relative_to(ROOT)): sorted(n for n in _imports(p)
                                                    if n.startswith("gearuq_plugins"))
@@ -100,12 +103,14 @@ def _cycle(graph: dict[str, set[str]]) -> tuple[str, ...]:
     return ()
 
 
+@pytest.mark.e2e
 def test_no_import_cycle_in_gearuq_modules():
     graph = _gearuq_import_graph()
     assert len(graph) > 100 and sum(map(len, graph.values())) > 300  # the graph was read
     assert _cycle(graph) == ()
 
 
+@pytest.mark.e2e
 def test_no_arrow_climbs_back_up_between_rooms_of_gearuq():
     """The rooms of gearuq/ (engines, failure, execution, runs, ...) stand on floors: an
     arrow from a room to one that imports it back is a cycle of rooms."""

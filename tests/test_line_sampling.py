@@ -89,6 +89,7 @@ def test_exact_lines_bracket_the_half_space_and_count_every_run() -> None:
     assert float(np.std(rep["line_pf"])) < 1e-3 * exact
 
 
+@pytest.mark.e2e
 def test_runs_counted_with_form_direction_and_resume_from_store(tmp_path) -> None:
     TALLY["runs"] = 0
     rep = _run(_linear, 5, n_lines=30, direction="form", store=tmp_path)
@@ -108,6 +109,7 @@ def test_two_sided_series_system_finds_both_crossings() -> None:
     assert int(rep["n_lines_by_crossings"].sel(crossings="2")) == 30
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("case", ["tilted half space", "parabola"])
 def test_coverage_over_twenty_seeds(case: str) -> None:
     """Status-0 intervals of 100 lines hold the exact Pf in >= 18 of 20 seeds."""

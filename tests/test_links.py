@@ -116,6 +116,7 @@ def test_get_link_unknown_pair_lists_the_registered_links():
         get_link("helical_pair", "linear_oscillator")
 
 
+@pytest.mark.e2e
 def test_mfis_with_a_link_as_cheap_model_holds_against_crude_monte_carlo():
     """Pf = Phi(-3) = 1.35e-3 exactly; crude MC with 4e5 runs as the independent check."""
     exact = stats.norm.cdf(-3.0)
@@ -276,6 +277,7 @@ def test_rotor_link_is_the_sdof_receptance_on_the_ltca_harmonics(rotor_link):
         60.0 * wn / (2 * math.pi * 30), rel=0.01)  # f_m = z1 n / 60 meets omega_n
 
 
+@pytest.mark.e2e
 def test_rotor_link_runs_the_rotors_limit_state_on_its_names_and_space(rotor_link):
     rotor = get_model("geared_rotor")
     assert rotor_link.parameter_names == rotor.parameter_names
@@ -301,6 +303,7 @@ def test_rotor_link_refuses_a_bad_speed_range(rotor_link):
                             speed_min=5000.0, speed_max=4000.0)
 
 
+@pytest.mark.e2e
 def test_rotor_link_honours_the_model_contract(rotor_link):
     from gearuq.testing import check_model
 

@@ -107,6 +107,7 @@ def test_second_order_error_is_quadratic_in_eps():
     assert e[-1, 1] < e[-1, 0] / 100
 
 
+@pytest.mark.e2e
 def test_slow_flow_matches_symbolic_derivation():
     sp = pytest.importorskip("sympy")
     from gearuq_plugins.mesh_oscillator.derivation import derive
@@ -330,6 +331,7 @@ def test_separation_harmonics_numerical_equals_closed_form():
         assert sf.separation_mean_shift(1.3, 0.0, c, s_num) == pytest.approx(shift, abs=1e-12)
 
 
+@pytest.mark.e2e
 def test_fig4_regions_and_accuracy_against_sweeps():
     """Seed Fig. 4: all four regions appear, and the second-order amplitude stays within a
     few per cent of the numerical sweeps in each region (the numbers go to the docs)."""

@@ -30,6 +30,7 @@ def _run(fn, seed: int, **kw):
                                low_fidelity=lf, rng=seed, executor="serial", **kw)
 
 
+@pytest.mark.e2e
 def test_a_biased_cheap_model_still_gives_intervals_that_hold():
     """Ten seeds: every run vouches (status 0) and at least 8 of the 95 % intervals hold the
     quadrature value (8 or fewer of 10 happens with probability 1.2 % at the nominal level);
@@ -55,6 +56,7 @@ def test_fitting_to_the_failing_samples_only_is_the_other_choice():
     assert float(rep["pf_lower"]) <= PROBLEM["pf"] <= float(rep["pf_upper"])
 
 
+@pytest.mark.e2e
 def test_a_useless_cheap_model_costs_variance_never_bias():
     """Over eight seeds the mean estimate is unbiased (within 3 standard errors) and every
     run either holds the reference or says it cannot vouch (degenerate weights)."""

@@ -46,6 +46,7 @@ def test_a_cheap_model_blind_to_one_mechanism_holds_or_flags_in_20_seeds():
     assert sum(ok) >= 19, "\n".join(lines)
 
 
+@pytest.mark.e2e
 def test_an_optimistic_cheap_model_is_widened_by_the_measured_excess():
     """``g = 3 - x1`` against a cheap ``3.5 - x1``: the cheap failure set ``x1 >= 3.5`` holds
     only 17 % of Pf. Every paired pilot run with ``x1 <= 3`` has the excess exactly 0.5, so the
@@ -83,6 +84,7 @@ def test_a_declared_discrepancy_replaces_the_measured_one():
                             low_fidelity=rp.one_mechanism_model(), discrepancy=-1.0)
 
 
+@pytest.mark.e2e
 def test_a_cheap_model_that_never_fails_is_status_8_and_gives_no_cheap_pf():
     """A cheap model with no failure anywhere: crude Monte Carlo on the expensive model
     (weights exactly 1), status 8 whatever the weights did, and ``pf_low_fidelity`` NaN (not

@@ -24,6 +24,7 @@ def _random_mixture(r: int, d: int, rng: np.random.Generator) -> VMFNMixture:
                        np.array([0.3, 0.7]), 0.1, basis)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize(("r", "d"), [(1, 3), (2, 5), (3, 3), (7, 10)])
 def test_the_weights_of_its_own_draws_average_one(r, d):
     """``E_h[phi / h] = 1`` holds only if sampler and density agree and both are normalised

@@ -118,6 +118,7 @@ def test_estimate_mean_per_time_and_excludes_failed_samples():
         estimate_mean(ds, "zz")
 
 
+@pytest.mark.e2e
 def test_lhs_reduces_variance_for_a_monotone_output():
     model = gearuq.FunctionModel(lambda x1, x2: np.exp(x1) * (1.0 + x2) + x2**3,
                                  ["x1", "x2"], ["y"], name="mono")
@@ -224,6 +225,7 @@ def test_user_executor_and_progress_bar(capsys):
     assert "30/30" in capsys.readouterr().err
 
 
+@pytest.mark.e2e
 def test_bit_identical_on_dask_local_cluster(tmp_path):
     distributed = pytest.importorskip("distributed")
     n = 60
@@ -339,6 +341,7 @@ def test_resume_after_killed_subprocess(tmp_path):
     xr.testing.assert_identical(_data(fresh), _data(resumed))
 
 
+@pytest.mark.e2e
 def test_resume_recomputes_only_missing_chunks(tmp_path):
     kw = {"n_samples": 40, "rng": 5, "chunk_size": 4, "executor": "serial", "progress": False,
           "store": tmp_path / "s"}
@@ -385,6 +388,7 @@ def _fails_above(x1, x2):
     return x1 + x2
 
 
+@pytest.mark.e2e
 def test_only_the_failing_samples_get_status_4(tmp_path):
     """A chunk that raises is bisected: exactly the samples that fail are flagged."""
     model = gearuq.FunctionModel(_fails_above, ["x1", "x2"], ["y"], name="flaky")

@@ -66,6 +66,7 @@ def test_allocation_agrees_with_mxmcpy():
         theirs.variance, rel=1e-2)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("statistic,reference,estimator", [
     ("mean", MEAN, "mfmc"), ("variance", VARIANCE, "mfmc"), ("mean", MEAN, "acvmf")])
 def test_unbiased_with_intervals_that_hold(statistic, reference, estimator):
@@ -83,6 +84,7 @@ def test_unbiased_with_intervals_that_hold(statistic, reference, estimator):
     assert held >= 32
 
 
+@pytest.mark.e2e
 def test_variance_reduction_against_plain_mc_at_equal_cost():
     """The predicted reduction and the measured one: MFMC's spread over seeds against plain
     Monte Carlo with the same budget (150 runs of the expensive model)."""
@@ -93,6 +95,7 @@ def test_variance_reduction_against_plain_mc_at_equal_cost():
     assert predicted > 1.5 and measured > 1.3
 
 
+@pytest.mark.e2e
 def test_exceedance_probability_of_a_moderate_level():
     """P(y >= 8) of the Ishigami function with failure indicators as control variates,
     against 2e6 plain samples."""

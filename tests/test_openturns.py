@@ -241,6 +241,7 @@ def _form(solver, event, start):
     return algo.getResult()
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("rho", [0.0, -0.5])
 @pytest.mark.parametrize("solver", ["Cobyla", "AbdoRackwitz"])
 def test_openturns_form_on_a_gearuq_model_agrees_with_gearuq_form(rho, solver):

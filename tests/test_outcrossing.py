@@ -25,6 +25,7 @@ def gaussian_samples():
     return monte_carlo(model, space, t, n_samples=6000, rng=1, executor="serial")
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("level", [1.0, 2.0])
 def test_rice_rate_of_a_stationary_gaussian_process(gaussian_samples, level):
     """nu+ = (1/2pi) sqrt(m2/m0) exp(-u^2/(2 m0)) with m0 = sum s_k^2, m2 = sum s_k^2 w_k^2."""
@@ -56,6 +57,7 @@ def test_hermite_crossing_matches_dense_evaluation():
     assert np.any(found & (np.maximum(y0, y1) < level))  # crossings only between instants
 
 
+@pytest.mark.e2e
 def test_first_passage_on_a_coarse_grid():
     """Random-phase harmonic, 10 time units on 9 instants: the grid estimate is ~23 % low and
     its interval excludes the exact value; the Hermite reconstruction recovers it."""

@@ -30,6 +30,7 @@ from gearuq.testing.problems import (
 )
 
 
+@pytest.mark.e2e
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.parametrize("method,kw", [
     ("regression", {"order": 12, "n_samples": 1500, "rule": "lhs"}),

@@ -522,6 +522,7 @@ def test_interval_labelled_by_design_rule(rule, word):
 
 
 # =========================================================================== grid check
+@pytest.mark.e2e
 def test_first_passage_grid_check_flags_a_coarse_grid():
     """Random-phase harmonic over 10 time units: 9 instants miss crossings (the first-passage
     estimate is ~23 % low, its interval excludes the exact value); 201 instants resolve it."""
@@ -580,6 +581,7 @@ def test_replicated_designs_give_a_real_interval(rule):
     assert int(rep["n_model_runs"]) == 8 * 8192
 
 
+@pytest.mark.e2e
 def test_one_report_form_for_every_method():
     from gearuq.failure.api import failure_probability
 
@@ -655,6 +657,7 @@ def test_bench_reliability_quick(tmp_path):
     assert by[("linear_100d", "FORM")]["error"] < 1e-6
 
 
+@pytest.mark.e2e
 def test_coverage_benchmark_rows_and_docs_section(tmp_path):
     """The coverage table on a tiny case: counts, coverage of status-0 runs, the docs block."""
     from gearuq.bench import reliability as bench

@@ -172,6 +172,7 @@ def test_reduction_error_against_the_full_model_falls_with_the_cutoff():
         full[0].real, rel=1e-10)
 
 
+@pytest.mark.e2e
 def test_harmonic_balance_against_full_model_newmark():
     ex = _synthetic(stiffness_harmonics={30: 0.06}, error_harmonics={1: 3e-6, 30: 0.6e-6})
     prob = _seed_problem(ex, n_harmonics=90)
@@ -228,6 +229,7 @@ def _compact_rotor(k):
     return Rotor(els, shafts=[s1, s2], tags={"input": 0, "output": 5})
 
 
+@pytest.mark.e2e
 def test_up_and_down_sweeps_land_on_different_branches():
     """Mesh resonance crossed with contact loss: a jump, two stable periodic responses."""
     ex = _synthetic(P=1500.0, stiffness_harmonics={30: 0.05}, error_harmonics={30: 0.6e-6})

@@ -54,6 +54,7 @@ CASES = {
 }
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("raising", [True, False], ids=["raising", "clean"])
 @pytest.mark.parametrize("method", list(CASES))
 def test_n_model_runs_equals_the_models_own_count(method: str, raising: bool) -> None:

@@ -78,6 +78,7 @@ def test_the_run_down_finds_the_larger_of_two_stable_responses(softening):
     assert 3400.0 < at < 3500.0 and bracket <= 4.0
 
 
+@pytest.mark.e2e
 def test_the_run_down_costs_nothing_where_the_teeth_never_part():
     """A 1 um error keeps the mesh in contact: the linear response is the only one, the
     run-down solves no speed and both calls agree bit for bit."""

@@ -44,6 +44,7 @@ def test_g_function_reference_values():
                                atol=6e-6)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("estimator", ["saltelli", "jansen"])
 def test_ishigami_mc_within_intervals(estimator):
     model, space = ishigami()
@@ -111,6 +112,7 @@ def test_sobol_from_a_surrogate_fitted_on_any_result():
     assert out.attrs["n_model_evaluations"] == 600
 
 
+@pytest.mark.e2e
 def test_g_function_mc_and_pce():
     model, space = gfunction()
     exact = g_function_exact()

@@ -46,6 +46,7 @@ def _run(scales, system: bool, method: str, seed: int, **settings):
                                           rng=seed, executor="serial", **settings)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("scales", RATIOS, ids=lambda s: f"{s[0]:g}/{s[1]:g}")
 def test_form_on_the_system_finds_both_components_whatever_the_units(scales) -> None:
     rep = _run(scales, True, "form", 1)
@@ -55,6 +56,7 @@ def test_form_on_the_system_finds_both_components_whatever_the_units(scales) -> 
     assert sorted(np.round(rep["beta_design_point"].values, 3)) == list(UNIT_MODES_BETAS)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("scales", RATIOS, ids=lambda s: f"{s[0]:g}/{s[1]:g}")
 def test_form_on_one_limit_state_is_right_or_says_it_saw_hidden_modes(scales) -> None:
     rep = _run(scales, False, "form", 1)
@@ -68,6 +70,7 @@ def test_form_on_one_limit_state_is_right_or_says_it_saw_hidden_modes(scales) ->
         assert int(rep["status"]) == 8
 
 
+@pytest.mark.e2e
 def test_system_scales_do_not_change_subset_simulation() -> None:
     """The components are divided by their gradients at the origin: the walk is the same for
     every pair of units (the failure set is), so the estimates agree to rounding."""
@@ -75,6 +78,7 @@ def test_system_scales_do_not_change_subset_simulation() -> None:
     assert np.allclose(pfs, pfs[-1], rtol=1e-9)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("method, settings", [
     ("subset", {"n_per_level": 500}),
     # a density never narrower than the standard normal needs ~2x the draws of a narrowed

@@ -285,6 +285,7 @@ def _duffing(c: float, k1: float, k3: float, f: float, w: float, n_periods: int,
     return sol.t, sol.y[0], sol.y[1], period
 
 
+@pytest.mark.e2e
 def test_duffing_end_to_end_periodic_and_chaotic():
     # weakly forced hardening Duffing: period-1
     t, x, v, per = _duffing(0.2, 1.0, 1.0, 0.3, 1.2, 120, 32)
@@ -404,6 +405,7 @@ def _is_png(path) -> bool:
     return len(data) > 1000 and data[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.e2e
 def test_plot_time_panels(tmp_path):
     t = _grid(60, 32.0)
     xd = xr.DataArray(np.sin(t) + 0.2 * np.sin(2.5 * t), dims="time",
@@ -421,6 +423,7 @@ def test_plot_time_panels(tmp_path):
     assert _is_png(out)
 
 
+@pytest.mark.e2e
 def test_plot_reliability_curves(tmp_path):
     time = np.linspace(0.0, 10.0, 21)
     pf = np.vstack([np.linspace(0.0, 0.2, 21), np.linspace(0.0, 0.05, 21)])

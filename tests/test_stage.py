@@ -236,6 +236,7 @@ _numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),
                      st.integers(-10, 500), st.text(max_size=3), st.none(), st.booleans())
 
 
+@pytest.mark.e2e
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     mn=st.one_of(st.floats(0.1, 20.0), _numbers), z1=st.one_of(st.integers(3, 150), _numbers),
@@ -334,6 +335,7 @@ _shaft_tables = st.fixed_dictionaries(
     optional={"end_inertia": st.one_of(st.floats(0.0, 1.0), _any)})
 
 
+@pytest.mark.e2e
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(tip=st.one_of(st.none(), _relief_tables), root=st.one_of(st.none(), _relief_tables),
        grade=st.one_of(st.integers(0, 14), _any), shaft=st.one_of(st.none(), _shaft_tables),

@@ -195,6 +195,7 @@ def test_pair_link_from_a_stage(e_axle):
                                            rel=1e-14)
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("name, t, options", [
     ("helical_pair", np.linspace(0.0, 5.0, 4), {}),
     ("mesh_oscillator", None, {"n_frequencies": 5}),

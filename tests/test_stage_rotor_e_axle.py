@@ -99,6 +99,7 @@ def _lateral_frequencies(rotor, shaft_index):
     return out[0::2]
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("stiffness", [None, ((300.0, 100.0), (400.0, 150.0))],
                          ids=["as_drawn", "unequal_on_each_shaft"])
 @pytest.mark.parametrize("scale", [1.0, 2.5])
@@ -136,6 +137,7 @@ def test_bearing_modes_against_a_timoshenko_beam_with_each_bearings_stiffness(e_
         assert ref[0] < 0.8 * rigid[0]
 
 
+@pytest.mark.e2e
 def test_per_gear_iso_classes_set_each_gears_total_pitch_deviation(e_axle):
     # ISO 1328-1:2013, 5.3: F_pT = (0.002 d + 0.55 sqrt(d) + 0.7 m_n + 12) sqrt(2)^(A - 5) um
     def F_pT(d_mm, mn_mm, A):

@@ -24,6 +24,7 @@ def e_axle_run(tmp_path_factory):
     return out / "res"
 
 
+@pytest.mark.e2e
 def test_run_writes_netcdf_csv_and_a_self_contained_report(e_axle_run):
     names = {p.name for p in e_axle_run.iterdir()}
     assert {"stage.nc", "report.html", "geometry.csv", "iso6336.csv", "mesh_cycle.csv",
@@ -72,6 +73,7 @@ def test_run_up_resonance_is_at_the_mesh_frequency_of_a_mesh_mode(e_axle_run):
     assert np.any(abs(h1 * 27 / 60.0 - mode) < 0.015 * mode)
 
 
+@pytest.mark.e2e
 def test_geared_rotor_run_up_peaks_where_the_mesh_frequency_meets_a_mesh_mode(e_axle_run):
     """The geared rotor's harmonic-balance run-up (per-bearing stiffness, classes 6/7, linear
     reliefs, the 2133-cycle long period): its located peak of the DTE at f_m is where

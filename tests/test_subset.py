@@ -21,6 +21,7 @@ from gearuq.testing.problems import (
 )
 
 
+@pytest.mark.e2e
 def test_linear_100d_within_interval():
     rep = failure_probability(rp.linear_sum_model(), standard_normal_space(100), "g",
                               method="subset", rng=11, executor="serial")
@@ -115,6 +116,7 @@ def _counted(x1, x2):
     return 2.0 - x1 + 0.0 * x2
 
 
+@pytest.mark.e2e
 def test_interrupted_run_resumes_from_its_store(tmp_path):
     model = FunctionModel(_counted, ["x1", "x2"], ["g"], name="counted")
     kw = {"method": "subset", "rng": 15, "executor": "serial", "n_per_level": 200, "p0": 0.2}

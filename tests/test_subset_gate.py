@@ -136,6 +136,7 @@ def _counted(x1, x2):
     return _g(x1, x2)
 
 
+@pytest.mark.e2e
 def test_resumes_from_its_store(tmp_path):
     """A second call with the same gate and store reads every run back (the model is not
     called again) and gives the same answer; the report names the gate by its qualified
@@ -156,6 +157,7 @@ def test_resumes_from_its_store(tmp_path):
     assert "test_subset_gate._gate" in first.attrs["settings"]
 
 
+@pytest.mark.e2e
 def test_a_walk_at_a_lower_level_reuses_the_runs_it_shares(tmp_path):
     """Same seed, same store, two levels of ``y = u1``: the walk to 3.0 makes the same
     designs as the walk to 3.5 until its threshold passes 3.0 (the thresholds are quantiles

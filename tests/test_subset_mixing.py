@@ -47,6 +47,7 @@ def _disjoint_pairs(reps) -> int:
                if ints[i][1] < ints[j][0] or ints[j][1] < ints[i][0])
 
 
+@pytest.mark.e2e
 def test_ridge_runs_that_did_not_mix_say_so_and_status0_intervals_hold() -> None:
     truth = _ridge_truth()
     # one walk each: the lineage check alone (the default's second walk: test_subset_second_walk)

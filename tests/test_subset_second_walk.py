@@ -67,6 +67,7 @@ def test_the_rule_counts_the_lineages_that_carry_the_failures() -> None:
     assert second_walk_reason(_lineage(50), mode="always") != ""
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("seed", [1000, 1001])
 def test_a_walk_the_rule_leaves_alone_is_reported_bit_for_bit(seed: int) -> None:
     """Pf ~ 2e-3 (three levels, failures from 8-30 lineages): the default run is the single
@@ -142,6 +143,7 @@ def test_a_walk_that_missed_a_mode_is_caught_by_the_second() -> None:
             assert "disagree" in words or "did not mix" in words
 
 
+@pytest.mark.e2e
 def test_ridge_pairs_say_the_chains_did_not_mix() -> None:
     """The ridge (thin wedge along x1 = x2, four inert inputs; walks scatter by decades): a
     pair is status 0 only if both walks pass the lineage check and agree, and then it holds."""

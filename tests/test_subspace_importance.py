@@ -44,6 +44,7 @@ def _basis() -> np.ndarray:
     return basis
 
 
+@pytest.mark.e2e
 def test_rare_gated_linear_limit_intervals_hold_the_quadrature():
     """b = 6, gate u1 <= 2.5 (through the unconstrained design point (3, 3)): P(F | gate)
     = 2.04e-6 exactly
@@ -69,6 +70,7 @@ def test_rare_gated_linear_limit_intervals_hold_the_quadrature():
     assert abs(mean - exact) < 3.0 * se
 
 
+@pytest.mark.e2e
 def test_moderate_level_against_a_crude_count():
     """b = 2, gate u1 <= 0.5: the estimate and a crude count of 400 000 draws agree."""
     limit, gate, _, _ = _problem(2.0, 0.5)
@@ -132,6 +134,7 @@ def test_bad_input_names_the_parameter():
                              n_per_level=5, seed=0)
 
 
+@pytest.mark.e2e
 def test_markov_lower_bound_holds_where_the_interval_does_not():
     """A density centred on only one of two failure modes (F = {|u1 + u2| >= 4.6} in 50-D,
     the moved component at (+3.3, +3.3), 2 % defensive, 200 draws): the estimate is about
@@ -177,6 +180,7 @@ def _annulus(r: float, b: float):
     return limit, gate, math.exp(-0.5 * r**2) * stats.norm.sf(b)
 
 
+@pytest.mark.e2e
 def test_centred_group_reaches_every_phase_of_an_annulus():
     """r^2 = 2 ln 1000 and b = 3.09: P(F | gate) = 1.0e-6 in 50 dimensions. With the
     (u1, u2) plane a centred group, cross-entropy inflates the variance there and shifts u3;
@@ -247,6 +251,7 @@ def test_status_0_is_no_coverage_guarantee_off_the_design_point():
     assert status0 >= 200 and hits / status0 <= 0.93
 
 
+@pytest.mark.e2e
 def test_min_ess_flags_runs_the_weight_diagnostics_pass():
     """``min_ess``: a run whose weight diagnostics give status 0 or 1 but that rests on
     fewer effective failing draws than ``min_ess`` gets status 3 and says so with both
