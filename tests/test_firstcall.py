@@ -274,6 +274,7 @@ def _oscillator_switch(t, y, p, g):
     g[0] = y[0]
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("events", [False, True])
 def test_solve_batch_interpreted_route_matches_the_closed_form_and_the_compiled_kernel(events):
     from gearuq.ode import solve_batch

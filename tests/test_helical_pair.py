@@ -475,6 +475,7 @@ def test_seed_operating_points_sit_near_the_coupled_mesh_resonance(model):
     np.testing.assert_allclose(mesh_ratio, [0.990, 1.100], atol=1e-3)
 
 
+@pytest.mark.e2e
 def test_retake_does_not_stall_where_the_force_jumps(model):
     """Gated mesh, re-taken steps: at a contact onset the damping force jumps, and the
     switching function at the end of a step cut for it can stay within rounding noise on the

@@ -277,6 +277,7 @@ def dz_exact():
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
 def test_linear_oscillator_closed_form_batch_with_per_sample_t_eval(method):
     rng = np.random.default_rng(1)
@@ -352,6 +353,7 @@ def test_oracle_matches_the_linear_closed_form_outside_the_dead_zone():
     assert np.abs(ex(_OSC_T) - exact).max() < 1e-12
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("rtol", [1e-6, 1e-8])
 def test_deadzone_with_switch_matches_exact_solution(dz_exact, rtol):
     ex, x_exact = dz_exact
@@ -369,6 +371,7 @@ def test_deadzone_with_switch_matches_exact_solution(dz_exact, rtol):
     assert with_sw.status[0] == STATUS_OK
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
 @pytest.mark.parametrize("rtol", [1e-6, 1e-8, 1e-10])
 def test_deadzone_frozen_sides_match_exact_solution(dz_exact, method, rtol):
@@ -416,6 +419,7 @@ def test_grazing_orbit(excess, frozen):
     assert res.n_events[0] <= 2 * ex.n_switches
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
 def test_short_excursions_inside_long_steps_are_found(method):
     # x = cos t crosses the level cos(0.1) twice around every maximum, 0.2 apart: far less
