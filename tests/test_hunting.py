@@ -89,6 +89,7 @@ def test_table_route_reuses_one_table_per_torque_level(routes_13_17):
         np.testing.assert_array_equal(again[name].values, table[name].values)
 
 
+@pytest.mark.e2e
 def test_table_route_off_grid_instants_match_the_full_route(routes_13_17):
     model, params, _, _ = routes_13_17
     tau = np.array([0.013, 100.37, 220.99, 221.5])  # 221.5 wraps to 0.5
@@ -250,6 +251,7 @@ def test_long_period_solvers_against_the_dense_balance_on_13_17(rotor_13_17, sol
         assert worst["dte_rms"] < 0.05 and worst["dte_mesh_band_rms"] < 0.01, worst
 
 
+@pytest.mark.e2e
 def test_geared_rotor_gives_the_speed_range_of_a_hunting_tooth_stage(rotor_13_17, tmp_path):
     import gearuq
 

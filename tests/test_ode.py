@@ -397,6 +397,7 @@ def _grazing_case(excess):
     return np.array([m, c, k, b, 0.0, F, W]), np.array([x0, v0]), ex
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("excess", [-1e-6, 1e-6])
 @pytest.mark.parametrize("frozen", [False, True])
 def test_grazing_orbit(excess, frozen):
