@@ -12,6 +12,10 @@ What a method must not hide is recorded here, once for all methods:
 * an **invalid run** (nonzero model status, or a limit state that is NaN or infinite on valid
   outputs) is neither safe nor failed: its ``g`` is NaN, it is counted in ``n_invalid`` and its
   reason kept in ``errors``; each method then widens its interval to cover both readings;
+* a **censored run** (a status the limit state names in ``censored_statuses``: its outputs
+  bound the answer, the run at least as close to failure as its ``g`` reads) is invalid all
+  the same, and its bound is returned beside (``g_bound``) and counted in ``n_censored``, for
+  the methods that can read it (subset simulation, while it explores);
 * for a **time-dependent** limit state the first-passage value ``min_t g(t)`` is returned with
   the same value on every other instant (``g_half``), from which each method estimates how
   much first-passage probability the time grid itself can miss (the check of
@@ -116,6 +120,10 @@ class LimitStateEvaluator:
         self.companions: list[LimitStateEvaluator] = []
         self.n_points = 0  # points evaluated (each once, however often the model was called)
         self.n_invalid = 0
+        #: censored runs (their ``g`` an upper bound of the true one; among ``n_invalid``), and
+        #: their points' bytes, by which a method recognises one again among its samples
+        self.n_censored = 0
+        self.censored_points: set[bytes] = set()
         self.time_dependent = False
         self._grid_fail = 0  # valid failing samples on the full grid ...
         self._grid_missed = 0  # ... of which every other instant misses the failure
@@ -183,8 +191,9 @@ class LimitStateEvaluator:
         dict
             ``g`` (n,) system / first-passage limit-state value (NaN where invalid),
             ``g_half`` (n,) the same on every other output instant (equal to ``g`` for a
-            limit state without time), ``leaf`` (n, n_leaves) component values, ``status``
-            (n,) int (0 = ok), ``x`` the physical points.
+            limit state without time), ``g_bound`` (n,) a censored run's ``g``, an upper
+            bound of the true value (NaN for every other run), ``leaf`` (n, n_leaves)
+            component values, ``status`` (n,) int (0 = ok), ``x`` the physical points.
 
         Raises
         ------
@@ -221,7 +230,7 @@ class LimitStateEvaluator:
             self.n_points += n
             self.n_invalid += n
             nan = np.full(n, np.nan)
-            return {"g": nan, "g_half": nan.copy(),
+            return {"g": nan, "g_half": nan.copy(), "g_bound": nan.copy(),
                     "leaf": np.full((n, len(self.leaves)), np.nan),
                     "status": np.full(n, STATUS_ALL_FAILED, dtype=np.int8), "x": x}
         # every call to the model counts, re-runs of a chunk that raised and was bisected
@@ -231,6 +240,9 @@ class LimitStateEvaluator:
         self.worker_cpu += float(ds.attrs.get("worker_cpu_seconds", 0.0))
         self.n_points += n
         out = self._limit_state_values(ds, x, n, tag)
+        censored = np.flatnonzero(np.isfinite(out["g_bound"]))
+        self.n_censored += censored.size
+        self.censored_points.update(u[i].tobytes() for i in censored)
         failing = np.flatnonzero((out["status"] == 0) & (out["g"] <= 0.0))
         if failing.size:
             r = np.linalg.norm(u[failing], axis=1)
@@ -264,6 +276,10 @@ class LimitStateEvaluator:
                                f"{int(nonfinite.sum())} sample(s) the model reported valid")
             status[nonfinite] = STATUS_LIMIT_STATE_NONFINITE
         invalid = status != 0
+        # a censored run: its g (finite) is an upper bound of the true one; kept beside
+        codes = getattr(self.limit_state, "censored_statuses", ())  # a system has none
+        censored = np.isin(status, codes) & np.isfinite(g)
+        g_bound = np.where(censored, g, np.nan)
         g[invalid] = np.nan
         g_half[invalid] = np.nan
         leaf[invalid] = np.nan
@@ -275,7 +291,15 @@ class LimitStateEvaluator:
         fails = g <= 0.0
         self._grid_fail += int(fails.sum())
         self._grid_missed += int(np.sum(fails & ~(g_half <= 0.0)))
-        return {"g": g, "g_half": g_half, "leaf": leaf, "status": status, "x": x}
+        return {"g": g, "g_half": g_half, "g_bound": g_bound, "leaf": leaf, "status": status,
+                "x": x}
+
+    def is_censored(self, u: np.ndarray) -> np.ndarray:
+        """Whether each row of ``u`` is a point whose run was censored (bool per row)."""
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        if not self.censored_points:
+            return np.zeros(u.shape[0], dtype=bool)
+        return np.array([row.tobytes() in self.censored_points for row in u], dtype=bool)
 
     def calibrate_scales(self, step: float = 0.5) -> dict[str, float] | None:
         """Measure each component's gradient at the origin and divide its ``g`` by it.
@@ -354,4 +378,5 @@ class ComponentView:
         res = dict(self.parent.evaluate(u, tag))
         res["g"] = res["leaf"][:, self.index].copy()
         res["g_half"] = res["g"].copy()
+        res["g_bound"] = np.full_like(res["g"], np.nan)  # a bound is the whole limit state's
         return res

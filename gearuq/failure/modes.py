@@ -345,6 +345,22 @@ class _GFunction:
         return self.values(ds) <= 0.0
 
 
+def _censored_statuses(value: Sequence[int] | None) -> tuple[int, ...]:
+    """The censored statuses as sorted distinct ints (nonzero, within the int8 of a status)."""
+    if value is None:
+        return ()
+    if isinstance(value, (str, bytes)) or not isinstance(value, (int, np.integer, Iterable)):
+        raise ValueError(f"LimitState: censored_statuses must be model status codes in "
+                         f"1..127 (an int or a sequence of them), got {value!r}")
+    items = [value] if isinstance(value, (int, np.integer)) else list(value)
+    for code in items:
+        if (isinstance(code, bool) or not isinstance(code, (int, np.integer))
+                or not 0 < int(code) <= 127):
+            raise ValueError(f"LimitState: censored_statuses must be model status codes in "
+                             f"1..127, got {code!r} in {value!r}")
+    return tuple(sorted({int(c) for c in items}))
+
+
 class LimitState(_GFunction):
     """A limit-state function ``g`` of result variables; failure where ``g <= 0``.
 
@@ -368,6 +384,15 @@ class LimitState(_GFunction):
         How a time-dependent ``g`` is reduced to ``min_t g(t)``: over the output instants, or
         refined between them by a parabola through every local minimum
         (:func:`first_passage_min`: the continuous-time peak of a smooth response).
+    censored_statuses : sequence of int, optional
+        Nonzero model statuses under which the outputs still bound the answer: the run is at
+        least as close to failure as its ``g`` reads (``g`` an upper bound of the true value;
+        for :meth:`upper`, an output that is a lower bound of its true value, such as a
+        resonance peak located only from below). Such a run stays invalid (counted and
+        flagged, never a silent value); subset simulation reads it at its bound while it
+        explores instead of as failed, and a bound at or below 0 is a failure whatever the
+        true value (:ref:`reliability: censored runs <censored-runs>`). Declaring a status
+        whose outputs are not such a bound makes that reading wrong.
 
     Notes
     -----
@@ -385,6 +410,7 @@ class LimitState(_GFunction):
         select: Mapping[str, Any] | None = None,
         description: str | None = None,
         first_passage: str = "grid",
+        censored_statuses: Sequence[int] | None = None,
     ) -> None:
         if not callable(function):
             raise ValueError(f"LimitState: function must be callable, got {function!r}")
@@ -400,6 +426,7 @@ class LimitState(_GFunction):
         if first_passage not in FIRST_PASSAGE:
             raise ValueError(f"LimitState: first_passage must be one of "
                              f"{', '.join(FIRST_PASSAGE)}, got {first_passage!r}")
+        self.censored_statuses = _censored_statuses(censored_statuses)
         self.first_passage = first_passage
         self.function = function
         self.variables = tuple(names)
@@ -480,6 +507,8 @@ class LimitState(_GFunction):
             out["select"] = {k: str(v) for k, v in self.select.items()}
         if self.first_passage != "grid":
             out["first_passage"] = self.first_passage
+        if self.censored_statuses:
+            out["censored_statuses"] = list(self.censored_statuses)
         return out
 
     def to_json(self) -> str:
@@ -674,6 +703,8 @@ class System(_GFunction):
                "components": [c.to_dict() for c in self.components]}
         if self.first_passage != "grid":
             out["first_passage"] = self.first_passage
+        if self.censored_statuses:
+            out["censored_statuses"] = list(self.censored_statuses)
         return out
 
     def to_json(self) -> str:

@@ -23,7 +23,11 @@ subset simulation reads it as failed (``g = -inf``), so the chains can enter a f
 where the model gives no answer instead of stopping at its edge; the last level's failing
 samples then tell which share of them is valid. The report's ``pf`` counts only the valid ones
 (as crude Monte Carlo does), the interval runs from that reading's lower end to the upper end
-of the reading that counts the invalid runs as failed, and the status says so.
+of the reading that counts the invalid runs as failed, and the status says so. A **censored**
+run (a status the limit state names in ``censored_statuses``: its ``g`` an upper bound of
+the true value) is read at that bound instead; a bound at or below 0 is a valid failure, and
+the levels count how often they refused such a run on its bound (``level_censored_left_out``:
+there pf may be low, which status 6 says in words).
 
 The coefficient of variation follows Au and Beck: ``delta_i^2 = (1 - p_i)/(N p_i) (1 +
 gamma_i)`` with ``gamma_i = 2 sum_k (1 - k/N_s) rho_i(k)`` from the correlation of the failure
@@ -205,10 +209,27 @@ def _inside(gate: Any, cand: np.ndarray) -> np.ndarray:
     return inside
 
 
+def _explored(res: Mapping[str, np.ndarray]) -> np.ndarray:
+    """``g`` as the walk reads it while exploring: a valid run's value, a censored run's bound
+    (the run is at least as close to failure as that), ``-inf`` for any other invalid run
+    (read as failed)."""
+    g = np.where(res["status"] == 0, res["g"], -np.inf)
+    bound = res.get("g_bound")
+    return g if bound is None else np.where(np.isfinite(bound), bound, g)
+
+
+def _censored_left_out(res: Mapping[str, np.ndarray], g_read: np.ndarray, b: float) -> int:
+    """Censored runs that a level refused on their bound (``> b``): their true ``g`` may
+    have been inside it."""
+    bound = res.get("g_bound")
+    return 0 if bound is None else int(np.sum(np.isfinite(bound) & (g_read > b)))
+
+
 def _mcmc_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float, sigma: float,
                rng: np.random.Generator, tag: str, gate: Any = None
-               ) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """One modified-Metropolis step of every chain: new states, values, accepted, invalid.
+               ) -> tuple[np.ndarray, np.ndarray, int, int, int]:
+    """One modified-Metropolis step of every chain: new states, values, accepted, invalid,
+    censored candidates refused on their bound.
 
     A candidate outside the ``gate`` is rejected without a run."""
     xi = u + sigma * rng.standard_normal(u.shape)
@@ -219,23 +240,23 @@ def _mcmc_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float, 
     if gate is not None and moved.any():
         moved[moved] = _inside(gate, cand[moved])
     u_new, g_new = u.copy(), g.copy()
-    accepted = 0
-    invalid = 0
+    accepted, invalid, left_out = 0, 0, 0
     if moved.any():
         res = ev.evaluate(cand[moved], tag)
-        g_c = np.where(res["status"] == 0, res["g"], -np.inf)  # invalid: read as failed
+        g_c = _explored(res)
         ok = g_c <= b
         idx = np.flatnonzero(moved)[ok]
         u_new[idx] = cand[idx]
         g_new[idx] = g_c[ok]
         accepted = int(ok.sum())
         invalid = int(np.sum(res["status"] != 0))
-    return u_new, g_new, accepted, invalid
+        left_out = _censored_left_out(res, g_c, b)
+    return u_new, g_new, accepted, invalid, left_out
 
 
 def _acs_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
               sigma: np.ndarray, rng: np.random.Generator, tag: str, gate: Any = None
-              ) -> tuple[np.ndarray, np.ndarray, int, int]:
+              ) -> tuple[np.ndarray, np.ndarray, int, int, int]:
     """One conditional-sampling step of every chain (Papaioannou et al. 2015, Alg. 2).
 
     The candidate ``rho u + sqrt(1 - rho^2) xi`` leaves the standard normal invariant, so it
@@ -247,14 +268,15 @@ def _acs_step(ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
     inside = _inside(gate, cand)
     u_new, g_new = u.copy(), g.copy()
     if not inside.any():
-        return u_new, g_new, 0, 0
+        return u_new, g_new, 0, 0, 0
     res = ev.evaluate(cand[inside], tag)
-    g_c = np.where(res["status"] == 0, res["g"], -np.inf)  # invalid: read as failed
+    g_c = _explored(res)
     ok = g_c <= b
     idx = np.flatnonzero(inside)[ok]
     u_new[idx] = cand[idx]
     g_new[idx] = g_c[ok]
-    return u_new, g_new, int(ok.sum()), int(np.sum(res["status"] != 0))
+    return (u_new, g_new, int(ok.sum()), int(np.sum(res["status"] != 0)),
+            _censored_left_out(res, g_c, b))
 
 
 def _threshold(g: np.ndarray, n_seeds: int) -> float:
@@ -367,8 +389,9 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
     ev.calibrate_scales()
     res = ev.evaluate(u, f"{tag}/level0")
     # an invalid run is read as failed while exploring (g = -inf): the chains then enter where
-    # the model fails, and the last level tells which share of the failing samples is valid
-    g = np.where(res["status"] == 0, res["g"], -np.inf)
+    # the model fails, and the last level tells which share of the failing samples is valid;
+    # a censored run is read at its bound (_explored)
+    g = _explored(res)
     if not np.any(res["status"] == 0):
         return Walk(None, u, g, 2, f"every one of the {n} model runs of level 0 failed")
     chains = None  # (n_seeds, n_states) indices of the level's samples, for gamma
@@ -385,11 +408,15 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
             lineage.append((root, below))
         p_level = float(below.mean())
         gamma = 0.0 if chains is None else chain_correlation_factor(below[chains])
+        censored = ev.is_censored(u)
         levels.append({"threshold": b_next, "p": p_level, "gamma": gamma,
                        "cov": level_cov(p_level, n, gamma), "n": int(g.size),
                        "invalid": int(np.sum(np.isneginf(g))),
                        "valid_share": float(np.mean(np.isfinite(g[below]))) if below.any()
-                       else 1.0})
+                       else 1.0,
+                       # censored samples above the threshold: their true g may be below it
+                       "censored": int(censored.sum()),
+                       "censored_left_out": int(np.sum(censored & ~below))})
         if final or p_level == 0.0:
             break
         if level == s["max_levels"]:
@@ -399,8 +426,10 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
             break
         order = np.argsort(g, kind="stable")[:n_seeds]
         seed_root = np.arange(n_seeds) if root is None else root[order]
+        refused_before = sampler.censored_left_out
         u, g, chains, acc = _grow_chains(ev, u[order], g[order], b, sampler, n_states, n,
                                          seed, level + 1, tag)
+        levels[-1]["censored_left_out"] += sampler.censored_left_out - refused_before
         root = seed_root[np.arange(u.shape[0]) // n_states]  # flat samples: chain-major
         levels[-1]["acceptance"] = acc[0] / max(acc[2], 1)
         levels[-1]["accepted"], levels[-1]["invalid_candidates"] = acc[0], acc[1]
@@ -444,14 +473,20 @@ class _Sampler:
         self.proposal_std = proposal_std
         self.gate = gate
         self.scale = 0.6  # initial lambda of Papaioannou et al.
+        self.censored_left_out = 0  # censored candidates refused on their bound
 
     def grow(self, ev: LimitStateEvaluator, u: np.ndarray, g: np.ndarray, b: float,
              rng: np.random.Generator, tag: str, seeds_spread: np.ndarray, batch: int
              ) -> tuple[np.ndarray, np.ndarray, int, int]:
         if self.kind == "mma":
-            return _mcmc_step(ev, u, g, b, self.proposal_std, rng, tag, self.gate)
+            u_new, g_new, accepted, invalid, left_out = _mcmc_step(
+                ev, u, g, b, self.proposal_std, rng, tag, self.gate)
+            self.censored_left_out += left_out
+            return u_new, g_new, accepted, invalid
         sigma = np.minimum(1.0, self.scale * seeds_spread)
-        u_new, g_new, accepted, invalid = _acs_step(ev, u, g, b, sigma, rng, tag, self.gate)
+        u_new, g_new, accepted, invalid, left_out = _acs_step(ev, u, g, b, sigma, rng, tag,
+                                                              self.gate)
+        self.censored_left_out += left_out
         rate = accepted / max(u.shape[0], 1)
         self.scale *= math.exp((rate - self.TARGET_ACCEPTANCE) / math.sqrt(batch))
         return u_new, g_new, accepted, invalid
@@ -541,6 +576,26 @@ def second_walk_reason(lineage: list[tuple[np.ndarray, np.ndarray]], mode: str =
             f"(fewer than {SECOND_WALK_LINEAGES}), too few to measure its own scatter")
 
 
+def _censored_reasons(ev: LimitStateEvaluator, walks: list[list[dict[str, Any]]]
+                      ) -> list[tuple[int, str]]:
+    """Status 6 in words for censored runs (the limit state's ``censored_statuses``): read
+    at their bound while exploring; say how many a level refused on that bound."""
+    if not ev.n_censored:
+        return []
+    left = sum(lv.get("censored_left_out", 0) for levels in walks for lv in levels)
+    text = (f"{ev.n_censored} model runs were censored (a status of the limit state's "
+            "censored_statuses: g an upper bound of the true value) and were read at that "
+            "bound while exploring; a bound at or below 0 counts as a failure")
+    if left:
+        text += (f"; {left} time(s) a level refused such a run on its bound (a chain's step, "
+                 "or a threshold, the last one 0) where its true value may have been inside: "
+                 "pf may be low by their share, which the interval does not cover")
+    else:
+        text += ("; no level refused one on its bound, so the walk is the one the true values "
+                 "would have made")
+    return [(6, text)]
+
+
 def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
                  t0: float, walks: tuple[Walk, Walk], seeds: tuple[int, int], why: str
                  ) -> xr.Dataset:
@@ -590,8 +645,10 @@ def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confi
     if bound:
         pf, status = upper, 4
         message = "neither walk observed a failure: pf is the larger of their upper bounds"
-    if ev.n_invalid and not bound:
-        reasons.append((6, f"{ev.n_invalid} model runs were invalid; each walk counts only "
+    reasons.extend(_censored_reasons(ev, [w.levels for w in walks]))
+    n_inv = ev.n_invalid - ev.n_censored
+    if n_inv and not bound:
+        reasons.append((6, f"{n_inv} model runs were invalid; each walk counts only "
                         "the valid failing samples of its last level; the interval covers the "
                         "reading that counts them as failed"))
     # the Au-Beck CoV of the mean of the two, as a single walk reports its own
@@ -636,7 +693,8 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
             "scatter of ln pf measured by resampling the chains started at level 1")
     reasons = list(mixing_reason(spread)) if pf > 0 else []
     valid_share = levels[-1]["valid_share"]
-    n_inv = ev.n_invalid
+    reasons.extend(_censored_reasons(ev, [levels]))
+    n_inv = ev.n_invalid - ev.n_censored  # the censored ones were read at their bound
     if n_inv and pf > 0:
         pf_failed = pf
         pf, lower = pf * valid_share, lower * valid_share
@@ -711,6 +769,10 @@ def _walk_variables(levels: list[dict[str, Any]], spread: Mapping[str, float],
         "level_gamma": (dims, np.array([lv["gamma"] for lv in levels]), {
             "units": "1", "long_name": "chain correlation factor gamma_i (Au and Beck)"}),
         "level_cov": (dims, covs, {"units": "1", "long_name": "CoV of each level estimate"}),
+        "level_censored_left_out": (dims, np.array([lv.get("censored_left_out", 0)
+                                                     for lv in levels]), {
+            "units": "1", "long_name": "censored runs this level refused on their bound (a "
+            "chain's step or the next threshold): their true value may have been inside"}),
         "level_acceptance": (dims, np.array([lv.get("acceptance", math.nan) for lv in levels]),
                              {"units": "1", "long_name":
                               "acceptance rate of the chains grown from this level"}),
@@ -766,6 +828,7 @@ def _run_replicates(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
     k_rep = s["replicates"]
     z = stats.norm.isf((1 - confidence) / 2)
     pfs, lows, ups, n_levels, run_covs = [], [], [], [], []
+    walk_levels: list[list[dict[str, Any]]] = []
     for k in range(k_rep):
         walk = simulate(ev, s, _replicate_seed(seed, k), tag=f"subset/rep{k}")
         if walk.levels is None:
@@ -781,6 +844,7 @@ def _run_replicates(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
         lows.append(low_k)
         ups.append(up_k if pf_k > 0 else math.inf)
         n_levels.append(len(walk.levels))
+        walk_levels.append(walk.levels)
     pfs_a = np.array(pfs)
     mean = float(pfs_a.mean())
     reasons = []
@@ -813,8 +877,10 @@ def _run_replicates(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
         "replicate_levels": (("replicate",), np.array(n_levels), {"units": "1", "long_name":
                              "levels of each run"}),
     }
-    if ev.n_invalid:
-        reasons.append((6, f"{ev.n_invalid} model runs were invalid; each replicate counts only "
+    reasons.extend(_censored_reasons(ev, walk_levels))
+    if ev.n_invalid - ev.n_censored:
+        reasons.append((6, f"{ev.n_invalid - ev.n_censored} model runs were invalid; each "
+                        "replicate counts only "
                         "the valid failing samples of its last level (the interval does not "
                         "widen for the reading that counts them as failed)"))
     kind = (f"log-t over {k_rep} independent runs: mean exp(-+ t sqrt(ln(1 + c^2))), c the "
