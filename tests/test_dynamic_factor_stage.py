@@ -379,11 +379,10 @@ def test_the_stage_walk_samples_the_accepted_law(tmp_path, monkeypatch):
 def test_the_walks_limit_state_censors_a_peak_located_from_below():
     """The status the walk reads at its bound is the plugin's "peak not located" status, the
     one whose kv_max is the largest value found before the failed steady state."""
-    from gearuq_plugins.geared_rotor import STATUS_PEAK_NOT_LOCATED
-    from gearuq_plugins.geared_rotor.physics import STATUS_MEANINGS
+    from gearuq_plugins.geared_rotor.physics import STATUS_MEANINGS, STATUS_PEAK_NOT_LOCATED
 
     ls = study.kv_exceeds(3.0)
-    assert ls.censored_statuses == (STATUS_PEAK_NOT_LOCATED,)
+    assert ls.censored_statuses == (STATUS_PEAK_NOT_LOCATED,) == (study.PEAK_NOT_LOCATED,)
     assert STATUS_MEANINGS[STATUS_PEAK_NOT_LOCATED] == "steady_state_failed_while_locating_a_peak"
     # the system of the untruncated law keeps reading it as invalid (a system has no bound)
     system = gearuq.ParallelSystem([ls, study.accepted()])

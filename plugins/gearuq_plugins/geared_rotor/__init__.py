@@ -29,14 +29,7 @@ from typing import Any
 from gearuq.gears.deviations import pitch_germ_names
 from gearuq.model import Model, Option, Output, Parameter
 
-__all__ = ["GearedRotor", "STATUS_PEAK_NOT_LOCATED"]
-
-#: Status of a sample whose every grid speed converged but a steady state failed while a
-#: resonance peak was being located: its maxima over speed (``kv_max``, ...) are the largest
-#: values found before it, lower bounds of the peaks. A limit state of the form "maximum
-#: at or above X" may name it in ``censored_statuses`` (the run is at least that close to
-#: failure).
-STATUS_PEAK_NOT_LOCATED = 21
+__all__ = ["GearedRotor"]
 
 _S, _ST, _SO, _SBT = ("sample",), ("sample", "time"), ("sample", "order"), (
     "sample", "bearing", "time")

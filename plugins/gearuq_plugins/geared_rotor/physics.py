@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 
 from gearuq.model import Evaluation
-from gearuq_plugins.geared_rotor import STATUS_PEAK_NOT_LOCATED
 from gearuq_plugins.geared_rotor.long_period import MAX_DENSE_LONG_PERIOD
 
 #: Status codes of this plugin (beyond the shared 0-4).
@@ -26,6 +25,9 @@ STATUS_SINGULAR = 17
 STATUS_NO_PERIODIC = 18
 STATUS_LTCA_FAILED = 19
 STATUS_BACK_FLANK_TRUNCATED = 20
+#: every grid speed converged, but a steady state failed while a resonance peak was being
+#: located: that maximum is the largest value found before it (a lower bound of the peak)
+STATUS_PEAK_NOT_LOCATED = 21
 STATUS_MEANINGS = {
     STATUS_BACK_FLANK_TRUNCATED: "back_flank_contact_solved_on_spectral_orders_only",
     STATUS_HB_NOT_CONVERGED: "harmonic_balance_not_converged",
