@@ -59,7 +59,7 @@ def test_a_bound_equal_to_the_truth_makes_the_uncensored_walk_bit_for_bit():
     assert float(read["pf_lower"]) <= PF <= float(read["pf_upper"])
     # the runs stay invalid and flagged, and the report says how they were read
     assert int(read["status"]) == 6
-    assert int(read["n_invalid"]) > 0
+    assert int(read["n_invalid"]) >= int(read["n_censored"]) > 0
     assert "censored" in read.attrs["message"] and "read at that bound" in read.attrs["message"]
     assert int(read["level_censored_left_out"].sum()) > 0
 

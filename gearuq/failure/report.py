@@ -211,6 +211,10 @@ def failure_report(
         data.update(_design_point_vars(ev, design_points))
         coords["parameter"] = ("parameter", np.array(ev.names, dtype=str))
         coords["design_point"] = ("design_point", np.arange(len(design_points)))
+    if getattr(ev, "n_censored", 0):
+        data["n_censored"] = ((), np.int64(ev.n_censored), {"units": "1", "long_name": (
+            "invalid runs whose g is an upper bound of the true value (the limit state's "
+            "censored_statuses; among n_invalid)")})
     if math.isfinite(grid_gap):
         data["pf_grid_gap"] = ((), float(grid_gap), {"units": "1", "long_name": (
             "first-passage pf on the output instants minus the same on every other instant: "

@@ -1417,9 +1417,11 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
     dict
         ``pf``, ``lower``, ``upper`` (95 %, given acceptance), ``status``, ``message``,
         ``runs``, ``wall``, ``levels``, ``x``, ``level_kv`` (the K_v of each level),
-        ``p_pass`` (counted, for the joint probability ``pf p_pass``) and
+        ``p_pass`` (counted, for the joint probability ``pf p_pass``),
         ``failure_mean_u`` (the last level's failing mean, :func:`lines_on_stage`'s
-        direction; None when none failed).
+        direction; None when none failed), ``censored`` (runs whose peak was located only
+        from below, read at that bound) and ``censored_refused`` (how often a level refused
+        one on its bound: pf may be low by their share).
     """
     rep = failure_probability(study_model(0, stage), study_space(stage), kv_exceeds(x),
                               method="subset", rng=seed, n_per_level=n_per_level,
@@ -1435,7 +1437,10 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
             "wall": float(rep["wall_time"]), "cpu": float(rep["cpu_time"]),
             "levels": int(thresholds.size), "x": x,
             "level_kv": thresholds.tolist(), "p_pass": accepted_probability(0, stage)[0],
-            "failure_mean_u": mean}
+            "failure_mean_u": mean,
+            "censored": int(rep["n_censored"]) if "n_censored" in rep else 0,
+            "censored_refused": int(rep["level_censored_left_out"].sum())
+            if "level_censored_left_out" in rep else 0}
 
 
 #: Line sampling on a stage (:func:`lines_on_stage`), the rare level's second method beside
