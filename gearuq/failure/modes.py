@@ -703,8 +703,6 @@ class System(_GFunction):
                "components": [c.to_dict() for c in self.components]}
         if self.first_passage != "grid":
             out["first_passage"] = self.first_passage
-        if self.censored_statuses:
-            out["censored_statuses"] = list(self.censored_statuses)
         return out
 
     def to_json(self) -> str:
