@@ -134,3 +134,16 @@ def test_read_at_the_bound_the_intervals_hold_over_seeds():
     assert held >= 18, held
     # the mean of the estimates is not far below the truth (the missed band is 1 % of it)
     assert 0.5 < np.mean([float(r["pf"]) for r in reps]) / PF < 2.0
+
+
+def test_a_widened_cheap_model_moves_a_censored_bound_with_its_g():
+    """MFIS's widened cheap model (``g - delta``) shifts a censored run's bound alike, so the
+    walk on it reads the bound of the widened set, not of the original one."""
+    from gearuq.failure.methods.biasing import Widened
+
+    ev = LimitStateEvaluator(_BandCensored(gap=0.25), standard_normal_space(2),
+                             LimitState.upper("y", BETA, censored_statuses=[CENSORED]),
+                             engine="test", executor="serial")
+    res = Widened(ev, 0.5).evaluate(np.array([[0.0, 0.0], [1.0, 2.0]]), "w")
+    assert np.isnan(res["g_bound"][0])
+    assert res["g_bound"][1] == pytest.approx(BETA - (1.0 - 0.25) - 0.5)

@@ -89,6 +89,7 @@ class Widened:
         res = dict(self._ev.evaluate(u, f"{tag}/widened{self.delta:.6g}"))
         res["g"] = res["g"] - self.delta
         res["g_half"] = res["g_half"] - self.delta
+        res["g_bound"] = res["g_bound"] - self.delta  # a censored run's bound moves alike
         return res
 
 

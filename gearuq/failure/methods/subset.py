@@ -415,7 +415,6 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
                        "valid_share": float(np.mean(np.isfinite(g[below]))) if below.any()
                        else 1.0,
                        # censored samples above the threshold: their true g may be below it
-                       "censored": int(censored.sum()),
                        "censored_left_out": int(np.sum(censored & ~below))})
         if final or p_level == 0.0:
             break
