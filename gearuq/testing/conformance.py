@@ -36,6 +36,7 @@ def check_model(
     seed: int = 0,
     options: dict[str, Any] | None = None,
     roundtrip: bool = True,
+    route: str = "compiled",
 ) -> xr.Dataset:
     """Assert that ``model`` honours the gearuq plugin contract.
 
@@ -62,6 +63,12 @@ def check_model(
         Options passed to ``response``.
     roundtrip : bool
         Also save and load the result through netCDF.
+    route : {"compiled", "interpreted", "auto"}
+        The route of every numba kernel's call during the check
+        (:func:`gearuq.kernels_route`). The check compares calls bit for bit, and a kernel's
+        interpreted and compiled routes agree only to rounding: under ``"auto"`` a small
+        first call from an empty cache runs interpreted and a later one compiled, so the
+        comparison would see the route change, not the model. One route holds throughout.
 
     Returns
     -------
@@ -73,6 +80,16 @@ def check_model(
     AssertionError
         With a message naming the violated part of the contract.
     """
+    from gearuq._firstcall import kernels_route
+
+    with kernels_route(route):
+        return _check_model(model, t, n_samples=n_samples, seed=seed, options=options,
+                            roundtrip=roundtrip)
+
+
+def _check_model(model: Model, t: Any, *, n_samples: int, seed: int,
+                 options: dict[str, Any] | None, roundtrip: bool) -> xr.Dataset:
+    """:func:`check_model` under the route its caller set."""
     from gearuq import io
 
     options = options or {}
