@@ -2,8 +2,8 @@
 Geared rotor: the worst RMS transmission error over 25-8000 rpm
 ================================================================
 
-A quick version of the headline study (``gearuq study geared_rotor_rare_events``): the
-finite-element helical geared rotor after Yuan, Liu and Liu (*Applied Sciences*, 2020), excited
+A quick version of the kinematic example study (``gearuq study geared_rotor_rare_events``):
+the finite-element helical geared rotor after Yuan, Liu and Liu (*Applied Sciences*, 2020), excited
 by the long-period mesh stiffness and composite mesh error that a loaded tooth contact analysis
 computes from random cumulative pitch deviations. Each sample draws
 
@@ -16,6 +16,12 @@ and the model returns the largest RMS dynamic transmission error (DTE) over 160 
 to 8000 rpm (``dte_rms_max``) and the speed where it sits (``speed_at_dte_rms_max``). The
 full study answers how likely ``dte_rms_max`` is to exceed a limit down to 1e-6; 12 samples
 here show the spread and where in speed the worst case sits.
+
+What this question measures is mostly kinematic: on this 30/30 pair the once-per-revolution
+wave of the two gears' cumulative pitch deviations sets the RMS DTE (94-98 % of its variance at
+every speed), while load, relief and the mesh dynamics barely move it (below). The dynamic
+question, how large the dynamic factor K_v grows over the speed range on gears that pass
+inspection, is the study ``geared_rotor_dynamic_factor`` (the geared rotor's theory page, section 13).
 """
 
 import matplotlib.pyplot as plt
