@@ -21,7 +21,8 @@ What this question measures is mostly kinematic: on this 30/30 pair the once-per
 wave of the two gears' cumulative pitch deviations sets the RMS DTE (94-98 % of its variance at
 every speed), while load, relief and the mesh dynamics barely move it (below). The dynamic
 question, how large the dynamic factor K_v grows over the speed range on gears that pass
-inspection, is the study ``geared_rotor_dynamic_factor`` (the geared rotor's theory page, section 13).
+inspection, is the study ``geared_rotor_dynamic_factor`` (the geared rotor's theory page,
+section 13).
 """
 
 import matplotlib.pyplot as plt
