@@ -147,3 +147,40 @@ def test_a_widened_cheap_model_moves_a_censored_bound_with_its_g():
     res = Widened(ev, 0.5).evaluate(np.array([[0.0, 0.0], [1.0, 2.0]]), "w")
     assert np.isnan(res["g_bound"][0])
     assert res["g_bound"][1] == pytest.approx(BETA - (1.0 - 0.25) - 0.5)
+
+
+def test_the_upper_end_counts_the_last_levels_censored_samples_read_safe_as_failed(
+        monkeypatch):
+    """The last level's censored samples whose bound lies above 0 may be failures: the
+    interval's upper end is that of the reading counting them as failed, the walk's upper end
+    times (failing + those) / failing, by the report's own level counts."""
+    from gearuq.failure.methods import subset
+
+    class NearFailure(FunctionModel):
+        """``y = x1``; censored where ``x1 > 3.3`` and ``x2 > 0``, reporting ``x1 - 0.4``: a
+        failing run with ``x1 < 3.9`` there reads safe on its bound."""
+
+        def __init__(self) -> None:
+            super().__init__(lambda x1, x2: x1 + 0.0 * x2, ["x1", "x2"], ["y"],
+                             name="near_failure_censored")
+
+        def _evaluate(self, params, t, outputs, **options):
+            x1 = np.asarray(params["x1"], float)
+            near = (x1 > 3.3) & (np.asarray(params["x2"], float) > 0.0)
+            return Evaluation(data={"y": np.where(near, x1 - 0.4, x1)},
+                              status=np.where(near, CENSORED, 0).astype(np.int8),
+                              status_meanings={CENSORED: "peak_located_from_below"})
+
+    model = NearFailure()
+    limit = LimitState.upper("y", BETA, censored_statuses=[CENSORED])
+    rep = _walk(model, limit, seed=1)
+    left = int(rep["level_censored_left_out"].values[-1])
+    assert left > 0 and float(rep["level_threshold"].values[-1]) == 0.0
+    failing = float(rep["level_probability"].values[-1]) * 500
+    monkeypatch.setattr(subset, "_censored_last_factor", lambda levels: 1.0)
+    plain = _walk(model, limit, seed=1)
+    assert float(plain["pf"]) == float(rep["pf"])  # the same walk, the same estimate
+    np.testing.assert_allclose(float(rep["pf_upper"]),
+                               float(plain["pf_upper"]) * (failing + left) / failing,
+                               rtol=1e-12)
+    assert f"{left} sample(s) of the last level were read safe" in rep.attrs["message"]

@@ -653,6 +653,12 @@ class System(_GFunction):
     first_passage : {"grid", "parabola"}
         How the system's ``g(t)`` (combined per instant) is reduced to ``min_t g(t)``
         (:func:`first_passage_min`); the components' settings apply to their own values.
+
+    Notes
+    -----
+    A system reads no run as censored: a component's ``censored_statuses`` (recorded in its
+    definition) apply to that component used alone, and through a system its runs with those
+    statuses are invalid like any other (the methods' invalid readings and counts apply).
     """
 
     def __init__(self, components: Sequence[Any], kind: str, *, name: str | None = None,

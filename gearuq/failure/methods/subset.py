@@ -26,8 +26,10 @@ samples then tell which share of them is valid. The report's ``pf`` counts only 
 of the reading that counts the invalid runs as failed, and the status says so. A **censored**
 run (a status the limit state names in ``censored_statuses``: its ``g`` an upper bound of
 the true value) is read at that bound instead; a bound at or below 0 is a valid failure, and
-the levels count how often they refused such a run on its bound (``level_censored_left_out``:
-there pf may be low, which status 6 says in words).
+the levels count how often they refused such a run on its bound (``level_censored_left_out``).
+The last level's such samples (read safe on a bound above 0) are counted as failed by the
+interval's upper end; at an earlier level a refusal may leave pf low, which status 6 says in
+words.
 
 The coefficient of variation follows Au and Beck: ``delta_i^2 = (1 - p_i)/(N p_i) (1 +
 gamma_i)`` with ``gamma_i = 2 sum_k (1 - k/N_s) rho_i(k)`` from the correlation of the failure
@@ -575,6 +577,19 @@ def second_walk_reason(lineage: list[tuple[np.ndarray, np.ndarray]], mode: str =
             f"(fewer than {SECOND_WALK_LINEAGES}), too few to measure its own scatter")
 
 
+def _censored_last_factor(levels: list[dict[str, Any]]) -> float:
+    """What the last level's censored samples read safe on a bound above 0 would multiply pf
+    by were they all failures: ``(n_failing + n_left) / n_failing`` (1 without any, or where
+    the walk stopped above 0, its pf then an upper bound already). The upper end of the
+    interval is scaled by it, so that it covers that reading too."""
+    last = levels[-1]
+    left = int(last.get("censored_left_out", 0))
+    n_failing = last["p"] * last["n"]
+    if not left or last["threshold"] != 0.0 or n_failing <= 0:
+        return 1.0
+    return (n_failing + left) / n_failing
+
+
 def _censored_reasons(ev: LimitStateEvaluator, walks: list[list[dict[str, Any]]]
                       ) -> list[tuple[int, str]]:
     """Status 6 in words for censored runs (the limit state's ``censored_statuses``): read
@@ -585,13 +600,19 @@ def _censored_reasons(ev: LimitStateEvaluator, walks: list[list[dict[str, Any]]]
     text = (f"{ev.n_censored} model runs were censored (a status of the limit state's "
             "censored_statuses: g an upper bound of the true value) and were read at that "
             "bound while exploring; a bound at or below 0 counts as a failure")
-    if left:
-        text += (f"; {left} time(s) a level refused such a run on its bound (a chain's step, "
-                 "or a threshold, the last one 0) where its true value may have been inside: "
+    last = sum(lv.get("censored_left_out", 0) for levels in walks for lv in levels[-1:]
+               if lv["threshold"] == 0.0)
+    if last:
+        text += (f"; {last} sample(s) of the last level were read safe on a bound above 0: "
+                 "the interval's upper end counts them as failed")
+    if left - last:
+        text += (f"; {left - last} time(s) an earlier level refused such a run on its bound "
+                 "(a chain's step, or a threshold) where its true value may have been inside: "
                  "pf may be low by their share, which the interval does not cover")
-    else:
-        text += ("; no level refused one on its bound, so the walk is the one the true values "
-                 "would have made")
+    if not left:
+        text += ("; no level refused one on its bound, so every count of the walk is the one "
+                 "the true values would give (the walk may differ from theirs where a bound "
+                 "set a threshold or a seed's order: the same estimator, not a biased one)")
     return [(6, text)]
 
 
@@ -616,7 +637,7 @@ def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confi
         share = walk.levels[-1]["valid_share"]  # invalid runs: the interval covers both
         pfs.append(pf_k * share)
         lows.append(low_k * share)
-        ups.append(up_k)
+        ups.append(up_k * (_censored_last_factor(walk.levels) if pf_k > 0 else 1.0))
         spreads.append(spread)
         if walk.status:
             reasons.append((walk.status, f"{name}: {walk.message}"))
@@ -683,6 +704,7 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
     bound = False
     spread = lineage_spread(lineage or [], seed=seed)
     pf, lower, upper = _walk_interval(levels, spread, confidence)
+    upper *= _censored_last_factor(levels) if pf > 0 else 1.0
     if pf <= 0:  # no sample of the last level failed: bound from the product of the others
         pf, bound, status = upper, True, 4
         message = message or "no sample of the last level failed: pf is an upper bound"
@@ -854,6 +876,9 @@ def _run_replicates(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
                 float(np.mean(run_covs)) / math.sqrt(k_rep))
         lower, upper = _lognormal_interval(mean, c, stats.t.isf((1 - confidence) / 2,
                                                                  k_rep - 1))
+        # each replicate's last-level censored samples read safe on a bound above 0, counted
+        # as failed: at most the largest of their factors on the mean
+        upper *= max(_censored_last_factor(levels) for levels in walk_levels)
         status, message = 0, ""
         disjoint = [(i, j) for i in range(k_rep) for j in range(i + 1, k_rep)
                     if ups[i] < lows[j] or ups[j] < lows[i]]
