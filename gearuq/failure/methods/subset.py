@@ -309,16 +309,18 @@ def run_subset(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confide
 
 def _with_failure_mean(rep: xr.Dataset, ev: LimitStateEvaluator, walks: list[Walk]
                        ) -> xr.Dataset:
-    """``failure_mean_u``: the mean of the walks' valid failing samples in the standard
-    normal space (the important direction line sampling can start from; absent when none
+    """``failure_mean_u``: the mean of the walks' failing samples in the standard normal
+    space, valid ones and censored ones whose bound is at or below 0 (failures whatever their
+    true value; the important direction line sampling can start from; absent when none
     failed)."""
     failing = np.concatenate([w.u[np.isfinite(w.g) & (w.g <= 0.0)] for w in walks])
     if failing.shape[0] == 0:
         return rep
     return rep.assign(failure_mean_u=xr.DataArray(
         failing.mean(axis=0), dims="parameter", coords={"parameter": list(ev.names)},
-        attrs={"units": "1", "long_name": f"mean of the {failing.shape[0]} valid failing "
-               "samples of the last level in the standard normal space"}))
+        attrs={"units": "1", "long_name": f"mean of the {failing.shape[0]} failing samples "
+               "of the last level (valid, or censored with a bound at or below 0) in the "
+               "standard normal space"}))
 
 
 def _no_valid_level0(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
@@ -395,7 +397,8 @@ def simulate(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, tag: str 
     # a censored run is read at its bound (_explored)
     g = _explored(res)
     if not np.any(res["status"] == 0):
-        return Walk(None, u, g, 2, f"every one of the {n} model runs of level 0 failed")
+        return Walk(None, u, g, 2, f"no one of the {n} model runs of level 0 was valid "
+                    "(each failed or was censored): subset simulation has no level to start")
     chains = None  # (n_seeds, n_states) indices of the level's samples, for gamma
     levels: list[dict[str, Any]] = []
     lineage: list[tuple[np.ndarray, np.ndarray]] = []
