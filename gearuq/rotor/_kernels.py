@@ -14,7 +14,7 @@ which is solved per branch in closed form; the two switching functions
 Coefficient vector ``p`` (layout written by :func:`gearuq.rotor.time_integration.pack`)::
 
     [n, nh, w0, k_bar, h_res, delta_res, backlash,
-     w^2 (n), D (n*n, row-major, D = C_r + Omega G_r), psi (n), f_load (n),
+     w^2 (n), D (n*n, column-major, D = C_r + Omega G_r), psi (n), f_load (n),
      k_c (nh+1), k_s (nh+1), ke_c (nh+1), ke_s (nh+1)]      (+ 2 frozen sides)
 
 with ``x(t) = x_c[0] + sum_j (x_c[j] cos(j w0 t) + x_s[j] sin(j w0 t))``.
@@ -84,11 +84,14 @@ def _rates(y: np.ndarray, p: np.ndarray, r: float, dydt: np.ndarray) -> None:
     fl = psi + n
     for i in range(n):
         dydt[i] = y[n + i]
-        a = p[fl + i] - p[w2 + i] * y[i] - p[psi + i] * r
-        row = D + i * n
-        for j in range(n):
-            a -= p[row + j] * y[n + j]
-        dydt[n + i] = a
+        dydt[n + i] = p[fl + i] - p[w2 + i] * y[i] - p[psi + i] * r
+    # column by column (D stored column-major): each rate subtracts its terms in the order
+    # j = 0, 1, ... as a row-wise loop would, bit for bit, and the loop over i vectorises
+    for j in range(n):
+        v = y[n + j]
+        col = D + j * n
+        for i in range(n):
+            dydt[n + i] -= p[col + i] * v
 
 
 @njit(cache=True, inline="always")

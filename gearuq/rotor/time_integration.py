@@ -78,7 +78,8 @@ def pack(model: ModalModel, prep: PreparedExcitation, speed: float, period: floa
     delta_res = model.mesh_static - model.mesh @ (model.load / w2)
     head = [n, nh, 2.0 * math.pi / period, model.mean_stiffness, model.mesh_residual,
             delta_res, backlash if math.isfinite(backlash) else 1e301]
-    return np.concatenate([head, w2, D.ravel(), model.mesh, model.load, kc, ks, kec, kes])
+    return np.concatenate([head, w2, D.ravel(order="F"), model.mesh, model.load, kc, ks, kec,
+                           kes])
 
 
 def _branch_delta(dm, k, ke, kbar, hres, backlash):
