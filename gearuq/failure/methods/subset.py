@@ -580,17 +580,21 @@ def second_walk_reason(lineage: list[tuple[np.ndarray, np.ndarray]], mode: str =
             f"(fewer than {SECOND_WALK_LINEAGES}), too few to measure its own scatter")
 
 
-def _censored_last_factor(levels: list[dict[str, Any]]) -> float:
-    """What the last level's censored samples read safe on a bound above 0 would multiply pf
-    by were they all failures: ``(n_failing + n_left) / n_failing`` (1 without any, or where
-    the walk stopped above 0, its pf then an upper bound already). The upper end of the
-    interval is scaled by it, so that it covers that reading too."""
+def _censored_read_safe(levels: list[dict[str, Any]]) -> int:
+    """The last level's censored samples read safe on a bound above 0 (none where the walk
+    stopped above 0: its pf is then an upper bound already)."""
     last = levels[-1]
-    left = int(last.get("censored_left_out", 0))
-    n_failing = last["p"] * last["n"]
-    if not left or last["threshold"] != 0.0 or n_failing <= 0:
-        return 1.0
-    return (n_failing + left) / n_failing
+    return int(last.get("censored_left_out", 0)) if last["threshold"] == 0.0 else 0
+
+
+def _censored_last_factor(levels: list[dict[str, Any]]) -> float:
+    """What the :func:`_censored_read_safe` samples would multiply pf by were they all
+    failures: ``(n_failing + n_left) / n_failing`` (1 without any, or without a failing
+    sample, pf then 0). The upper end of the interval is scaled by it, so that it covers
+    that reading too."""
+    left = _censored_read_safe(levels)
+    n_failing = levels[-1]["p"] * levels[-1]["n"]
+    return (n_failing + left) / n_failing if left and n_failing > 0 else 1.0
 
 
 def _censored_reasons(ev: LimitStateEvaluator, walks: list[list[dict[str, Any]]]
@@ -603,8 +607,7 @@ def _censored_reasons(ev: LimitStateEvaluator, walks: list[list[dict[str, Any]]]
     text = (f"{ev.n_censored} model runs were censored (a status of the limit state's "
             "censored_statuses: g an upper bound of the true value) and were read at that "
             "bound while exploring; a bound at or below 0 counts as a failure")
-    last = sum(lv.get("censored_left_out", 0) for levels in walks for lv in levels[-1:]
-               if lv["threshold"] == 0.0)
+    last = sum(_censored_read_safe(levels) for levels in walks)
     if last:
         text += (f"; {last} sample(s) of the last level were read safe on a bound above 0: "
                  "the interval's upper end counts them as failed")
@@ -640,7 +643,7 @@ def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confi
         share = walk.levels[-1]["valid_share"]  # invalid runs: the interval covers both
         pfs.append(pf_k * share)
         lows.append(low_k * share)
-        ups.append(up_k * (_censored_last_factor(walk.levels) if pf_k > 0 else 1.0))
+        ups.append(up_k * _censored_last_factor(walk.levels))
         spreads.append(spread)
         if walk.status:
             reasons.append((walk.status, f"{name}: {walk.message}"))
@@ -707,7 +710,7 @@ def _report(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence
     bound = False
     spread = lineage_spread(lineage or [], seed=seed)
     pf, lower, upper = _walk_interval(levels, spread, confidence)
-    upper *= _censored_last_factor(levels) if pf > 0 else 1.0
+    upper *= _censored_last_factor(levels)  # 1 where no sample of the last level failed
     if pf <= 0:  # no sample of the last level failed: bound from the product of the others
         pf, bound, status = upper, True, 4
         message = message or "no sample of the last level failed: pf is an upper bound"
