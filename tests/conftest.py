@@ -15,13 +15,12 @@ concurrent saves happen one after the other; loads need no lock (a half-saved en
 miss, which compiles).
 
 The mesh oscillator's kernels take the longest to compile (about 40 s of CPU from an empty
-cache); its test files, with those of the batched integrator whose variants it shares, are one
-xdist group (``--dist loadgroup`` in pyproject's addopts; :data:`COMPILE_GROUPS`), so one worker
-compiles them while the other runs other tests, instead of both compiling the same kernels at
-once. For the same reason each worker starts by making the first call of its share
-of the models (:data:`WARM_UP_CPU`, split greedily by compile cost), so that from an empty
-cache the two workers compile different kernels side by side; with a filled cache this loads
-them (about a second).
+cache); its test files are one xdist group (``--dist loadgroup`` in pyproject's addopts;
+:data:`COMPILE_GROUPS`), so one worker compiles them while the other runs other tests, instead
+of both compiling the same kernels at once. For the same reason each worker starts by making
+the first call of its share of the models (:data:`WARM_UP_CPU`, split greedily by compile
+cost), so that from an empty cache the two workers compile different kernels side by side;
+with a filled cache this loads them (about a second).
 """
 
 from __future__ import annotations
@@ -90,11 +89,7 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
 #: slow to compile.
 COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator",
                   # compares the mesh oscillator's compiled continuation with its Python twin
-                  "test_firstcall": "mesh_oscillator",
-                  # the batched integrator's variants (method x events, 4-7 s of CPU each from
-                  # an empty cache), which test_firstcall and the mesh oscillator's sweeps also
-                  # use: split over two workers, a variant compiled on both at once
-                  "test_ode": "mesh_oscillator"}
+                  "test_firstcall": "mesh_oscillator"}
 
 
 @pytest.hookimpl(tryfirst=True)

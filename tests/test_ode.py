@@ -20,7 +20,7 @@ import pytest
 from numba import njit
 from scipy.optimize import brentq
 
-from gearuq import ode
+from gearuq import kernels_route, ode
 from gearuq.ode import (
     STATUS_NONFINITE,
     STATUS_OK,
@@ -30,6 +30,20 @@ from gearuq.ode import (
 )
 
 REPO = Path(__file__).resolve().parents[1]
+
+#: The routes the oracles below run on. By default the kernels' plain-Python route: the same
+#: source executed as Python (tests/test_firstcall.py holds it equal to the compiled kernel).
+#: The variants these tests use (dopri5, dop853 and rk4 without events, dopri5 with re-taken
+#: steps) are compiled by no model the default suite runs, 6-12 s of CPU each from an empty
+#: numba cache, so their compiled route runs under ``e2e`` (docs/benchmarks.md, "First
+#: minutes, twelfth round").
+ROUTES = ["interpreted", pytest.param("compiled", marks=pytest.mark.e2e)]
+
+
+def _solve(route, *args, **kw):
+    """``solve_batch`` on ``route`` (``"interpreted"`` or ``"compiled"``)."""
+    with kernels_route(route):
+        return solve_batch(*args, interpreted_cpu=0.0, **kw)
 
 # --------------------------------------------------------------------------------------------
 # Right-hand sides
@@ -312,8 +326,8 @@ _OSC = np.array([[1.0, 0.2, 4.0, 0.0, 0.0, 1.5, 1.3]])  # zeta = 0.05, omega = 2
 _OSC_T = np.linspace(0.0, 10.0, 41)  # includes instants between the fixed steps
 
 
-def _osc_error(**kw):
-    res = solve_batch(dz_rhs, np.array([[1.0, 0.0]]), _OSC, _OSC_T, parallel=False, **kw)
+def _osc_error(route, **kw):
+    res = _solve(route, dz_rhs, np.array([[1.0, 0.0]]), _OSC, _OSC_T, parallel=False, **kw)
     exact = linear_exact(_OSC_T, 0.0, 1.0, 0.0, 0.05, 2.0, 1.5, 1.3)
     return np.abs(res.y[0, :, 0] - exact).max()
 
@@ -323,9 +337,10 @@ def _osc_error(**kw):
     [("dopri5", 5, (40, 80, 160, 320)), ("dop853", 8, (16, 20, 25, 32)),
      ("rk4", 4, (80, 160, 320, 640))],
 )
-def test_fixed_step_global_order(method, order, n_steps):
+@pytest.mark.parametrize("route", ROUTES)
+def test_fixed_step_global_order(method, order, n_steps, route):
     h = np.array([10.0 / k for k in n_steps])
-    err = np.array([_osc_error(method=method, fixed_step=hk) for hk in h])
+    err = np.array([_osc_error(route, method=method, fixed_step=hk) for hk in h])
     slope = np.polyfit(np.log(h), np.log(err), 1)[0]
     assert abs(slope - order) < 0.5, (err, slope)
     if method == "dopri5":
@@ -333,9 +348,10 @@ def test_fixed_step_global_order(method, order, n_steps):
 
 
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
-def test_adaptive_error_decreases_with_rtol(method):
+@pytest.mark.parametrize("route", ROUTES)
+def test_adaptive_error_decreases_with_rtol(method, route):
     rtols = [10.0**-k for k in range(3, 11)]
-    err = [_osc_error(method=method, rtol=r, atol=r * 1e-3) for r in rtols]
+    err = [_osc_error(route, method=method, rtol=r, atol=r * 1e-3) for r in rtols]
     assert all(e2 < e1 for e1, e2 in zip(err, err[1:], strict=False)), err
     assert err[-1] < 1e-8
 
@@ -440,10 +456,11 @@ def test_short_excursions_inside_long_steps_are_found(method):
 # --------------------------------------------------------------------------------------------
 
 
-def test_blow_up_sample_fails_alone():
+@pytest.mark.parametrize("route", ROUTES)
+def test_blow_up_sample_fails_alone(route):
     t = np.linspace(0.0, 2.0, 21)
     params = np.array([[-1.0, 1e300], [1.0, 1e300], [-1.0, 1e300]])
-    res = solve_batch(quad_rhs, np.ones((3, 1)), params, t, rtol=1e-8, atol=1e-10,
+    res = _solve(route, quad_rhs, np.ones((3, 1)), params, t, rtol=1e-8, atol=1e-10,
                       parallel=False)
     assert res.status[0] == STATUS_OK and res.status[2] == STATUS_OK
     assert res.status[1] in (STATUS_NONFINITE, STATUS_STEP_UNDERFLOW)
@@ -455,24 +472,27 @@ def test_blow_up_sample_fails_alone():
     assert np.isnan(res.y[1, t > 1.05, 0]).all()
 
 
-def test_nan_from_rhs_gives_nonfinite_status():
+@pytest.mark.parametrize("route", ROUTES)
+def test_nan_from_rhs_gives_nonfinite_status(route):
     t = np.linspace(0.0, 2.0, 21)
     params = np.array([[-1.0, 1.05], [-1.0, 1e300]])
     for kw in ({}, {"fixed_step": 0.01}, {"method": "dop853"}):
-        res = solve_batch(quad_rhs, np.ones((2, 1)), params, t, parallel=False, **kw)
+        res = _solve(route, quad_rhs, np.ones((2, 1)), params, t, parallel=False, **kw)
         assert res.status.tolist() == [STATUS_NONFINITE, STATUS_OK], kw
         assert np.isfinite(res.y[0, t <= 1.0, 0]).all()
         assert np.isnan(res.y[0, t > 1.1, 0]).all()
         assert np.abs(res.y[0, t <= 1.0, 0] - 1 / (1 + t[t <= 1.0])).max() < 1e-5
 
 
-def test_fixed_step_overflow_gives_nonfinite_status():
-    res = solve_batch(quad_rhs, np.ones((1, 1)), np.array([[1.0, 1e300]]), [0.0, 0.5, 3.0],
+@pytest.mark.parametrize("route", ROUTES)
+def test_fixed_step_overflow_gives_nonfinite_status(route):
+    res = _solve(route, quad_rhs, np.ones((1, 1)), np.array([[1.0, 1e300]]), [0.0, 0.5, 3.0],
                       fixed_step=0.01, parallel=False)
     assert res.status[0] == STATUS_NONFINITE
     assert res.y[0, 1, 0] == pytest.approx(2.0, rel=1e-6) and np.isnan(res.y[0, 2, 0])
 
 
+@pytest.mark.e2e  # numba's error model: the compiled route only (see ROUTES)
 def test_exception_in_rhs_is_reported_and_numpy_error_model_avoids_it():
     params = np.array([[0.5], [5.0]])
     with pytest.raises(RuntimeError, match="error_model='numpy'"):
@@ -483,11 +503,12 @@ def test_exception_in_rhs_is_reported_and_numpy_error_model_avoids_it():
     assert res.y[0, 1, 0] == pytest.approx(0.4) and np.isnan(res.y[0, 2, 0])
 
 
-def test_step_limit():
+@pytest.mark.parametrize("route", ROUTES)
+def test_step_limit(route):
     t = np.linspace(0.0, 50.0, 11)
     params = np.array([[1.0, 0.0, 400.0, 0.0, 0.0, 0.0, 0.0],   # omega = 20: many steps
                        [1.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.0]])   # omega = 0.1: few steps
-    res = solve_batch(dz_rhs, np.array([[1.0, 0.0], [1.0, 0.0]]), params, t, max_steps=200,
+    res = _solve(route, dz_rhs, np.array([[1.0, 0.0], [1.0, 0.0]]), params, t, max_steps=200,
                       rtol=1e-8, parallel=False)
     assert res.status.tolist() == [STATUS_STEP_LIMIT, STATUS_OK]
     assert res.n_steps[0] + res.n_rejected[0] <= 200
@@ -502,22 +523,29 @@ def test_step_limit():
 # --------------------------------------------------------------------------------------------
 
 
-def _dz_batch(**kw):
+def _dz_batch(route="compiled", **kw):
     rng = np.random.default_rng(3)
     n = 8
     params = np.tile(DZ_PAR, (n, 1))
     params[:, 4] = rng.uniform(0.0, 0.2, n)
     params[:, 5] = rng.uniform(0.5, 1.5, n)
     y0 = rng.uniform(-1, 1, (n, 2))
-    return solve_batch(dz_rhs, y0, params, DZ_T[:301], switch=dz_switch, n_switch=2, **kw)
+    return _solve(route, dz_rhs, y0, params, DZ_T[:301], switch=dz_switch, n_switch=2, **kw)
 
 
-def test_save_subset_and_parallel_are_identical():
-    full = _dz_batch(parallel=False)
-    velocity = _dz_batch(parallel=False, save=[1])
-    par = _dz_batch(parallel=True)
+@pytest.mark.parametrize("route", ROUTES)
+def test_saved_subset_is_the_full_solution_s_columns(route):
+    full = _dz_batch(route, parallel=False)
+    velocity = _dz_batch(route, parallel=False, save=[1])
     assert velocity.y.shape == full.y.shape[:2] + (1,)
     assert np.array_equal(velocity.y[:, :, 0], full.y[:, :, 1])
+    assert (full.n_events > 0).all()
+
+
+@pytest.mark.e2e  # threads run the compiled kernel only (see ROUTES)
+def test_parallel_and_serial_are_identical():
+    full = _dz_batch(parallel=False)
+    par = _dz_batch(parallel=True)
     assert np.array_equal(par.y, full.y)
     for name in ("status", "n_steps", "n_rejected", "n_rhs", "n_events"):
         assert np.array_equal(getattr(par, name), getattr(full, name)), name
@@ -525,7 +553,7 @@ def test_save_subset_and_parallel_are_identical():
 
 
 def test_result_settings_and_status_codes():
-    res = _dz_batch(parallel=False, rtol=1e-7, atol=np.array([1e-9, 1e-8]))
+    res = _dz_batch("interpreted", parallel=False, rtol=1e-7, atol=np.array([1e-9, 1e-8]))
     settings = res.settings()
     json.dumps(settings)
     assert settings["method"] == "dopri5" and settings["rtol"] == 1e-7

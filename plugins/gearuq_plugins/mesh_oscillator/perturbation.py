@@ -127,10 +127,13 @@ def frequency_response(coefs: np.ndarray, grids: np.ndarray, *, order: int = 2,
         raise ValueError(f"order={order!r} is outside its valid range: 1 or 2")
     if separation not in ("closed_form", "numerical"):
         raise ValueError(f"separation={separation!r}: valid 'closed_form', 'numerical'")
-    coefs = np.ascontiguousarray(np.atleast_2d(coefs), dtype=float)
+    # writable copies: numba types a read-only array apart, and a read-only argument (a
+    # one-sample broadcast grid, a caller's frozen array) compiled the continuation a second
+    # time (7 s of CPU)
+    coefs = np.array(np.atleast_2d(coefs), dtype=float, order="C")
     n = coefs.shape[0]
-    grids = np.ascontiguousarray(np.broadcast_to(np.asarray(grids, dtype=float),
-                                                 (n, np.shape(grids)[-1])))
+    grids = np.array(np.broadcast_to(np.asarray(grids, dtype=float), (n, np.shape(grids)[-1])),
+                     dtype=float, order="C")
     if grids.shape[1] < 1 or np.any(np.diff(grids, axis=1) <= 0) or np.any(grids <= 0):
         raise ValueError("frequencies must be > 0 and strictly increasing")
     k_grid = grids.shape[1]
