@@ -89,7 +89,10 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
 #: slow to compile.
 COMPILE_GROUPS = {"test_mesh_oscillator": "mesh_oscillator",
                   # compares the mesh oscillator's compiled continuation with its Python twin
-                  "test_firstcall": "mesh_oscillator"}
+                  "test_firstcall": "mesh_oscillator",
+                  # hunting-tooth stages: the long period's LTCA and sideband kernels (about
+                  # 10 s of CPU from an empty cache), which both workers compiled at once
+                  "test_hunting": "hunting"}
 
 
 @pytest.hookimpl(tryfirst=True)
