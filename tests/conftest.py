@@ -21,11 +21,21 @@ of both compiling the same kernels at once. For the same reason each worker star
 the first call of its share of the models (:data:`WARM_UP_CPU`, split greedily by compile
 cost), so that from an empty cache the two workers compile different kernels side by side;
 with a filled cache this loads them (about a second).
+
+The suite's processes write bytecode (``.pyc`` files, and pytest's rewritten test modules)
+even where the environment sets ``PYTHONDONTWRITEBYTECODE``: without them every process
+compiles the source of every module it imports, about 10 s of CPU for gearuq's stack and as
+much again for the test modules, and the two workers did it twice over. The odd worker
+imports the libraries only the tests use before its warm-up, so each worker compiles one half
+and loads the other's. From a fresh clone this took the suite from 139 to 101-125 s of wall
+(docs/benchmarks.md, "First minutes, twelfth round"). ``GEARUQ_TEST_BYTECODE=0`` keeps the
+environment's setting.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterator
 
 import pytest
@@ -64,6 +74,10 @@ if "GEARUQ_FIRSTCALL_LEDGER" not in os.environ:
 
     os.environ["GEARUQ_FIRSTCALL_LEDGER"] = os.path.join(
         tempfile.mkdtemp(prefix="gearuq-ledger-"), "gearuq_firstcall.json")
+
+
+if os.environ.get("GEARUQ_TEST_BYTECODE", "1") != "0":
+    sys.dont_write_bytecode = False
 
 
 def _cpu_seconds() -> float:
@@ -131,7 +145,6 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     n_workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if not worker.startswith("gw") or n_workers < 2:
         return
-    import sys
 
     import numpy as np
 
@@ -139,6 +152,14 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     from gearuq._firstcall import kernels_route
     from gearuq.bench.core import MODEL_FIRST_CALLS
 
+    if int(worker[2:]) % 2:
+        # the other half of the imports first: with bytecode written, each worker compiles
+        # the modules it imports first and loads those the other wrote
+        import chaospy  # noqa: F401
+        import hypothesis  # noqa: F401
+        import matplotlib.pyplot  # noqa: F401
+        import netCDF4  # noqa: F401
+        import openturns  # noqa: F401
     for name in warm_up_share(int(worker[2:]), n_workers):
         spec = MODEL_FIRST_CALLS[name]
         t = None if spec["t"] is None else np.linspace(*spec["t"][:2], int(spec["t"][2]))
