@@ -184,3 +184,28 @@ def test_the_upper_end_counts_the_last_levels_censored_samples_read_safe_as_fail
                                float(plain["pf_upper"]) * (failing + left) / failing,
                                rtol=1e-12)
     assert f"{left} sample(s) of the last level were read safe" in rep.attrs["message"]
+
+
+@pytest.mark.e2e  # five walks, 3 s of CPU
+@pytest.mark.parametrize("setting", [{"second_walk": "always"}, {"replicates": 3}])
+def test_pairs_and_replicates_count_every_walk_s_refusals(setting):
+    """A pair reports the first walk's levels, replicates none: the per-walk counts carry the
+    refusals of every walk, and they add up to the count the status words give."""
+    import re
+
+    from gearuq_studies.geared_rotor_dynamic_factor import _censored_refused
+
+    rep = failure_probability(_BandCensored(gap=0.0), standard_normal_space(2),
+                              LimitState.upper("y", BETA, censored_statuses=[CENSORED]),
+                              method="subset", rng=7, executor="serial", n_per_level=300,
+                              **({"second_walk": "never"} | setting))
+    per_walk = rep["replicate_censored_left_out"].values
+    assert per_walk.shape == (2 if "second_walk" in setting else 3,)
+    assert (per_walk > 0).all()
+    if "level_censored_left_out" in rep:  # the pair: the first walk's levels
+        assert per_walk[0] == int(rep["level_censored_left_out"].sum())
+    words = rep.attrs["message"]
+    last = re.search(r"(\d+) sample\(s\) of the last level were read safe", words)
+    earlier = re.search(r"(\d+) time\(s\) an earlier level refused", words)
+    told = (int(last.group(1)) if last else 0) + (int(earlier.group(1)) if earlier else 0)
+    assert told == per_walk.sum() == _censored_refused(rep)

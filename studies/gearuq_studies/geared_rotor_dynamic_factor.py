@@ -1439,8 +1439,16 @@ def rare_subset_on_stage(stage: GearStage, x: float, seed: int, n_per_level: int
             "level_kv": thresholds.tolist(), "p_pass": accepted_probability(0, stage)[0],
             "failure_mean_u": mean,
             "censored": int(rep["n_censored"]) if "n_censored" in rep else 0,
-            "censored_refused": int(rep["level_censored_left_out"].sum())
-            if "level_censored_left_out" in rep else 0}
+            "censored_refused": _censored_refused(rep)}
+
+
+def _censored_refused(rep: Any) -> int:
+    """Refusals of censored runs on their bound, every walk of the report (a pair's or the
+    replicates' per-walk sums; a single walk's levels)."""
+    for name in ("replicate_censored_left_out", "level_censored_left_out"):
+        if name in rep:
+            return int(rep[name].sum())
+    return 0
 
 
 #: Line sampling on a stage (:func:`lines_on_stage`), the rare level's second method beside

@@ -622,6 +622,15 @@ def _censored_reasons(ev: LimitStateEvaluator, walks: list[list[dict[str, Any]]]
     return [(6, text)]
 
 
+def _replicate_censored(walk_levels: list[list[dict[str, Any]]]) -> dict[str, tuple]:
+    """``replicate_censored_left_out``: each walk's refusals of censored runs on their bound,
+    all levels summed (pairs and replicates report the first walk's levels, or none)."""
+    return {"replicate_censored_left_out": (("replicate",), np.array(
+        [sum(lv.get("censored_left_out", 0) for lv in levels) for levels in walk_levels]), {
+        "units": "1", "long_name": "censored runs each walk refused on their bound (a chain's "
+        "step or a threshold), all its levels: their true value may have been inside"})}
+
+
 def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confidence: float,
                  t0: float, walks: tuple[Walk, Walk], seeds: tuple[int, int], why: str
                  ) -> xr.Dataset:
@@ -695,6 +704,7 @@ def _report_pair(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int, confi
         "replicate_lineage_n_eff": (rep, np.array([sp["n_eff"] for sp in spreads]), {
             "units": "1", "long_name": "effective number of level-1 chains each walk's "
             "failures descend from"}),
+        **_replicate_censored([w.levels for w in walks]),
     })
     kind = (f"hull of two independent walks' intervals (each lognormal with the larger of the "
             f"Au-Beck and the lineage-bootstrap spread) about their mean; second walk because "
@@ -906,6 +916,7 @@ def _run_replicates(ev: LimitStateEvaluator, s: Mapping[str, Any], seed: int,
                                "each run's own upper end (Au-Beck)"}),
         "replicate_levels": (("replicate",), np.array(n_levels), {"units": "1", "long_name":
                              "levels of each run"}),
+        **_replicate_censored(walk_levels),
     }
     reasons.extend(_censored_reasons(ev, walk_levels))
     if ev.n_invalid - ev.n_censored:
