@@ -109,6 +109,10 @@ def test_an_undeclared_status_is_not_censored_and_nonfinite_outputs_never_are():
     assert res["g_bound"][1] == pytest.approx(BETA - (1.0 - 0.25))
     assert np.isnan(res["g_bound"][0]) and ev2.n_censored == 1
     assert ev2.is_censored(u).tolist() == [False, True]
+    # a component's view reads no bound, so none of its points is censored
+    view = ev2.component(0)
+    res = view.evaluate(u, "t1")
+    assert np.isnan(res["g_bound"]).all() and view.is_censored(u).tolist() == [False, False]
 
 
 @pytest.mark.parametrize("bad", [[0], ["21"], [True], [300], 2.5])

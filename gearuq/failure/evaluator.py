@@ -380,3 +380,8 @@ class ComponentView:
         res["g_half"] = res["g"].copy()
         res["g_bound"] = np.full_like(res["g"], np.nan)  # a bound is the whole limit state's
         return res
+
+    def is_censored(self, u: np.ndarray) -> np.ndarray:
+        """False for every row: a view reads no run at a bound (its ``g_bound`` is NaN), so
+        none of its points is censored, whatever the parent counts."""
+        return np.zeros(np.atleast_2d(np.asarray(u, dtype=float)).shape[0], dtype=bool)
