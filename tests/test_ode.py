@@ -2,7 +2,8 @@
 (exact dead-zone oracle), failure statuses, input validation and the on-disk kernel cache.
 
 All right-hand sides are module-level ``@njit(cache=True)`` functions so that the file
-compiles them once per machine; the integrator kernel itself is compiled once for every rhs.
+compiles them once per machine. The oracles run on the kernels' plain-Python route by default
+and on the compiled kernels under ``e2e`` (:data:`ROUTES`).
 """
 
 from __future__ import annotations
