@@ -462,7 +462,7 @@ def test_blow_up_sample_fails_alone(route):
     t = np.linspace(0.0, 2.0, 21)
     params = np.array([[-1.0, 1e300], [1.0, 1e300], [-1.0, 1e300]])
     res = _solve(route, quad_rhs, np.ones((3, 1)), params, t, rtol=1e-8, atol=1e-10,
-                      parallel=False)
+                 parallel=False)
     assert res.status[0] == STATUS_OK and res.status[2] == STATUS_OK
     assert res.status[1] in (STATUS_NONFINITE, STATUS_STEP_UNDERFLOW)
     assert np.abs(res.y[0, :, 0] - 1 / (1 + t)).max() < 1e-8  # y' = -y^2: y = 1 / (1 + t)
@@ -488,7 +488,7 @@ def test_nan_from_rhs_gives_nonfinite_status(route):
 @pytest.mark.parametrize("route", ROUTES)
 def test_fixed_step_overflow_gives_nonfinite_status(route):
     res = _solve(route, quad_rhs, np.ones((1, 1)), np.array([[1.0, 1e300]]), [0.0, 0.5, 3.0],
-                      fixed_step=0.01, parallel=False)
+                 fixed_step=0.01, parallel=False)
     assert res.status[0] == STATUS_NONFINITE
     assert res.y[0, 1, 0] == pytest.approx(2.0, rel=1e-6) and np.isnan(res.y[0, 2, 0])
 
@@ -510,7 +510,7 @@ def test_step_limit(route):
     params = np.array([[1.0, 0.0, 400.0, 0.0, 0.0, 0.0, 0.0],   # omega = 20: many steps
                        [1.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.0]])   # omega = 0.1: few steps
     res = _solve(route, dz_rhs, np.array([[1.0, 0.0], [1.0, 0.0]]), params, t, max_steps=200,
-                      rtol=1e-8, parallel=False)
+                 rtol=1e-8, parallel=False)
     assert res.status.tolist() == [STATUS_STEP_LIMIT, STATUS_OK]
     assert res.n_steps[0] + res.n_rejected[0] <= 200
     reached = np.isfinite(res.y[0, :, 0])

@@ -580,6 +580,11 @@ def second_walk_reason(lineage: list[tuple[np.ndarray, np.ndarray]], mode: str =
             f"(fewer than {SECOND_WALK_LINEAGES}), too few to measure its own scatter")
 
 
+def _censored_refusals(levels: list[dict[str, Any]]) -> int:
+    """A walk's refusals of censored runs on their bound, all its levels summed."""
+    return sum(int(lv.get("censored_left_out", 0)) for lv in levels)
+
+
 def _censored_read_safe(levels: list[dict[str, Any]]) -> int:
     """The last level's censored samples read safe on a bound above 0 (none where the walk
     stopped above 0: its pf is then an upper bound already)."""
@@ -603,7 +608,7 @@ def _censored_reasons(ev: LimitStateEvaluator, walks: list[list[dict[str, Any]]]
     at their bound while exploring; say how many a level refused on that bound."""
     if not ev.n_censored:
         return []
-    left = sum(lv.get("censored_left_out", 0) for levels in walks for lv in levels)
+    left = sum(_censored_refusals(levels) for levels in walks)
     text = (f"{ev.n_censored} model runs were censored (a status of the limit state's "
             "censored_statuses: g an upper bound of the true value) and were read at that "
             "bound while exploring; a bound at or below 0 counts as a failure")
@@ -626,7 +631,7 @@ def _replicate_censored(walk_levels: list[list[dict[str, Any]]]) -> dict[str, tu
     """``replicate_censored_left_out``: each walk's refusals of censored runs on their bound,
     all levels summed (pairs and replicates report the first walk's levels, or none)."""
     return {"replicate_censored_left_out": (("replicate",), np.array(
-        [sum(lv.get("censored_left_out", 0) for lv in levels) for levels in walk_levels]), {
+        [_censored_refusals(levels) for levels in walk_levels]), {
         "units": "1", "long_name": "censored runs each walk refused on their bound (a chain's "
         "step or a threshold), all its levels: their true value may have been inside"})}
 
