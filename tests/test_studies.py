@@ -24,6 +24,10 @@ from gearuq import cli, registry
 from gearuq.plot import QUICK_MARK_KEY
 
 STUDY_DIR = Path(gearuq_studies.__file__).parent
+#: A status code followed by its meaning (``status 3: the ...``, ``status: all 400 samples ok``)
+#: and one printed bare (``status 3``, ``status=3``): .ci/quick_studies.py reads screens alike.
+STATUS_IN_WORDS = re.compile(r"status(?: -?\d+)?: [a-z]", re.IGNORECASE)
+STATUS_CODE = re.compile(r"status\W{0,3}-?\d", re.IGNORECASE)
 MODULES = sorted(p.stem for p in STUDY_DIR.glob("*.py") if p.stem != "__init__")
 
 
@@ -131,6 +135,9 @@ def _run_quick(name: str, out: Path) -> None:
     first = next(line for line in text.splitlines() if line.startswith("quick: "))
     assert ", not a result; left out: " in first, first
     assert saved and not unmarked, f"{name}: figures without the quick mark: {unmarked}"
+    bare = [line for line in text.splitlines()
+            if STATUS_CODE.search(line) and not STATUS_IN_WORDS.search(line)]
+    assert not bare, f"{name}: a status printed without its meaning: {bare[:3]}"
     pngs = sorted(out.glob("*.png"))
     assert pngs, f"{name} wrote no PNG"
     for path in pngs:
@@ -302,6 +309,27 @@ def test_quick_geared_rotor_rare_events(tmp_path):
     for row in info["rows"]:
         if row["status"] == 0:  # an interval vouched for meets crude Monte Carlo's
             assert row["lower"] <= check["upper"] and check["lower"] <= row["upper"], row
+
+
+@pytest.mark.e2e
+def test_quick_relief_design(tmp_path):
+    import json
+
+    _run_quick("relief_design", tmp_path)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["quick"] and summary["message"]
+    assert summary["search_options"]["n_speeds"] == 12  # the quick fidelity it announced
+    assert summary["model_runs"]["naive_nested_loop"] > summary["model_runs"]["search"]
+    # the stage file of the paper's rotor rebuilds it: kv_max equal sample by sample
+    assert summary["stage_check"]["largest_relative_difference"] < 1e-6
+    assert set(summary["per_shape"]) == {"parabolic", "linear"}
+    det = gearuq.load(tmp_path / "deterministic.nc")
+    y = det["deterministic_kv_max"].values
+    assert np.all(np.isfinite(y)) and np.all(y >= 1.0)  # a dynamic factor is at least 1
+    res = gearuq.load(tmp_path / "relief_design.nc")
+    pf, lo, up = (res[f"landscape_pf{s}"].values for s in ("", "_lower", "_upper"))
+    assert np.all((0 <= lo) & (lo <= pf) & (pf <= up) & (up <= 1))
+    assert (tmp_path / "brute.nc").stat().st_size > 0
 
 
 @pytest.mark.e2e

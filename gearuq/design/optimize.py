@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -316,6 +317,7 @@ def _crn_estimate(problem: DesignProblem, u: np.ndarray, n: int, seed: int, run_
 def _fit_surrogate(problem: DesignProblem, units: np.ndarray, ests: list[dict[str, Estimate]],
                    n: int, floor: float, seed: int) -> Estimator:
     """A Gaussian process per measure; returns the estimator of its mean and band."""
+    from sklearn.exceptions import ConvergenceWarning
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import ConstantKernel, Matern
 
@@ -328,7 +330,13 @@ def _fit_surrogate(problem: DesignProblem, units: np.ndarray, ests: list[dict[st
             length_scale=np.full(k, 0.3), length_scale_bounds=(0.1, 10.0), nu=2.5)
         gp = GaussianProcessRegressor(kernel=kernel, alpha=noise, normalize_y=True,
                                       n_restarts_optimizer=3, random_state=seed)
-        gps[m.name] = (gp.fit(units, y), m)
+        with warnings.catch_warnings():
+            # a length scale at its upper bound (10 widths of the design box) says the
+            # measure barely changes along that variable: an answer, not a failed fit (a
+            # length scale at the lower bound still warns)
+            warnings.filterwarnings("ignore", message=".*close to the specified upper bound",
+                                    category=ConvergenceWarning)
+            gps[m.name] = (gp.fit(units, y), m)
 
     def est(d: np.ndarray) -> dict[str, Estimate]:
         u = ((d - problem.lower) / (problem.upper - problem.lower))[None, :]

@@ -46,12 +46,9 @@ def single_threaded_blas() -> Iterator[None]:
     The matrices here are a few hundred wide: a multi-threaded BLAS spends more time
     synchronising than computing (measured 5-50x slower on a loaded 2-core machine).
     """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - threadpoolctl ships with scikit-learn
-        yield
-        return
-    with threadpool_limits(1):
+    from gearuq._threads import one_blas_thread
+
+    with one_blas_thread():
         yield
 
 

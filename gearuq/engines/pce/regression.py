@@ -50,15 +50,12 @@ def few_blas_threads(n_entries: int) -> Iterator[None]:
     one such QR take from 1 ms to 0.9 s (measured). Larger problems keep every thread.
     Without ``threadpoolctl`` nothing changes.
     """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - threadpoolctl ships with scikit-learn/scipy stacks
-        yield
-        return
+    from gearuq._threads import one_blas_thread
+
     if n_entries > SMALL_PROBLEM:
         yield
         return
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread("blas"):
         yield
 
 

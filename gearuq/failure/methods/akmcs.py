@@ -101,7 +101,8 @@ class _Surrogate:
             DotProduct,
             WhiteKernel,
         )
-        from threadpoolctl import threadpool_limits
+
+        from gearuq._threads import one_blas_thread
 
         previous = self.models
         self.models = []
@@ -124,7 +125,7 @@ class _Surrogate:
                                           % 2**32)
             # the matrices are tiny: BLAS threads cost more than they save (20x on a busy
             # 2-core machine), so the fit runs single-threaded
-            with warnings.catch_warnings(), threadpool_limits(1):
+            with warnings.catch_warnings(), one_blas_thread():
                 warnings.simplefilter("ignore", ConvergenceWarning)
                 gp.fit(x, y[:, j] / self.scale[j])
             self.models.append(gp)

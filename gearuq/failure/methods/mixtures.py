@@ -75,7 +75,8 @@ def fit_mixture(u: np.ndarray, max_components: int, defensive: float, seed: int,
     without bound behind its mean (heavy-tailed weights); ``min_std = 1`` bounds that growth.
     """
     from sklearn.mixture import GaussianMixture
-    from threadpoolctl import threadpool_limits
+
+    from gearuq._threads import one_blas_thread
 
     n, d = u.shape
     basis = informative_directions(u) if subspace == "auto" and n > 0 else np.eye(d)
@@ -86,7 +87,7 @@ def fit_mixture(u: np.ndarray, max_components: int, defensive: float, seed: int,
         return Mixture(centre, np.eye(d)[None], np.ones(1), defensive)
     best, best_bic = None, math.inf
     kinds = "full" if n >= 10 * r else "diag"
-    with threadpool_limits(1):
+    with one_blas_thread():
         for k in range(1, max_components + 1):
             if n < k * 2 * (r + 1):
                 break
