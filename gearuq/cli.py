@@ -13,23 +13,39 @@ from typing import Any
 from gearuq._version import __version__
 
 
-def _positive_int(text: str) -> int:
-    """An argparse type: an integer >= 1 (the option's name is added by argparse)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer; valid: 1, 2, ...") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is outside its valid range: integers >= 1")
-    return value
+def _int_at_least(lowest: int, note: str = "") -> Any:
+    """An argparse type: an integer >= ``lowest`` (argparse adds the option's name)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not an integer; valid: integers >= {lowest}{note}") from None
+        if value < lowest:
+            raise argparse.ArgumentTypeError(
+                f"{value} is outside its valid range: integers >= {lowest}{note}")
+        return value
+
+    parse.__name__ = f"integer >= {lowest}"
+    return parse
+
+
+_positive_int = _int_at_least(1)
+#: A seed: numpy's generators take the integers 0 .. 2**63 - 1.
+_seed = _int_at_least(0)
 
 
 def _folder(text: str) -> str:
     """An argparse type: a folder name that is not empty (``""`` would write into the current
-    folder without saying so)."""
+    folder without saying so) and not an existing file."""
+    import pathlib
+
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty folder name; give a folder to write into, "
                                          "e.g. --out results")
+    if pathlib.Path(text).exists() and not pathlib.Path(text).is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is an existing file, not a folder; give a "
+                                         "folder to write into")
     return text
 
 
@@ -190,6 +206,8 @@ def study_parser(name: str, study: object) -> argparse.ArgumentParser:
         elif kind is _names_list:
             parser.add_argument(flag, type=kind, metavar="NAME[,NAME...]",
                                 help=(text or pname) + f" (default: {','.join(default)})")
+        elif kind is int and pname == "seed":
+            parser.add_argument(flag, type=_seed, metavar="INT", help=(text or pname) + shown)
         elif kind is not None:
             parser.add_argument(flag, type=kind, metavar=kind.__name__.upper(),
                                 help=(text or pname) + shown)
@@ -364,10 +382,24 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return run_bench(args.what, out=args.out, quick=args.quick)
 
 
+def _rotor_speeds(text: str) -> int:
+    """An argparse type: 0 (skip the geared rotor's run-up) or an integer >= 2."""
+    value = _int_at_least(0, " (0 skips the run-up, else at least 2)")(text)
+    if value == 1:
+        raise argparse.ArgumentTypeError("1 is outside its valid range: 0 (skip the run-up) or "
+                                         "integers >= 2 (a range has two ends)")
+    return value
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     from gearuq.gears.stage import GearStage
     from gearuq.stage_analysis import analyse_stage, write_stage_results
 
+    if Path(args.stage).is_dir():
+        raise ValueError(f"stage: {args.stage!r} is a folder; give a stage file (TOML) or the "
+                         "name of a shipped stage (GearStage.examples())")
     # a file, or the name of a shipped stage (GearStage.examples())
     is_file = any(c in args.stage for c in "./\\")
     stage = GearStage.from_toml(args.stage) if is_file else GearStage.example(args.stage)
@@ -434,12 +466,12 @@ def build_parser() -> argparse.ArgumentParser:
                                    "writes netCDF and PNG into --out.")
     p.add_argument("--out", default="gearuq_demo", type=_folder,
                    help="output folder (default: gearuq_demo)")
-    p.add_argument("--n-samples", type=_positive_int, default=10_000,
-                   help="Monte Carlo samples")
-    p.add_argument("--seed", type=int, default=20240607, help="random seed")
+    p.add_argument("--n-samples", type=_int_at_least(3, " (the distribution fits need 3)"),
+                   default=10_000, help="Monte Carlo samples (at least 3)")
+    p.add_argument("--seed", type=_seed, default=20240607, help="random seed (>= 0)")
     p.add_argument("--executor", default=None, help="serial | processes | dask scheduler address")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--store", default=None,
+    p.add_argument("--store", default=None, type=_folder,
                    help="chunk store folder (default: OUT/chunks-<hash of the settings>); an "
                         "interrupted run resumes from it")
     p.add_argument("--keep-chunks", action=argparse.BooleanOptionalAction, default=False,
@@ -503,10 +535,13 @@ def build_parser() -> argparse.ArgumentParser:
                        description="The deterministic analysis of a stage (docs/stage.md).")
     p.add_argument("stage", help="stage file (TOML), or the name of a shipped stage "
                    "(GearStage.examples(), e.g. e_axle_27_79)")
-    p.add_argument("--out", default=None, help="output folder (default: gearuq_<stage name>)")
-    p.add_argument("--n-speeds", type=int, default=1000, help="speeds of the run-up")
-    p.add_argument("--rotor-speeds", type=int, default=32,
-                   help="speeds of the geared rotor's harmonic-balance run-up (0: skip it)")
+    p.add_argument("--out", default=None, type=_folder,
+                   help="output folder (default: gearuq_<stage name>)")
+    p.add_argument("--n-speeds", type=_int_at_least(2), default=1000,
+                   help="speeds of the run-up (at least 2)")
+    p.add_argument("--rotor-speeds", type=_rotor_speeds, default=32,
+                   help="speeds of the geared rotor's harmonic-balance run-up (0: skip it; "
+                        "otherwise at least 2)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--no-reliability", action="store_true",
                    help="skip the [reliability] step of the file (failure probability, Sobol')")
@@ -533,7 +568,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.environ["GEARUQ_KERNELS"] = "compiled"
     try:
         return int(args.func(args) or 0)
-    except (ValueError, FileNotFoundError, ImportError) as exc:
+    except BrokenPipeError:
+        # the reader of the output went away (`gearuq models | head`): nothing left to say;
+        # stdout pointed at devnull so that the interpreter's final flush does not fail too
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except (ValueError, TypeError, OSError, ImportError) as exc:
+        # what a user's input or machine can cause (a bad file or value, a full disk, an
+        # unreachable scheduler); GEARUQ_TRACEBACK=1 shows where it was raised
+        if os.environ.get("GEARUQ_TRACEBACK"):
+            raise
         print(f"gearuq: error: {exc}", file=sys.stderr)
         return 2
     finally:

@@ -182,7 +182,12 @@ def _prepare(samples: Any, status: Any) -> tuple[np.ndarray, int, str, str]:
             status = samples.coords["status"].values
         x = np.asarray(samples.values, dtype=float)
     else:
-        x = np.asarray(samples, dtype=float)
+        try:
+            x = np.asarray(samples, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"fit_distributions: samples must be real numbers (a 1-D array "
+                             f"or a DataArray over 'sample'), got {str(samples)[:60]!r} "
+                             f"({type(samples).__name__})") from None
         if x.ndim != 1:
             raise ValueError(f"fit_distributions: samples must be 1-D, got shape {x.shape}")
     if x.size == 0:

@@ -168,6 +168,9 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
     the temporaries of the same path left by processes of this host that no longer exist
     (a save killed mid-write).
     """
+    if not isinstance(ds, xr.Dataset):
+        raise TypeError(f"ds: expected an xarray.Dataset (a gearuq result), got "
+                        f"{type(ds).__name__}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     ds = sanitize_attrs(ds)

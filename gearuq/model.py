@@ -457,6 +457,10 @@ class Model:
 
         Returns a dict with every parameter as a float array of one common length.
         """
+        if params is not None and not hasattr(params, "keys"):
+            raise TypeError(f"params: expected a mapping parameter name -> values (a dict, "
+                            f"an xarray.Dataset), got {_brief(params)} "
+                            f"({type(params).__name__})")
         params = dict(params or {})
         unknown = sorted(set(params) - set(self.parameter_names))
         if unknown:
@@ -503,7 +507,7 @@ class Model:
         """Parameter ``name``'s values as a float array, or a ValueError naming it."""
         try:
             a = np.asarray(value)
-            if a.dtype.kind in "biuf":
+            if a.dtype.kind in "iuf":
                 return np.asarray(a, dtype=float)
             # text, complex, None, mixed lists: look at the values as given, one by one (a
             # complex cast to float would silently drop its imaginary part)
@@ -512,7 +516,8 @@ class Model:
             raise ValueError(f"parameter {name!r}: cannot read {_brief(value)} as an array of "
                              f"numbers ({exc}); {self._valid_numbers(name)}") from None
         for i, v in enumerate(items.ravel()):
-            if isinstance(v, (bool, int, float, np.bool_, np.integer, np.floating)):
+            if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(
+                    v, (bool, np.bool_)):
                 continue
             if isinstance(v, (complex, np.complexfloating)):
                 kind = "a complex number"
@@ -559,7 +564,17 @@ class Model:
             return self.output_names
         if isinstance(outputs, str):
             outputs = [outputs]
-        outputs = list(dict.fromkeys(outputs))
+        try:
+            outputs = list(dict.fromkeys(outputs))
+        except TypeError:
+            raise TypeError(f"outputs: expected an output name or a list of names, got "
+                            f"{_brief(outputs)} ({type(outputs).__name__}); valid names: "
+                            f"{', '.join(self.output_names)}") from None
+        wrong = [o for o in outputs if not isinstance(o, str)]
+        if wrong:
+            raise TypeError(f"outputs: names are text, got {_brief(wrong[0])} "
+                            f"({type(wrong[0]).__name__}); valid names: "
+                            f"{', '.join(self.output_names)}")
         unknown = [o for o in outputs if o not in self.output_names]
         if unknown:
             raise ValueError(

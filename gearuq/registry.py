@@ -89,7 +89,25 @@ def get_model(name: str, **options: Any) -> Any:
     ModelLoadError
         If the plugin is registered but fails to import.
     """
-    return _load_factory(name)(**options)
+    factory = _load_factory(name)
+    if options:
+        import inspect
+
+        try:
+            accepted = inspect.signature(factory).parameters
+        except (TypeError, ValueError):  # a factory without a signature: let it decide
+            accepted = None
+        if accepted is not None and not any(p.kind is p.VAR_KEYWORD
+                                            for p in accepted.values()):
+            valid = [n for n, p in accepted.items()
+                     if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+            unknown = sorted(set(options) - set(valid))
+            if unknown:
+                raise ValueError(
+                    f"get_model({name!r}): unknown construction option(s) {unknown}; valid: "
+                    f"{valid or 'none (this model takes no construction options)'} (run-time "
+                    "options go to response(..., **options))")
+    return factory(**options)
 
 
 def describe_models() -> list[ModelInfo]:

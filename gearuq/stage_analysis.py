@@ -294,6 +294,12 @@ def analyse_stage(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20,
     """
     from tqdm.auto import tqdm
 
+    for name, value, lowest in (("n_speeds", n_speeds, 2), ("rotor_speeds", rotor_speeds, 0)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lowest \
+                or (name == "rotor_speeds" and value == 1):
+            valid = ("integers >= 2 (a range has two ends)" if lowest else
+                     "0 (skip the geared rotor's run-up) or integers >= 2")
+            raise ValueError(f"{name}={value!r} is outside its valid range: {valid}")
     steps = ["geometry", "ISO 6336-1", "LTCA over a mesh cycle", "mesh stiffness",
              "FE rotor run-up", "geared rotor run-up"]
     bar = tqdm(total=len(steps), desc="stage", disable=not progress, unit="step")

@@ -278,3 +278,31 @@ def _overlapping_axis_labels(fig) -> list[str]:
     boxes = [(ax.get_xlabel(), ax.xaxis.label.get_window_extent(renderer)) for ax in fig.axes]
     return [f"{a} / {b}" for i, (a, ba) in enumerate(boxes) for b, bb in boxes[i + 1:]
             if ba.overlaps(bb)]
+
+
+@pytest.mark.e2e
+def test_demo_note_calls_proportional_only_what_is(tmp_path):
+    """At 50 samples two rows coincide in their printed digits without proportional
+    responses (theta_pz and x_p): the note keeps them apart from the proportional ones, and
+    every ratio it calls exact holds in the data to round-off."""
+    import re
+
+    import gearuq
+    from gearuq.registry import DEFAULT_STUDY, get_study
+
+    assert get_study(DEFAULT_STUDY)(tmp_path, n_samples=50, progress=False) == 0
+    text = (tmp_path / "summary.txt").read_text()
+    ds = gearuq.load(tmp_path / "helical_pair_mc.nc")
+    ok = ds["status"].values == 0
+    exact = next(ln for ln in text.splitlines() if ln.startswith("Not a copying error"))
+    pairs = re.findall(r"(v\d+) = ([0-9.e+-]+) (v\d+) \(deviation", exact)
+    assert pairs
+    for other, ratio, ref in pairs:
+        x, y = ds[ref].values[ok], ds[other].values[ok]
+        c = float(np.sum(x * y) / np.sum(x * x))
+        assert c == pytest.approx(float(ratio), rel=1e-4)
+        assert np.max(np.abs(y - c * x)) <= 1e-9 * np.max(np.abs(y))
+    only = next(ln for ln in text.splitlines() if ln.startswith("Equal in the printed digits"))
+    for dof, ref, dev in re.findall(r"(\w+) and (\w+) \(deviation ([0-9.e+-]+)\)", only):
+        assert float(dev) > 1e-3, (dof, ref, dev)  # far from proportional
+    assert "theta_pz and x_p" in only

@@ -203,6 +203,12 @@ def estimate_mean(
     red = xr.Dataset({"n": x.count("sample"), "mean": x.mean("sample"),
                       "std": x.std("sample", ddof=1)}).compute()
     n, mean, std = red["n"], red["mean"], red["std"]
+    if int(n.max()) < 2:
+        flagged = int((ds["status"] != 0).sum()) if ok_only and "status" in ds else 0
+        raise ValueError(
+            f"estimate_mean: {int(n.max())} valid value(s) of {var!r} in {ds.sizes['sample']} "
+            f"samples ({flagged} with a nonzero status); a mean with an interval needs at "
+            "least 2")
     sem = std / np.sqrt(n)
     q = xr.apply_ufunc(lambda k: stats.t.ppf(0.5 + confidence / 2, np.maximum(k - 1, 1)), n)
     out = xr.Dataset({

@@ -424,7 +424,13 @@ def resolve_executor(executor: Any = None, n_workers: int | None = None) -> Runn
         if "://" in key:
             from distributed import Client
 
-            return DaskRunner(Client(executor), owns=True)
+            try:
+                client = Client(executor)
+            except OSError as exc:  # refused, unreachable or silent past dask's timeout
+                raise ValueError(f"executor={executor!r}: no dask scheduler answered there "
+                                 f"({exc}); start one (`dask scheduler`) or choose 'serial' "
+                                 "or 'processes'") from exc
+            return DaskRunner(client, owns=True)
         raise ValueError(
             f"executor: unknown {executor!r}; valid: 'serial', 'processes', 'dask', a scheduler "
             f"address 'tcp://host:port', a distributed.Client or a concurrent.futures.Executor"

@@ -220,6 +220,9 @@ class ChunkStore:
         self.fingerprint = jsonable(dict(fingerprint))
         #: Why the store cannot be written (read-only media or no permission), or ``None``.
         self.read_only: str | None = None
+        if self.path.exists() and not self.path.is_dir():
+            raise ValueError(f"store: {str(self.path)!r} is an existing file, not a folder; "
+                             "give a folder for the chunk store")
         if not self.path.is_dir():
             self.path.mkdir(parents=True, exist_ok=True)
         self._lock = _FileLock(self.path / LOCK)

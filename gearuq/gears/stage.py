@@ -21,7 +21,7 @@ import math
 import re
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 from decimal import Decimal
 from importlib import resources
 from pathlib import Path
@@ -90,14 +90,22 @@ def _pair_of(where: str, value: Any) -> tuple[Any, Any]:
     return value[0], value[1]
 
 
-def _known_keys(where: str, data: Mapping[str, Any], cls: type) -> None:
-    """Refuse keys that are not fields of ``cls`` (a typo fails at the read, by name)."""
+def _known_keys(where: str, data: Mapping[str, Any], cls: type,
+                supplied: tuple[str, ...] = ()) -> None:
+    """Refuse keys that are not fields of ``cls`` (a typo fails at the read, by name), and
+    name the required fields that are missing (``supplied``: those other tables give)."""
     if not isinstance(data, Mapping):
         raise TypeError(f"{where} must be a table, got {data!r}")
     valid = {f.name for f in fields(cls)}
     unknown = sorted(set(data) - valid)
     if unknown:
         raise ValueError(f"{where}: unknown key(s) {unknown}; valid keys: {sorted(valid)}")
+    missing = [f.name for f in fields(cls) if f.init and f.default is MISSING
+               and f.default_factory is MISSING and f.name not in data
+               and f.name not in supplied]
+    if missing:
+        raise ValueError(f"{where}: required key(s) {missing} missing (docs/stage.md lists "
+                         "each key with its unit and valid range)")
 
 
 # ---------------------------------------------------------------------- parts of a stage
@@ -824,7 +832,7 @@ class GearStage:
             raise ValueError("a stage needs a [pair] table (normal_module, teeth, "
                              "normal_pressure_angle, helix_angle, face_width)")
         pair = dict(data["pair"]) if isinstance(data["pair"], Mapping) else data["pair"]
-        _known_keys("[pair]", pair, cls)
+        _known_keys("[pair]", pair, cls, supplied=tuple(tables))
         for key in ("pinion", "wheel", "material", "pinion_shaft", "wheel_shaft",
                     "operation", "random", "reliability", "name", "description", "source",
                     "stiffness_source"):

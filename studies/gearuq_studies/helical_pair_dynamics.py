@@ -59,9 +59,17 @@ def run(out: str | Path = "gearuq_helical_pair_dynamics", quick: bool = False,
         0 when every integration succeeded, 1 otherwise.
     """
     out = Path(out)
-    periods = periods or (400 if quick else 3300)
-    transient_periods = transient_periods or (300 if quick else 3000)
-    points_per_period = points_per_period or (32 if quick else 64)
+    # None takes the default; 0 or a negative value is refused, not replaced by the default
+    for name, value in (("periods", periods), ("transient_periods", transient_periods),
+                        ("points_per_period", points_per_period)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)
+                                  or value < 1):
+            raise ValueError(f"{name}={value!r} is outside its valid range: integers >= 1")
+    periods = periods if periods is not None else (400 if quick else 3300)
+    transient_periods = transient_periods if transient_periods is not None else (
+        300 if quick else 3000)
+    points_per_period = points_per_period if points_per_period is not None else (
+        32 if quick else 64)
     if not 0 < transient_periods < periods:
         raise ValueError(f"transient_periods={transient_periods}: must lie in (0, periods="
                          f"{periods})")
