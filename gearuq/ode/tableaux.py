@@ -8,6 +8,8 @@ the classical RK4.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 #: Valid values of ``method``; ``"rk4"`` requires ``fixed_step``.
@@ -154,3 +156,75 @@ D8_B_PTR, D8_B_IDX, D8_B_VAL = _csr(_DOP853_B)
 D8_E3_PTR, D8_E3_IDX, D8_E3_VAL = _csr(_DOP853_E3)
 D8_E5_PTR, D8_E5_IDX, D8_E5_VAL = _csr(_DOP853_E5)
 D8_D_PTR, D8_D_IDX, D8_D_VAL = _csr(_DOP853_D)
+
+
+# ------------------------------------------------------------------ linear stability
+_A_ROWS = {DOPRI5: _DOPRI5_A, DOP853: _DOP853_A, RK4: _RK4_A}
+_B_ROW = {DOPRI5: _DOPRI5_B[0], DOP853: _DOP853_B[0], RK4: _RK4_B[0]}
+
+
+def stability_polynomial(method: str) -> np.ndarray:
+    """Coefficients ``c_0 .. c_s`` of the method's stability function ``R(z) = sum c_j z^j``.
+
+    One step of an explicit Runge-Kutta method on ``y' = lambda y`` multiplies ``y`` by
+    ``R(h lambda) = 1 + z b^T (I - z A)^-1 1`` (Hairer and Wanner, Solving ODEs II, IV.2),
+    a polynomial for an explicit ``A``: ``c_0 = 1``, ``c_{j+1} = b^T A^j 1``. The step is
+    linearly stable where ``|R(z)| <= 1``. Built from the same tableau the kernels run.
+    """
+    code = METHOD_CODE[method]
+    b_row = _B_ROW[code]
+    s = max(col for col, _ in b_row) + 1  # stages the step's solution uses
+    a = np.zeros((s, s))
+    for i, row in enumerate(_A_ROWS[code][:s]):
+        for col, value in row:
+            a[i, col] = value
+    b = np.zeros(s)
+    for col, value in b_row:
+        b[col] = value
+    coef, power = [1.0], np.ones(s)
+    for _ in range(s):
+        coef.append(float(b @ power))
+        power = a @ power
+    return np.array(coef)
+
+
+def step_amplification(method: str, h: float, eigenvalues: np.ndarray) -> np.ndarray:
+    """``|R(h lambda)|`` of one step for each eigenvalue (see :func:`stability_polynomial`)."""
+    poly = stability_polynomial(method)[::-1]  # numpy's order: highest power first
+    return np.abs(np.polyval(poly, h * np.asarray(eigenvalues, dtype=complex)))
+
+
+def largest_stable_step(method: str, eigenvalues: np.ndarray, growth: float = 1e-12) -> float:
+    """The largest ``h`` with ``|R(h lambda)| <= 1 + growth`` on ``[0, h]`` for every
+    eigenvalue given.
+
+    ``eigenvalues``: of a linear(ised) system, each with a real part <= 0 (an eigenvalue
+    with a positive real part grows in the true solution too, and is passed over); ``inf``
+    when none is nonzero. ``growth``: the spurious growth a step may add (``2^(1/N) - 1``
+    keeps it below a factor 2 over ``N`` steps). Found on a grid of ``h |lambda|`` in steps
+    of 1/200 up to 20, then bisected to 1e-10 relative: the region's first boundary along
+    each ray.
+    """
+    lam = np.asarray(eigenvalues, dtype=complex).ravel()
+    lam = lam[(lam.real <= 0.0) & (np.abs(lam) > 0.0)]
+    if lam.size == 0:
+        return math.inf
+    poly = stability_polynomial(method)[::-1]  # numpy's order: highest power first
+
+    def unstable(h: np.ndarray) -> np.ndarray:
+        return np.abs(np.polyval(poly, h[:, None] * lam[None, :])) > 1.0 + growth
+
+    scale = 1.0 / float(np.abs(lam).max())
+    grid = np.arange(1, 4001) * (scale / 200.0)
+    bad = unstable(grid).any(axis=1)
+    if not bad.any():
+        return float(grid[-1])
+    k = int(np.argmax(bad))
+    lo, hi = (float(grid[k - 1]) if k else 0.0), float(grid[k])
+    while hi - lo > 1e-10 * hi:
+        mid = 0.5 * (lo + hi)
+        if unstable(np.array([mid])).any():
+            hi = mid
+        else:
+            lo = mid
+    return lo

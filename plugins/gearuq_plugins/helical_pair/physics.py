@@ -365,3 +365,33 @@ def rhs_numpy(tau: float, y: np.ndarray, p: np.ndarray) -> np.ndarray:
     acc = (p[I_G:I_G + N_DOF] - p[I_ETA:I_ETA + N_DOF] * dead_zone(q, p[I_BETA:I_BETA + N_DOF])
            - p[I_XI:I_XI + N_DOF] * dq - v * p[I_MU:I_MU + N_DOF] * fm)
     return np.concatenate([dq, acc])
+
+
+def contact_eigenvalues(coef: np.ndarray, n_phase: int = 64) -> np.ndarray:
+    """Eigenvalues (n, 40) of the pair linearised in contact, at its stiffest and softest mesh.
+
+    In contact with every support outside its clearance the equations are linear,
+    ``q'' = -K q - C q' + ...`` with ``K = diag(eta) + kappa (mu v) v^T`` and
+    ``C = diag(xi) + 2 zeta (mu v) v^T`` (nondimensional, as :func:`rhs_numpy`); ``kappa`` is
+    taken at the largest and the smallest of the stiffness factor over a mesh period
+    (``n_phase`` instants). A support inside its clearance or a tooth pair apart only removes
+    stiffness, so these bound the fastest modes an explicit step must follow.
+    """
+    n = coef.shape[0]
+    tau = (2.0 * np.pi / coef[:, I_OMEGA])[:, None] * np.arange(n_phase)[None, :] / n_phase
+    kappa = stiffness_factor(tau, coef)
+    v, mu = coef[:, I_V:I_V + N_DOF], coef[:, I_MU:I_MU + N_DOF]
+    mesh = (mu * v)[:, :, None] * v[:, None, :]  # (n, 10, 10)
+    damping = (np.eye(N_DOF)[None] * coef[:, I_XI:I_XI + N_DOF][:, None, :]
+               + 2.0 * coef[:, I_ZETA][:, None, None] * mesh)
+    out = []
+    for k in (kappa.max(axis=1), kappa.min(axis=1)):
+        stiff = np.eye(N_DOF)[None] * coef[:, I_ETA:I_ETA + N_DOF][:, None, :] \
+            + k[:, None, None] * mesh
+        a = np.zeros((n, 2 * N_DOF, 2 * N_DOF))
+        a[:, :N_DOF, N_DOF:] = np.eye(N_DOF)
+        a[:, N_DOF:, :N_DOF] = -stiff
+        a[:, N_DOF:, N_DOF:] = -damping
+        out.append(np.linalg.eigvals(a))
+    return np.concatenate(out, axis=1)
+

@@ -58,6 +58,42 @@ def interpreted_cpu(span: float, max_step: float, n_samples: int) -> float:
     return n_samples * max(INTERPRETED_CPU_PER_TAU * span, INTERPRETED_CPU_PER_STEP * steps)
 
 
+def check_fixed_step(method: str, step: float, coef: np.ndarray, span: float) -> None:
+    """Refuse a fixed step at which the method is unstable on the pair in contact.
+
+    Without error control nothing else would notice: a step past the explicit method's
+    stability region amplifies the fastest modes at every step, and the run ends with a
+    finite, wrong response and status 0 (``fixed_step=100`` on tau in [0, 20]: ``v1`` of
+    1088 where the adaptive solution is 0.26). Checked on the eigenvalues of the pair
+    linearised in contact at its stiffest and softest mesh
+    (:func:`~gearuq_plugins.helical_pair.physics.contact_eigenvalues`): ``|R(h lambda)|``
+    of one step may exceed 1 by at most what keeps the spurious growth below a factor 2 over
+    the run's ``span / h`` steps. Stability is necessary, not sufficient: a stable step can
+    still be inaccurate (docs/theory/helical_pair.md).
+    """
+    from gearuq.ode.tableaux import largest_stable_step, step_amplification
+    from gearuq_plugins.helical_pair.physics import contact_eigenvalues
+
+    lam = contact_eigenvalues(coef)
+    growth = 2.0 ** (step / max(span, step)) - 1.0
+    amp = np.where(lam.real <= 0.0, step_amplification(method, step, lam), 0.0)
+    worst = amp.max(axis=1)
+    refused = np.flatnonzero(worst > 1.0 + growth)
+    if refused.size == 0:
+        return
+    # the step the refused samples allow, from their fastest eigenvalues
+    fast = lam[refused[:100]]
+    fast = np.take_along_axis(fast, np.argsort(-np.abs(fast), axis=1)[:, :6], axis=1)
+    allowed = largest_stable_step(method, fast, growth)
+    allowed = largest_stable_step(method, fast, 2.0 ** (allowed / max(span, allowed)) - 1.0)
+    i = int(refused[np.argmax(worst[refused])])
+    raise ValueError(
+        f"fixed_step={step:g} is outside its valid range (0, {allowed:.3g}] for these samples: "
+        f"{method}'s step is unstable on the pair in contact there (one step multiplies its "
+        f"fastest mode by {worst[i]:.3g} at sample {i}; {refused.size} of {coef.shape[0]} "
+        "samples refused). Take a smaller step, or the adaptive default (fixed_step=None)")
+
+
 def integrate(
     system: PairSystem,
     tau: np.ndarray,
@@ -101,6 +137,8 @@ def integrate(
     attrs: dict[str, Any] = {"solver_events": int(events)}
     if ok.any():
         rows = slice(None) if ok.all() else np.flatnonzero(ok)
+        if fixed_step is not None:
+            check_fixed_step(method, float(fixed_step), system.coef[rows], float(np.max(tau)))
         gated = bool(system.coef[0, I_GATE])
         if gated:
             mesh_period = 2.0 * np.pi / system.coef[rows, I_OMEGA]
