@@ -52,6 +52,9 @@ def _folder(text: str) -> str:
 def _cmd_models(args: argparse.Namespace) -> int:
     from gearuq import registry
 
+    if args.name is None and getattr(args, "stage", None):
+        raise ValueError("models: --stage builds one model from the stage; give its NAME, e.g. "
+                         "`gearuq models geared_rotor --stage FILE`")
     if args.name is None:
         rows = registry.describe_models()
         width = max((len(r.name) for r in rows), default=4)
@@ -352,6 +355,12 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         for name in (*BUILTIN_BENCHES, *registry.list_benchmarks()):
             print(name)
         return 0
+    given = [flag for flag, value in (("--coverage", args.coverage), ("--seeds", args.seeds),
+                                      ("--problems", args.problems),
+                                      ("--workers", args.workers != 1)) if value]
+    if given and args.what != "reliability":
+        raise ValueError(f"bench {args.what}: {', '.join(given)} belong(s) to `gearuq bench "
+                         "reliability` and would be ignored here")
     if args.what not in BUILTIN_BENCHES:
         plugins = registry.list_benchmarks()
         if args.what not in plugins:
@@ -403,14 +412,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     # a file, or the name of a shipped stage (GearStage.examples())
     is_file = any(c in args.stage for c in "./\\")
     stage = GearStage.from_toml(args.stage) if is_file else GearStage.example(args.stage)
+    problem = None
+    if stage.reliability and not args.no_reliability:
+        from gearuq.stage_analysis import reliability, reliability_problem
+
+        problem = reliability_problem(stage)  # its names checked before the long steps
     ds = analyse_stage(stage, progress=not args.quiet, stage_file=str(args.stage),
                        n_speeds=args.n_speeds, rotor_speeds=args.rotor_speeds)
     out = args.out or f"gearuq_{stage.name}"
     rel = None
-    if stage.reliability and not args.no_reliability:
-        from gearuq.stage_analysis import reliability
-
-        rel = reliability(stage, progress=not args.quiet)
+    if problem is not None:
+        rel = reliability(stage, progress=not args.quiet, problem=problem)
     paths = write_stage_results(ds, out, reliability=rel,
                                 reliability_settings=stage.reliability_settings)
     for kind, path in paths.items():

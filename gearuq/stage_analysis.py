@@ -368,17 +368,15 @@ def analyse_stage(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20,
 
 
 # ---------------------------------------------------------------------- reliability
-def reliability(stage: Any, *, progress: bool = False) -> tuple[xr.Dataset, xr.Dataset]:
-    """The failure probability and the Sobol' ranking of the stage's ``[reliability]``.
+def reliability_problem(stage: Any) -> dict[str, Any]:
+    """The stage's ``[reliability]`` and ``[random]`` tables made into a model, a space, a
+    band and settings, checked before anything runs.
 
-    The model named there is built from the stage; the random inputs are the stage's
-    ``[random]`` tables; failure is the output leaving ``[lower, upper]``. The probability
-    comes from :func:`gearuq.failure_probability` (``method``, default ``"subset"``, with its
-    interval and status), the ranking from :func:`gearuq.sobol_indices` (Saltelli, bootstrap
-    intervals, ``n_base`` (D + 2) runs) on the same output.
+    A wrong name (the model, its output, a random parameter, an option, the method) or a
+    law that cannot be built fails here, named by its table, instead of after the geometry,
+    the LTCA and the run-up. :func:`reliability` runs what this returns.
     """
-    from gearuq.engines.sensitivity import sobol_indices
-    from gearuq.failure.api import failure_probability
+    from gearuq.failure.api import METHODS
     from gearuq.failure.modes import Band
     from gearuq.registry import get_model
     from gearuq.space import ParameterSpace
@@ -386,17 +384,60 @@ def reliability(stage: Any, *, progress: bool = False) -> tuple[xr.Dataset, xr.D
     cfg = stage.reliability_settings
     if not cfg:
         raise ValueError(f"stage {stage.name!r} has no [reliability] table")
-    model = get_model(cfg["model"], stage=stage)
-    space = ParameterSpace(stage.random_inputs)
-    band = Band(cfg["output"], lower=cfg.get("lower"), upper=cfg.get("upper"))
-    opts = cfg.get("model_options", {})
-    seed = cfg.get("seed", 0)
-    report = failure_probability(model, space, band, method=cfg.get("method", "subset"),
-                                 rng=seed, model_options=opts,
-                                 **cfg.get("method_settings", {}))
-    sobol = sobol_indices(model, space, n_base=int(cfg.get("n_base", 128)),
-                          outputs=[cfg["output"]], rng=seed, model_options=opts,
-                          progress=progress)
+    for key in ("model", "output"):
+        if key not in cfg:
+            raise ValueError(f"[reliability] {key}: required (docs/stage.md)")
+    try:
+        model = get_model(cfg["model"], stage=stage)
+    except ValueError as exc:
+        raise ValueError(f"[reliability] model={cfg['model']!r}: {exc}") from None
+    if cfg["output"] not in model.output_names:
+        raise ValueError(f"[reliability] output={cfg['output']!r} is not an output of model "
+                         f"{model.name!r}; valid: {', '.join(model.output_names)}")
+    try:
+        space = ParameterSpace(stage.random_inputs)
+    except (ValueError, TypeError) as exc:
+        raise type(exc)(f"[random] {exc}") from None
+    unknown = [n for n in space.names if n not in model.parameter_names]
+    if unknown:
+        raise ValueError(f"[random] {unknown}: not parameters of model {model.name!r}; valid: "
+                         f"{', '.join(model.parameter_names)}")
+    method = cfg.get("method", "subset")
+    if method not in METHODS:
+        raise ValueError(f"[reliability] method={method!r} is not a method; valid: "
+                         f"{', '.join(METHODS)}")
+    try:
+        band = Band(cfg["output"], lower=cfg.get("lower"), upper=cfg.get("upper"))
+        opts = dict(cfg.get("model_options", {}))
+        model.validate_options(opts)
+    except (ValueError, TypeError) as exc:
+        raise type(exc)(f"[reliability] {exc}") from None
+    return {"model": model, "space": space, "band": band, "options": opts,
+            "seed": cfg.get("seed", 0), "method": method, "n_base": cfg.get("n_base", 128),
+            "method_settings": cfg.get("method_settings", {})}
+
+
+def reliability(stage: Any, *, progress: bool = False,
+                problem: dict[str, Any] | None = None) -> tuple[xr.Dataset, xr.Dataset]:
+    """The failure probability and the Sobol' ranking of the stage's ``[reliability]``.
+
+    The model named there is built from the stage; the random inputs are the stage's
+    ``[random]`` tables; failure is the output leaving ``[lower, upper]``. The probability
+    comes from :func:`gearuq.failure_probability` (``method``, default ``"subset"``, with its
+    interval and status), the ranking from :func:`gearuq.sobol_indices` (Saltelli, bootstrap
+    intervals, ``n_base`` (D + 2) runs) on the same output. ``problem``: what
+    :func:`reliability_problem` returned for this stage (built here when not given).
+    """
+    from gearuq.engines.sensitivity import sobol_indices
+    from gearuq.failure.api import failure_probability
+
+    pr = reliability_problem(stage) if problem is None else problem
+    report = failure_probability(pr["model"], pr["space"], pr["band"], method=pr["method"],
+                                 rng=pr["seed"], model_options=pr["options"],
+                                 **pr["method_settings"])
+    sobol = sobol_indices(pr["model"], pr["space"], n_base=int(pr["n_base"]),
+                          outputs=[pr["band"].output], rng=pr["seed"],
+                          model_options=pr["options"], progress=progress)
     return report, sobol
 
 

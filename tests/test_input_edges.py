@@ -175,3 +175,34 @@ def test_stage_analysis_and_study_counts_are_checked_by_name(tmp_path):
         with pytest.raises(ValueError, match=f"periods={bad} is outside its valid range"):
             study(out=tmp_path / "d", quick=True, periods=bad)
     assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.parametrize(("old", "new", "words"), [
+    ('output = "peak_dte_amplitude"', 'output = "nope"',
+     "[reliability] output='nope' is not an output of model 'mesh_oscillator'"),
+    ('method = "subset"', 'method = "bogus"', "[reliability] method='bogus' is not a method"),
+    ("[random.damping_ratio]", "[random.damping_ratioo]",
+     "[random] ['damping_ratioo']: not parameters of model 'mesh_oscillator'"),
+    ("n_frequencies = 41", "n_frequencies = 0", "[reliability] model 'mesh_oscillator'"),
+])
+def test_a_stage_file_s_reliability_table_is_checked_before_the_analysis(
+        old, new, words, tmp_path, capsys, monkeypatch):
+    text = (STAGES / "e_axle_27_79.toml").read_text()
+    assert old in text
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace(old, new, 1))
+
+    def analysis_not_reached(*args, **kwargs):
+        raise AssertionError("the analysis started before the [reliability] table was checked")
+
+    monkeypatch.setattr("gearuq.stage_analysis.analyse_stage", analysis_not_reached)
+    assert cli.main(["run", str(path), "--quiet"]) == 2
+    assert words in capsys.readouterr().err
+
+
+def test_options_that_would_be_ignored_are_refused(capsys):
+    assert cli.main(["models", "--stage", "e_axle_27_79"]) == 2
+    assert "--stage builds one model from the stage; give its NAME" in capsys.readouterr().err
+    assert cli.main(["bench", "surrogate", "--coverage", "--seeds", "5"]) == 2
+    err = capsys.readouterr().err
+    assert "bench surrogate: --coverage, --seeds belong(s) to `gearuq bench reliability`" in err

@@ -166,7 +166,8 @@ _OPTIONS = (
            choices=("closed_form", "numerical")),
     Option("frequency_min", 0.8, "lowest frequency of the grid", lower=1e-6),
     Option("frequency_max", 1.2, "highest frequency of the grid", lower=1e-6),
-    Option("n_frequencies", 201, "number of grid frequencies", lower=1, upper=100_000),
+    Option("n_frequencies", 201, "number of grid frequencies (1: frequency_min alone, "
+           "frequency_max unused; frequencies=[...] gives any grid)", lower=1, upper=100_000),
     Option("frequencies", None, "explicit increasing frequency grid (overrides min/max/n)",
            kind="any", allow_none=True, check=_check_frequencies),
     Option("frequency_units", "ratio", "grid in Omega = mesh frequency / omega_n or in Hz "
