@@ -206,3 +206,11 @@ def test_options_that_would_be_ignored_are_refused(capsys):
     assert cli.main(["bench", "surrogate", "--coverage", "--seeds", "5"]) == 2
     err = capsys.readouterr().err
     assert "bench surrogate: --coverage, --seeds belong(s) to `gearuq bench reliability`" in err
+
+
+def test_a_design_larger_than_the_memory_is_refused_by_name():
+    model = gearuq.get_model("linear_oscillator")
+    space = gearuq.ParameterSpace.normal(m=(1.0, 0.01))
+    with pytest.raises(ValueError, match=r"n_samples: 1000000000000000 samples of \d+ "
+                                         r"parameters need about .* for the design alone"):
+        gearuq.monte_carlo(model, space, np.linspace(0.0, 1.0, 3), n_samples=10**15, rng=1)

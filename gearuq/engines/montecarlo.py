@@ -44,6 +44,16 @@ def draw_design(model: Model, space: ParameterSpace, n_samples: int, rule: str,
     """
     if not isinstance(rule, str) or rule.lower() not in RULES:
         raise ValueError(f"rule: unknown sampling rule {rule!r}; valid: {', '.join(RULES)}")
+    from gearuq.execution.driver import _fmt_bytes, available_memory
+
+    # the design is drawn whole (a store bounds the outputs' memory, not the design's): one
+    # that cannot be held is refused by name instead of numpy's MemoryError
+    need = float(n_samples) * len(model.parameter_names) * 8 * 2  # draws and their copy
+    if need > available_memory():
+        raise ValueError(f"n_samples: {n_samples} samples of {len(model.parameter_names)} "
+                         f"parameters need about {_fmt_bytes(need)} for the design alone, more "
+                         f"than the {_fmt_bytes(available_memory())} of memory available; "
+                         "run fewer samples (several runs with their own seeds pool)")
     design = space.sample(n_samples, rule=rule.lower(), rng=seed)
     try:
         model.validate_params(design)
