@@ -110,7 +110,10 @@ def test_a_closed_pipe_ends_the_listing_quietly():
 
 @pytest.mark.e2e  # imports distributed and waits for a refused connection (about 3 s)
 def test_an_unreachable_scheduler_is_named_as_the_executor():
+    # distributed's config defaults first: leaving dask.config.set restores the config as
+    # it found it, and would drop a 'distributed' section added inside the block
     import dask
+    import distributed  # noqa: F401
 
     from gearuq.execution.runners import resolve_executor
 
