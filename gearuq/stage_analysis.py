@@ -294,12 +294,15 @@ def analyse_stage(stage: Any, *, positions_per_cycle: int = 24, n_pts: int = 20,
     """
     from tqdm.auto import tqdm
 
-    for name, value, lowest in (("n_speeds", n_speeds, 2), ("rotor_speeds", rotor_speeds, 0)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lowest \
-                or (name == "rotor_speeds" and value == 1):
-            valid = ("integers >= 2 (a range has two ends)" if lowest else
-                     "0 (skip the geared rotor's run-up) or integers >= 2")
-            raise ValueError(f"{name}={value!r} is outside its valid range: {valid}")
+    def whole(value: Any) -> bool:
+        return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+    if not (whole(n_speeds) and n_speeds >= 2):
+        raise ValueError(f"n_speeds={n_speeds!r} is outside its valid range: integers >= 2 "
+                         "(a range has two ends)")
+    if not (whole(rotor_speeds) and (rotor_speeds == 0 or rotor_speeds >= 2)):
+        raise ValueError(f"rotor_speeds={rotor_speeds!r} is outside its valid range: 0 (skip "
+                         "the geared rotor's run-up) or integers >= 2")
     steps = ["geometry", "ISO 6336-1", "LTCA over a mesh cycle", "mesh stiffness",
              "FE rotor run-up", "geared rotor run-up"]
     bar = tqdm(total=len(steps), desc="stage", disable=not progress, unit="step")
@@ -382,11 +385,8 @@ def reliability_problem(stage: Any) -> dict[str, Any]:
     from gearuq.space import ParameterSpace
 
     cfg = stage.reliability_settings
-    if not cfg:
+    if not cfg:  # a stage that has the table has its model and output (GearStage checks)
         raise ValueError(f"stage {stage.name!r} has no [reliability] table")
-    for key in ("model", "output"):
-        if key not in cfg:
-            raise ValueError(f"[reliability] {key}: required (docs/stage.md)")
     try:
         model = get_model(cfg["model"], stage=stage)
     except ValueError as exc:

@@ -49,10 +49,11 @@ def draw_design(model: Model, space: ParameterSpace, n_samples: int, rule: str,
     # the design is drawn whole (a store bounds the outputs' memory, not the design's): one
     # that cannot be held is refused by name instead of numpy's MemoryError
     need = float(n_samples) * len(model.parameter_names) * 8 * 2  # draws and their copy
-    if need > available_memory():
+    available = available_memory()
+    if need > available:
         raise ValueError(f"n_samples: {n_samples} samples of {len(model.parameter_names)} "
                          f"parameters need about {_fmt_bytes(need)} for the design alone, more "
-                         f"than the {_fmt_bytes(available_memory())} of memory available; "
+                         f"than the {_fmt_bytes(available)} of memory available; "
                          "run fewer samples (several runs with their own seeds pool)")
     design = space.sample(n_samples, rule=rule.lower(), rng=seed)
     try:

@@ -9,6 +9,7 @@ the classical RK4.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -188,7 +189,7 @@ def stability_polynomial(method: str) -> np.ndarray:
     return np.array(coef)
 
 
-def step_amplification(method: str, h: float, eigenvalues: np.ndarray) -> np.ndarray:
+def step_amplification(method: str, h: Any, eigenvalues: np.ndarray) -> np.ndarray:
     """``|R(h lambda)|`` of one step for each eigenvalue (see :func:`stability_polynomial`)."""
     poly = stability_polynomial(method)[::-1]  # numpy's order: highest power first
     return np.abs(np.polyval(poly, h * np.asarray(eigenvalues, dtype=complex)))
@@ -209,10 +210,9 @@ def largest_stable_step(method: str, eigenvalues: np.ndarray, growth: float = 1e
     lam = lam[(lam.real <= 0.0) & (np.abs(lam) > 0.0)]
     if lam.size == 0:
         return math.inf
-    poly = stability_polynomial(method)[::-1]  # numpy's order: highest power first
 
     def unstable(h: np.ndarray) -> np.ndarray:
-        return np.abs(np.polyval(poly, h[:, None] * lam[None, :])) > 1.0 + growth
+        return step_amplification(method, h[:, None], lam[None, :]) > 1.0 + growth
 
     scale = 1.0 / float(np.abs(lam).max())
     grid = np.arange(1, 4001) * (scale / 200.0)

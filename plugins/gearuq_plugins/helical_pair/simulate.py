@@ -74,18 +74,20 @@ def check_fixed_step(method: str, step: float, coef: np.ndarray, span: float) ->
     from gearuq.ode.tableaux import largest_stable_step, step_amplification
     from gearuq_plugins.helical_pair.physics import contact_eigenvalues
 
+    def growth(h: float) -> float:  # per step: at most a factor 2 over the run's steps
+        return 2.0 ** (h / max(span, h)) - 1.0
+
     lam = contact_eigenvalues(coef)
-    growth = 2.0 ** (step / max(span, step)) - 1.0
     amp = np.where(lam.real <= 0.0, step_amplification(method, step, lam), 0.0)
     worst = amp.max(axis=1)
-    refused = np.flatnonzero(worst > 1.0 + growth)
+    refused = np.flatnonzero(worst > 1.0 + growth(step))
     if refused.size == 0:
         return
     # the step the refused samples allow, from their fastest eigenvalues
     fast = lam[refused[:100]]
     fast = np.take_along_axis(fast, np.argsort(-np.abs(fast), axis=1)[:, :6], axis=1)
-    allowed = largest_stable_step(method, fast, growth)
-    allowed = largest_stable_step(method, fast, 2.0 ** (allowed / max(span, allowed)) - 1.0)
+    allowed = largest_stable_step(method, fast, growth(step))
+    allowed = largest_stable_step(method, fast, growth(allowed))
     i = int(refused[np.argmax(worst[refused])])
     raise ValueError(
         f"fixed_step={step:g} is outside its valid range (0, {allowed:.3g}] for these samples: "
