@@ -7,6 +7,7 @@ import json
 import os
 import re
 import sys
+import tempfile
 from collections.abc import Sequence
 from typing import Any
 
@@ -43,9 +44,24 @@ def _folder(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty folder name; give a folder to write into, "
                                          "e.g. --out results")
-    if pathlib.Path(text).exists() and not pathlib.Path(text).is_dir():
+    path = pathlib.Path(text)
+    if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} is an existing file, not a folder; give a "
                                          "folder to write into")
+    # the folder itself is made later, by the command (a refused option elsewhere must not
+    # leave it behind); whether it can be made is asked now, of its nearest existing parent,
+    # by making and removing a scratch folder there (permission bits say nothing for root or
+    # on read-only and virtual file systems)
+    parent = next((p for p in (path.absolute(), *path.absolute().parents) if p.exists()), None)
+    if parent is None or not parent.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r}: {parent} is not a folder; give a folder to "
+                                         "write into")
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".gearuq-probe-", dir=parent))
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: cannot write into {parent} ({exc.strerror or exc}); give a folder you "
+            "can write to") from None
     return text
 
 

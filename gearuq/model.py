@@ -100,12 +100,18 @@ class Output:
         Dimensions of the variable, always starting with ``"sample"``.
     description : str
         One-line meaning.
+    valid_min : float, optional
+        The smallest value the output can take (0 for an amplitude, an RMS or a
+        peak-to-peak value), written as the CF attribute ``valid_min`` of the result
+        variable. A failure band that every value, or no value, of the output leaves is
+        refused against it (:meth:`gearuq.failure.Band.check_reach`).
     """
 
     name: str
     units: str
     dims: tuple[str, ...] = ("sample", "time")
     description: str = ""
+    valid_min: float | None = None
 
     def __post_init__(self) -> None:
         if not self.dims or self.dims[0] != "sample":
@@ -116,6 +122,24 @@ class Output:
     def time_dependent(self) -> bool:
         """Whether the output has a ``time`` dimension."""
         return "time" in self.dims
+
+
+def bounded_below(outputs: Sequence[Output], names: Sequence[str], valid_min: float = 0.0
+                  ) -> tuple[Output, ...]:
+    """``outputs`` with ``valid_min`` set on those named (amplitudes, RMS values, fractions).
+
+    Raises
+    ------
+    ValueError
+        If a name is not among ``outputs`` (a declaration's typo).
+    """
+    known = {o.name for o in outputs}
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(f"bounded_below: {unknown} are not among the outputs {sorted(known)}")
+    chosen = set(names)
+    return tuple(dataclasses.replace(o, valid_min=float(valid_min)) if o.name in chosen else o
+                 for o in outputs)
 
 
 _OPTION_KINDS = {"float": float, "int": int, "bool": bool, "str": str, "any": object}
@@ -720,9 +744,10 @@ class Model:
             })
         for o in names:
             meta = self.output(o)
-            data[o] = (meta.dims, np.asarray(ev.data[o]), {
-                "units": meta.units, "long_name": meta.description, "role": "output",
-            })
+            attrs = {"units": meta.units, "long_name": meta.description, "role": "output"}
+            if meta.valid_min is not None:
+                attrs["valid_min"] = float(meta.valid_min)
+            data[o] = (meta.dims, np.asarray(ev.data[o]), attrs)
         for k, (dims, values, attrs) in ev.extra.items():
             data[k] = (dims, values, {**attrs, "role": "diagnostic"})
         data["status"] = ("sample", np.asarray(ev.status, dtype=np.int8),

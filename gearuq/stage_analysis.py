@@ -408,6 +408,8 @@ def reliability_problem(stage: Any) -> dict[str, Any]:
                          f"{', '.join(METHODS)}")
     try:
         band = Band(cfg["output"], lower=cfg.get("lower"), upper=cfg.get("upper"))
+        meta = model.output(cfg["output"])
+        band.check_reach(meta.valid_min, meta.units)
         opts = dict(cfg.get("model_options", {}))
         model.validate_options(opts)
     except (ValueError, TypeError) as exc:

@@ -37,6 +37,21 @@ def test_an_output_folder_that_is_a_file_is_refused_by_name(command, tmp_path, c
     assert path.read_text() == ""
 
 
+def test_an_output_folder_that_cannot_be_made_is_refused_by_name(tmp_path, capsys):
+    # under a file: no folder can be made there, whoever runs it
+    blocker = tmp_path / "f"
+    blocker.write_text("")
+    err = _usage_error(["demo", "--out", str(blocker / "sub" / "out")], capsys)
+    assert "argument --out" in err and f"{blocker} is not a folder" in err
+    if Path("/proc/self").is_dir():  # Linux: nothing can be made in /proc, not even by root
+        err = _usage_error(["demo", "--out", "/proc/gearuq_out"], capsys)
+        assert "argument --out" in err and "cannot write into /proc" in err
+    # a folder that can be made is accepted and not made while parsing (nor a probe left)
+    args = cli.build_parser().parse_args(["demo", "--out", str(tmp_path / "new" / "out")])
+    assert args.out == str(tmp_path / "new" / "out")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]
+
+
 def test_a_store_that_is_a_file_is_refused_by_name(tmp_path, capsys):
     path = tmp_path / "f"
     path.write_text("")
@@ -187,6 +202,9 @@ def test_stage_analysis_and_study_counts_are_checked_by_name(tmp_path):
     ("[random.damping_ratio]", "[random.damping_ratioo]",
      "[random] ['damping_ratioo']: not parameters of model 'mesh_oscillator'"),
     ("n_frequencies = 41", "n_frequencies = 0", "[reliability] model 'mesh_oscillator'"),
+    ("upper = 1.5e-05", "upper = -1.5e-05",
+     "[reliability] Band on 'peak_dte_amplitude': upper=-1.5e-05 is below every value "
+     "peak_dte_amplitude can take (peak_dte_amplitude >= 0 m): every sample would fail"),
 ])
 def test_a_stage_file_s_reliability_table_is_checked_before_the_analysis(
         old, new, words, tmp_path, capsys, monkeypatch):
@@ -217,3 +235,83 @@ def test_a_design_larger_than_the_memory_is_refused_by_name():
     with pytest.raises(ValueError, match=r"n_samples: 1000000000000000 samples of \d+ "
                                          r"parameters need about .* for the design alone"):
         gearuq.monte_carlo(model, space, np.linspace(0.0, 1.0, 3), n_samples=10**15, rng=1)
+
+
+# ================================================= bands beyond what an output can take
+def test_a_band_outside_what_its_output_can_take_is_refused():
+    from gearuq.failure import Band
+
+    with pytest.raises(ValueError, match=r"upper=-1 is below every value y can take "
+                                         r"\(y >= 0 m\): every sample would fail"):
+        Band("y", upper=-1.0).check_reach(0.0, "m")
+    with pytest.raises(ValueError, match=r"lower=0 is at or below every value y can take .* "
+                                         r"no sample can fail"):
+        Band("y", lower=0.0).check_reach(0.0)
+    with pytest.raises(ValueError, match=r"upper=0.5 is below every value \|y\| can take"):
+        Band("y", upper=0.5, absolute=True).check_reach(1.0)
+    for band in (Band("y", upper=1e-9), Band("y", lower=1e-9), Band("y", lower=-1, upper=2),
+                 Band("y", upper=0.0), Band("y", upper=-1.0, absolute=False)):
+        if band.upper >= 0:
+            band.check_reach(0.0)  # reachable on both sides: nothing to refuse
+        band.check_reach(None)  # no bound known: nothing to check
+    Band("y", upper=-1.0).check_reach(-2.0)
+    Band("y", upper=1.0, absolute=True).check_reach(-5.0)  # |y| >= 0 only
+
+
+def test_reliability_and_failure_probability_refuse_a_band_no_sample_can_meet(tmp_path):
+    from gearuq.failure import Band
+
+    model = gearuq.get_model("linear_oscillator")
+    space = {"k": {"dist": "uniform", "lower": 900.0, "upper": 1100.0}}
+    ds = gearuq.monte_carlo(model, space, n_samples=8, rng=1, outputs=["steady_amplitude"])
+    assert ds["steady_amplitude"].attrs["valid_min"] == 0.0
+    assert "valid_min" not in ds["k"].attrs
+    with pytest.raises(ValueError, match=r"upper=-0.001 is below every value steady_amplitude"):
+        gearuq.reliability(ds, Band("steady_amplitude", upper=-1e-3))
+    with pytest.raises(ValueError, match=r"no sample can fail"):
+        gearuq.reliability(ds, Band("steady_amplitude", lower=-1.0))
+    # the saved file keeps the bound, so a reloaded result is checked the same way
+    gearuq.save(ds, tmp_path / "r.nc")
+    back = gearuq.load(tmp_path / "r.nc")
+    assert back["steady_amplitude"].attrs["valid_min"] == 0.0
+    with pytest.raises(ValueError, match=r"every sample would fail"):
+        gearuq.reliability(back, Band("steady_amplitude", upper=-1e-3))
+    with pytest.raises(ValueError, match=r"every sample would fail"):
+        gearuq.failure_probability(model, space, Band("steady_amplitude", upper=-1e-3),
+                                   method="mc", n_samples=10)
+    rep = gearuq.reliability(ds, Band("steady_amplitude", upper=float(
+        ds["steady_amplitude"].median())))
+    assert 0.0 < float(rep["pf"].max()) < 1.0
+
+
+@pytest.mark.e2e
+def test_every_declared_lower_bound_holds_on_sampled_outputs():
+    """A ``valid_min`` is a claim about the physics: check it on every model's outputs."""
+    calls = [  # (model, instants, options, outputs: None for every bounded one)
+        ("linear_oscillator", np.linspace(0.0, 1.0, 11), {}, None),
+        ("helical_pair", np.linspace(0.0, 20.0, 11), {}, None),
+        ("mesh_excitation", np.linspace(0.0, 2.0, 25), {}, None),
+        ("mesh_oscillator", None, {"n_frequencies": 41}, "frequency"),
+        ("mesh_oscillator", np.linspace(0.0, 2.0 * np.pi, 201), {}, ["kv"]),
+        ("geared_rotor", None, {"speed_max": 3000.0, "n_speeds": 6, "peaks_refined": 0}, None),
+    ]
+    for name, t, options, which in calls:
+        model = gearuq.get_model(name)
+        bounded = [o.name for o in model.outputs if o.valid_min is not None]
+        assert bounded, name
+        if which == "frequency":
+            bounded = [o for o in bounded if "frequency" in model.output(o).dims]
+        elif which is not None:
+            bounded = which
+        space = model.default_space()
+        design = (space.sample(3, rng=3) if space is not None else  # the oscillator has none
+                  {"k": np.array([5e3, 1e4, 4e4]), "c": np.array([2.0, 20.0, 200.0]),
+                   "omega": np.array([10.0, 100.0, 300.0])})
+        ds = model.response(design, t, outputs=bounded, **options)
+        ok = ds["status"].values == 0
+        assert ok.any(), name
+        for out in bounded:
+            values = ds[out].values[ok]
+            values = values[np.isfinite(values)]
+            floor = ds[out].attrs["valid_min"]
+            assert values.size and values.min() >= floor, (name, out, values.min())

@@ -45,7 +45,7 @@ import xarray as xr
 from scipy import linalg, special
 
 from gearuq.execution import AllSamplesFailedError, evaluate_chunks
-from gearuq.failure.modes import System, as_limit_state
+from gearuq.failure.modes import System, as_limit_state, check_band_reach
 from gearuq.model import Model, Request
 from gearuq.runs import resolve_model_and_space
 from gearuq.space import ParameterSpace
@@ -100,6 +100,14 @@ class LimitStateEvaluator:
         if not outputs:
             raise ValueError(f"limit state {self.limit_state.name!r} reads no model output "
                              f"(only inputs {list(self.limit_state.variables)})")
+        for leaf in self.limit_state.leaves():  # a band no value can stay in, or leave
+            spec = getattr(leaf, "_spec", None) or {}
+            if spec.get("kind") == "band" and spec["output"] in self.model.output_names:
+                meta = self.model.output(spec["output"])
+                lower = -math.inf if spec["lower"] is None else float(spec["lower"])
+                upper = math.inf if spec["upper"] is None else float(spec["upper"])
+                check_band_reach(spec["output"], lower, upper, bool(spec["absolute"]),
+                                 meta.valid_min, meta.units)
         self.request: Request = self.model.prepare(t, outputs=outputs, **dict(model_options or {}))
         for leaf in self.limit_state.leaves():  # refused before any run
             leaf.check_window(self.request.t, "of the output instants t")

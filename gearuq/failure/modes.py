@@ -155,6 +155,29 @@ def time_window(value: Any, name: str) -> tuple[float, float]:
     return ends[0], ends[1]
 
 
+def check_band_reach(output: str, lower: float, upper: float, absolute: bool,
+                     valid_min: float | None, units: str = "") -> None:
+    """The check of :meth:`Band.check_reach`, on a band's numbers (see there)."""
+    if valid_min is None or not math.isfinite(float(valid_min)):
+        return
+    low = float(valid_min)
+    if absolute:
+        if low < 0.0:  # |value| >= 0 only; an upper <= 0 is refused when the band is made
+            return
+    unit = f" {units}" if units and units != "1" else ""
+    what = f"|{output}|" if absolute else output
+    if upper < low:
+        raise ValueError(
+            f"Band on {output!r}: upper={upper:g} is below every value {what} can take "
+            f"({what} >= {low:g}{unit}): every sample would fail; give an upper above "
+            f"{low:g}")
+    if upper == math.inf and lower <= low:
+        raise ValueError(
+            f"Band on {output!r}: lower={lower:g} is at or below every value {what} can "
+            f"take ({what} >= {low:g}{unit}) and the band has no upper limit: no sample can "
+            f"fail; give a lower above {low:g} or an upper")
+
+
 class Band:
     """Allowed interval on one model output: the limit state of a failure mode.
 
@@ -217,6 +240,26 @@ class Band:
         self.absolute = bool(absolute)
         self.select = dict(select) if select else {}
         self.name = name if name is not None else (f"|{output}|" if absolute else output)
+
+    def check_reach(self, valid_min: float | None, units: str = "") -> None:
+        """Refuse a band that every value of its output leaves, or that none can leave.
+
+        Parameters
+        ----------
+        valid_min : float or None
+            The smallest value the output takes (its ``valid_min``; ``None``: unknown,
+            nothing to check).
+        units : str
+            The output's units, for the message.
+
+        Raises
+        ------
+        ValueError
+            When ``upper`` lies below ``valid_min`` (every sample would fail: a failure
+            probability of 1 that only restates the typo), or when the band is open above
+            and ``lower`` is at or below ``valid_min`` (no sample can fail).
+        """
+        check_band_reach(self.output, self.lower, self.upper, self.absolute, valid_min, units)
 
     # ------------------------------------------------------------------ helpers
     def __repr__(self) -> str:

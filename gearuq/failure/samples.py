@@ -231,6 +231,7 @@ def _band_modes(
     extra = [d for d in da.dims if d not in ("sample", "time")]
     order = ["sample", *extra] + (["time"] if "time" in da.dims else [])
     da = da.transpose(*order)
+    band.check_reach(da.attrs.get("valid_min"), str(da.attrs.get("units", "")))
     values = np.asarray(da.values, dtype=float)[valid]
     _check_finite(values, band.output, blk, valid, first_sample)
     meta = {

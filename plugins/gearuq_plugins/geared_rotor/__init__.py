@@ -27,7 +27,7 @@ import math
 from typing import Any
 
 from gearuq.gears.deviations import pitch_germ_names
-from gearuq.model import Model, Option, Output, Parameter
+from gearuq.model import Model, Option, Output, Parameter, bounded_below
 
 __all__ = ["GearedRotor"]
 
@@ -161,6 +161,20 @@ _OUTPUTS = (
     Output("bearing1_acceleration_y_spectrum", "m s-2", _SO,
            "bearing-1 y acceleration amplitude at the same orders"),
 )
+# RMS, peak-to-peak, amplitude, fraction, speed and frequency outputs cannot be negative (a
+# failure band beyond that bound is refused by name; gearuq.model.Output.valid_min)
+_OUTPUTS = bounded_below(_OUTPUTS, [
+    "dte_rms", "dte_mesh_band_rms", "dte_ptp", "mesh_force_rms", "mesh_force_min",
+    "bearing1_acceleration_y_rms", "contact_loss_fraction", "dte_rms_max",
+    "speed_at_dte_rms_max", "kv_max", "speed_at_kv_max", "kv_over_speed",
+    "dte_mesh_band_rms_max", "speed_at_dte_mesh_band_rms_max", "dte_mesh_band_rms_over_speed",
+    "dte_mesh_order_max", "speed_at_dte_mesh_order_max", "dte_mesh_order_over_speed",
+    "bearing1_acceleration_y_mesh_order_max",
+    "speed_at_bearing1_acceleration_y_mesh_order_max",
+    "bearing1_acceleration_y_mesh_order_over_speed", "kv_iso_max", "speed_at_kv_iso_max",
+    "kv_iso_over_speed", "pitch_total_deviation_pinion", "pitch_total_deviation_wheel",
+    "ste_ptp", "mesh_frequency", "shaft_frequency", "dte_spectrum", "mesh_force_spectrum",
+    "bearing1_acceleration_y_spectrum"])
 
 _O = Option
 _OPTIONS = (

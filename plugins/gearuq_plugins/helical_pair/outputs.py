@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from gearuq.model import Output
+from gearuq.model import Output, bounded_below
 from gearuq_plugins.helical_pair.layout import I_B5, I_V, INTERNAL_LENGTH, N_DOF, N_STATE
 from gearuq_plugins.helical_pair.physics import (
     ROTATIONS,
@@ -89,7 +89,10 @@ def _declare() -> tuple[Output, ...]:
         Output("length_unit", "m", ("sample",),
                "length L of the nondimensional outputs p, dp, v (option length_scale)"),
     ]
-    return tuple(outs)
+    # properties of the pair that cannot be negative (kv can: a mesh force that is a damping
+    # force alone, with mesh_damping="always" and the teeth apart)
+    return bounded_below(outs, ["omega_n", "mesh_frequency", "k_mesh", "contact_ratio", "m_p",
+                                "m_g", "length_unit"])
 
 
 OUTPUTS = _declare()

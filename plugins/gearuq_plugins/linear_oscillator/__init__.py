@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gearuq.model import Evaluation, Model, Output, Parameter
+from gearuq.model import Evaluation, Model, Output, Parameter, bounded_below
 
 __all__ = ["LinearOscillator", "steady_state", "closed_form"]
 
@@ -86,13 +86,13 @@ class LinearOscillator(Model):
         Parameter("x0", "m", 0.0, -1e6, 1e6, "initial displacement"),
         Parameter("v0", "m s-1", 0.0, -1e9, 1e9, "initial velocity"),
     )
-    outputs = (
+    outputs = bounded_below((
         Output("displacement", "m", ("sample", "time"), "displacement x(t)"),
         Output("velocity", "m s-1", ("sample", "time"), "velocity x'(t)"),
         Output("steady_amplitude", "m", ("sample",), "steady-state displacement amplitude"),
         Output("natural_frequency", "rad s-1", ("sample",), "undamped natural frequency"),
         Output("damping_ratio", "1", ("sample",), "damping ratio c / (2 sqrt(k m))"),
-    )
+    ), ["steady_amplitude", "natural_frequency", "damping_ratio"])
 
     def _evaluate(self, params, t, outputs, **options):
         p = params

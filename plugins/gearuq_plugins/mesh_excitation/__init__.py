@@ -20,7 +20,7 @@ import math
 import os
 from typing import Any
 
-from gearuq.model import Model, Option, Output, Parameter
+from gearuq.model import Model, Option, Output, Parameter, bounded_below
 
 __all__ = ["MeshExcitation"]
 
@@ -48,6 +48,12 @@ _OUTPUTS = (
     Output("lpms_tangent_spectrum", "N/um", _SO,
            "amplitude of the tangent LPMS at the same orders"),
 )
+# stiffnesses, peak-to-peak values, fractions and amplitudes: never negative (the STE and
+# the composite mesh error are signed)
+_OUTPUTS = bounded_below(_OUTPUTS, [
+    "lpms", "lpms_tangent", "ste_ptp", "lpms_mean", "lpms_ptp", "lpms_tangent_mean",
+    "lpms_tangent_ptp", "cms_ptp", "contact_loss_fraction", "unloaded_share_max",
+    "ste_spectrum", "lpms_tangent_spectrum"])
 
 _OPTIONS = (
     Option("positions_per_cycle", 24, "mesh positions per mesh cycle", kind=int, lower=4,

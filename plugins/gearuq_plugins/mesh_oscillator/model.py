@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from gearuq._firstcall import kernels_route
-from gearuq.model import Model, Option, Output, Parameter
+from gearuq.model import Model, Option, Output, Parameter, bounded_below
 
 _P = Parameter
 _NONDIMENSIONAL_PARAMETERS = (
@@ -117,6 +117,13 @@ _DIMENSIONAL_OUTPUTS = (
     _O("dte", "m", ("sample", "time"), "dynamic transmission error x(t)"),
     _O("mesh_force", "N", ("sample", "time"), "mesh force C f(x, t)"),
 )
+# amplitudes, fractions, counts, frequencies and stiffnesses: never negative
+_COMMON_OUTPUTS = bounded_below(_COMMON_OUTPUTS, [
+    "amplitude_up", "amplitude_down", "separation_up", "separation_down", "linear_amplitude",
+    "branch_amplitude", "n_branches", "peak_amplitude", "peak_frequency_ratio", "kv"])
+_DIMENSIONAL_OUTPUTS = bounded_below(_DIMENSIONAL_OUTPUTS, [
+    "dte_amplitude_up", "dte_amplitude_down", "peak_dte_amplitude", "natural_frequency",
+    "mesh_stiffness", "secant_stiffness", "expansion_error"])
 _PERTURBATION_ONLY = {"branch_amplitude", "branch_phase", "branch_stable", "n_branches"}
 _TIME_OUTPUTS = {"u", "contact", "u_perturbation", "dte", "mesh_force", "kv"}
 _EXPANSION_OUTPUTS = {"mean_deflection", "deflection_scale", "natural_frequency",
