@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from gearuq._checks import check_bool
 from gearuq._version import __version__
 
 #: Attribute that marks a file as a gearuq result.
@@ -129,6 +130,38 @@ def _umask() -> int:
     return mask
 
 
+#: Suffixes of other formats: a netCDF file under one of these names misleads its reader.
+_NOT_NETCDF = {".csv", ".tsv", ".txt", ".json", ".xlsx", ".xls", ".parquet", ".zarr", ".png",
+               ".pdf", ".h5", ".hdf5", ".npy", ".npz", ".pkl", ".pickle"}
+
+
+def _storable(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with text held as Python objects made fixed-width text; refuses what netCDF
+    would not give back as it was (dates, complex numbers, other Python objects), naming
+    the variable."""
+    fixed = {}
+    for name, var in ds.variables.items():
+        kind = var.dtype.kind
+        if kind in "Mm":
+            raise TypeError(f"save: variable {name!r} holds dates or durations ({var.dtype}); "
+                            "they would come back as plain numbers: store them as numbers "
+                            "with units (e.g. seconds since an epoch) or drop the variable")
+        if kind == "c":
+            raise TypeError(f"save: variable {name!r} is complex ({var.dtype}); store its real "
+                            "and imaginary parts (or magnitude and phase) as two variables")
+        if kind == "O":
+            others = [v for v in np.asarray(var.values).ravel() if not isinstance(v, str)]
+            if others:
+                other = others[0]
+                raise TypeError(f"save: variable {name!r} holds Python objects "
+                                f"({type(other).__name__}: {other!r}); a result stores "
+                                "numbers or text: convert it, or drop the variable")
+            fixed[name] = var.copy(data=np.asarray(var.values, dtype=str))
+    return ds.assign(**{k: v for k, v in fixed.items() if k in ds.data_vars}) \
+        .assign_coords(**{k: v for k, v in fixed.items() if k not in ds.data_vars}) \
+        if fixed else ds
+
+
 def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
          checksum: bool = True) -> Path:
     """Write a result to netCDF4 atomically (temp file, then rename), with checksums.
@@ -171,7 +204,14 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
     if not isinstance(ds, xr.Dataset):
         raise TypeError(f"ds: expected an xarray.Dataset (a gearuq result), got "
                         f"{type(ds).__name__}")
+    if not str(path).strip():
+        raise ValueError("path: empty; give the file to write, e.g. 'result.nc'")
     path = Path(path)
+    if path.suffix.lower() in _NOT_NETCDF:
+        raise ValueError(f"path: {str(path)!r} would hold netCDF under a {path.suffix} name; "
+                         "give a .nc path (gearuq.export_csv, or `gearuq export --csv`, "
+                         "writes CSV)")
+    ds = _storable(ds)
     path.parent.mkdir(parents=True, exist_ok=True)
     ds = sanitize_attrs(ds)
     ds.attrs.setdefault(MARKER, __version__)
@@ -449,6 +489,10 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
         If ``path`` is a folder, not netCDF or not a gearuq result (no ``gearuq_version``
         attribute).
     """
+    lazy = check_bool("lazy", lazy)
+    verify_checksums = check_bool("verify_checksums", verify_checksums)
+    if not str(path).strip():
+        raise ValueError("path: empty; give the result file to read, e.g. 'result.nc'")
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no such result file: {path}")
@@ -545,6 +589,7 @@ def export_csv(dataset: xr.Dataset, path: str | os.PathLike) -> list[Path]:
     if not groups:
         raise ValueError("dataset: holds no variable to export")
     folder.mkdir(parents=True, exist_ok=True)
+    _remove_earlier_export(folder, {("-".join(d) or "scalars") + ".csv" for d in groups})
     written: list[Path] = []
     for dims, names in groups.items():
         file = folder / (("-".join(dims) or "scalars") + ".csv")
@@ -572,6 +617,23 @@ def export_csv(dataset: xr.Dataset, path: str | os.PathLike) -> list[Path]:
     sidecar = folder / "provenance.json"
     sidecar.write_text(json.dumps(meta, indent=1) + "\n")
     return [*written, sidecar]
+
+
+def _remove_earlier_export(folder: Path, keep: set[str]) -> None:
+    """Remove the CSV files an earlier export listed in ``folder``'s provenance.json that this
+    export does not rewrite: left beside the new ones, they would pass for part of it."""
+    sidecar = folder / "provenance.json"
+    try:
+        listed = json.loads(sidecar.read_text()).get("files", {})
+    except (OSError, ValueError, AttributeError):
+        return
+    stale = sorted(name for name in listed if name not in keep and Path(name).name == name
+                   and name.endswith(".csv") and (folder / name).is_file())
+    for name in stale:
+        (folder / name).unlink()
+    if stale:
+        warnings.warn(f"{folder}: held an earlier export; its {', '.join(stale)} removed, so "
+                      "that every file there belongs to this one", UserWarning, stacklevel=3)
 
 
 def _json_safe(value: Any) -> Any:

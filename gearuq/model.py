@@ -828,7 +828,11 @@ def _as_parameter(p: Parameter | str | tuple) -> Parameter:
     if isinstance(p, str):
         return Parameter(p, "1", 0.0)
     if isinstance(p, tuple):
-        return Parameter(*p)
+        try:
+            return Parameter(*p)
+        except TypeError:
+            raise TypeError(f"parameters: {p!r}: a tuple is (name, units, nominal[, lower, "
+                            f"upper[, description]]); got {len(p)} item(s)") from None
     raise TypeError(f"parameters: expected Parameter, name or tuple, got {type(p).__name__}")
 
 
@@ -898,15 +902,30 @@ class FunctionModel(Model):
         self.options = tuple(options)
         if not self.parameters or not self.outputs:
             raise ValueError("FunctionModel needs at least one parameter and one output")
+        for what, names in (("parameters", [p.name for p in self.parameters]),
+                            ("outputs", [o.name for o in self.outputs])):
+            twice = sorted({n for n in names if names.count(n) > 1})
+            if twice:
+                raise ValueError(f"FunctionModel {name!r}: {what}: duplicate name(s) {twice}")
         clash = sorted({p.name for p in self.parameters} & {o.name for o in self.outputs})
         if clash:
             raise ValueError(f"FunctionModel {name!r}: names {clash} are given both as "
                              "parameters and as outputs; rename the outputs")
         try:
             sig = inspect.signature(fn)
-            self._wants_t = "t" in sig.parameters
-        except (TypeError, ValueError):
+        except (TypeError, ValueError):  # a builtin or extension: called as documented
             self._wants_t = False
+            return
+        self._wants_t = "t" in sig.parameters
+        takes_any = any(q.kind is inspect.Parameter.VAR_KEYWORD for q in sig.parameters.values())
+        keywords = {n for n, q in sig.parameters.items()
+                    if q.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                  inspect.Parameter.KEYWORD_ONLY)}
+        missing = [p.name for p in self.parameters if p.name not in keywords]
+        if missing and not takes_any:
+            raise ValueError(
+                f"FunctionModel {name!r}: fn takes ({', '.join(sig.parameters)}) but is called "
+                f"with the parameters by name; it has no argument for {missing}")
 
     def _evaluate(self, params, t, outputs, **options):
         kwargs = dict(params)
@@ -915,7 +934,12 @@ class FunctionModel(Model):
         raw = self.fn(**kwargs, **options)
         names = self.output_names
         if isinstance(raw, Mapping):
-            values = {k: np.asarray(raw[k], dtype=float) for k in names}
+            absent = [k for k in outputs if k not in raw]
+            if absent:
+                raise ValueError(f"FunctionModel {self.name!r}: fn returned the keys "
+                                 f"{sorted(map(str, raw))}; the declared output(s) {absent} "
+                                 "are missing")
+            values = {k: np.asarray(raw[k], dtype=float) for k in outputs}
         elif isinstance(raw, tuple):
             if len(raw) != len(names):
                 raise ValueError(f"function returned {len(raw)} outputs, declared {len(names)}")
@@ -930,7 +954,14 @@ class FunctionModel(Model):
         for k in outputs:
             meta = self.output(k)
             shape = (n, t.size) if meta.time_dependent else (n,)
-            v = np.broadcast_to(values[k], shape).astype(float)
+            if values[k].shape != shape:
+                # numpy would broadcast one value to every sample (or instant): refused
+                raise ValueError(
+                    f"FunctionModel {self.name!r}: output {k!r} has shape {values[k].shape}, "
+                    f"expected {shape} (one value per sample"
+                    + (", per output instant)" if meta.time_dependent else
+                       "; a time series needs the output declared time-dependent)"))
+            v = values[k].astype(float)
             status[~np.isfinite(v.reshape(n, -1)).all(axis=1)] = STATUS_NONFINITE
             data[k] = v
         return Evaluation(data=data, status=status)

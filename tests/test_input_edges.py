@@ -315,3 +315,42 @@ def test_every_declared_lower_bound_holds_on_sampled_outputs():
             values = values[np.isfinite(values)]
             floor = ds[out].attrs["valid_min"]
             assert values.size and values.min() >= floor, (name, out, values.min())
+
+
+# ============================================== fourteenth round: FunctionModel's contract
+def test_function_model_refuses_a_result_of_the_wrong_shape():
+    one_for_all = gearuq.FunctionModel(lambda a: a[:1], ["a"], ["y"])
+    with pytest.raises(ValueError, match=r"output 'y' has shape \(1,\), expected \(5,\)"):
+        one_for_all.response({"a": np.arange(5.0)})
+    # a run falls back to one sample per call after a chunk's error, where a[:1] is right
+    ds = gearuq.monte_carlo(one_for_all, {"a": {"dist": "normal", "mean": 0.0, "std": 1.0}},
+                            n_samples=5, rng=1, executor="serial")
+    np.testing.assert_array_equal(ds["y"].values, ds["a"].values)  # no value copied
+    narrow = gearuq.FunctionModel(lambda a, t: np.ones((len(a), 1)) * t[:1], ["a"], ["y"],
+                                  time_dependent=True)
+    with pytest.raises(ValueError, match=r"shape \(2, 1\), expected \(2, 3\)"):
+        narrow.response({"a": [1.0, 2.0]}, np.array([0.0, 1.0, 2.0]))
+    wide = gearuq.FunctionModel(lambda a: np.ones((len(a), 3)), ["a"], ["y"])
+    with pytest.raises(ValueError, match="needs the output declared time-dependent"):
+        wide.response({"a": [1.0, 2.0]})
+    keyed = gearuq.FunctionModel(lambda a: {"z": a}, ["a"], ["y"])
+    with pytest.raises(ValueError, match=r"fn returned the keys \['z'\]; the declared output"):
+        keyed.response({"a": [1.0, 2.0]})
+    # the right shapes pass, values untouched
+    good = gearuq.FunctionModel(lambda a, t: a[:, None] * t, ["a"], ["y"], time_dependent=True)
+    np.testing.assert_array_equal(good.response({"a": [1.0, 2.0]}, np.array([0.0, 1.0]))["y"],
+                                  [[0.0, 1.0], [0.0, 2.0]])
+
+
+def test_function_model_refuses_declarations_that_cannot_work():
+    with pytest.raises(ValueError, match=r"outputs: duplicate name\(s\) \['y'\]"):
+        gearuq.FunctionModel(lambda a: (a, 2 * a), ["a"], ["y", "y"])
+    with pytest.raises(ValueError, match=r"parameters: duplicate name\(s\) \['a'\]"):
+        gearuq.FunctionModel(lambda a: a, ["a", "a"], ["y"])
+    with pytest.raises(ValueError, match=r"fn takes \(b\) .* no argument for \['a'\]"):
+        gearuq.FunctionModel(lambda b: b, ["a"], ["y"])
+    with pytest.raises(TypeError, match=r"\('a', 2.0\): a tuple is \(name, units, nominal"):
+        gearuq.FunctionModel(lambda a: a, [("a", 2.0)], ["y"])
+    # a function taking **kwargs is called with every parameter
+    any_kw = gearuq.FunctionModel(lambda **kw: kw["a"] + kw["b"], ["a", "b"], ["y"])
+    np.testing.assert_array_equal(any_kw.response({"a": [1.0], "b": [2.0]})["y"], [3.0])

@@ -16,6 +16,7 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
+from gearuq._checks import check_bool
 from gearuq.execution import evaluate_chunks
 from gearuq.model import Model
 from gearuq.runs import (
@@ -205,6 +206,7 @@ def estimate_mean(
         raise ValueError(f"no variable {var!r}; available: {', '.join(map(str, ds.data_vars))}")
     if not 0 < confidence < 1:
         raise ValueError(f"confidence: must lie in (0, 1), got {confidence}")
+    ok_only = check_bool("ok_only", ok_only)
     x = ds[var]
     if "sample" not in x.dims:
         raise ValueError(f"variable {var!r} has no 'sample' dimension")

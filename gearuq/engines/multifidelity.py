@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -308,6 +309,13 @@ def multifidelity_estimate(
     pilot_q, measured = zip(*(run(k, x_pilot, "pilot") for k in range(len(models))),
                             strict=True)
     w = np.asarray(costs if costs is not None else measured, dtype=float)
+    if budget < 2.0 * w[0]:
+        # every estimator runs models[0] at least twice (a variance needs two samples)
+        unit = " s (measured in the pilot)" if costs is None else ""
+        raise ValueError(
+            f"budget={budget!r} buys fewer than the 2 samples of models[0] ({models[0].name!r}) "
+            f"every estimator needs, at {w[0]:.3g}{unit} per sample; valid: a budget of at "
+            f"least {2.0 * w[0]:.3g}")
     stat = _statistic_samples(np.array(pilot_q), statistic)
     rho = np.array([np.corrcoef(stat[0], s)[0, 1] for s in stat])
     if estimator == "acvmf":
@@ -376,6 +384,11 @@ def multifidelity_estimate(
                                 statistic=statistic, estimator=estimator,
                                 budget=float(budget), pilot=int(pilot),
                                 models=[m_.name for m_ in models]))
+    if spent > 1.001 * budget:
+        out.attrs["message"] = (f"the budget {budget:.4g} was exceeded: {spent:.4g} spent, because "
+                                "each model kept runs at least 2 samples (and each lower "
+                                "fidelity more than the one above it)")
+        warnings.warn(out.attrs["message"], RuntimeWarning, stacklevel=2)
     out.attrs["interval_kind"] = ("normal, estimator variance from the run's shared samples "
                                   "(Peherstorfer et al. 2016)")
     return out

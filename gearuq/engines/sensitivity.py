@@ -64,10 +64,16 @@ _LONG = {"S1": "first-order", "ST": "total", "S2": "second-order"}
 
 
 # =========================================================================== checks
-def _check_base(n_base: Any) -> int:
+def _check_base(n_base: Any, power_of_two: bool = True) -> int:
     if isinstance(n_base, (bool, np.bool_)) or not isinstance(n_base, (int, np.integer)) \
             or n_base < 2:
         raise ValueError(f"n_base: expected an integer >= 2, got {n_base!r}")
+    if power_of_two and n_base & (n_base - 1):
+        # the Saltelli design draws a Sobol' sequence, balanced only at powers of 2
+        below = 1 << (int(n_base).bit_length() - 1)
+        raise ValueError(f"n_base: {n_base} is not a power of 2 (the Sobol' sequence of the "
+                         f"design is balanced only at powers of 2); valid: e.g. {below} or "
+                         f"{2 * below}")
     return int(n_base)
 
 
@@ -134,22 +140,49 @@ def _base_coords(ds: xr.Dataset, dims: tuple[str, ...]) -> dict[str, Any]:
             for d in dims if d in ds.coords}
 
 
+#: Meanings of ``S1_flag`` / ``ST_flag`` (and ``S2_flag``).
+SOBOL_FLAGS = {0: "ok",
+               1: "not distinguishable from zero (negative, or its interval crosses 0)",
+               2: "impossible value (above 1, or S1 above ST beyond both intervals): "
+                  "sampling error dominates; increase n_base",
+               3: "undefined (the output does not vary over the design)"}
+
+
 def _flag(ds: xr.Dataset, keys: Iterable[str], confidence: float) -> xr.Dataset:
     notes = []
     for k in keys:
         if k not in ds:
             continue
         est = ds[k]
-        flag = (est < 0) | (ds[f"{k}_lower"] < 0) if f"{k}_lower" in ds else est < 0
+        crosses = (est < 0) | (ds[f"{k}_lower"] < 0) if f"{k}_lower" in ds else est < 0
+        impossible = est > 1.0
+        if k == "S1" and {"ST", "S1_lower", "ST_upper"} <= set(ds.data_vars):
+            # S1 <= ST for each input, and sum S1 <= 1 over independent inputs: broken
+            # beyond the intervals only by sampling error
+            impossible = (impossible | (ds["S1_lower"] > ds["ST_upper"])
+                          | (ds["S1_lower"].clip(min=0).sum("parameter") > 1.0))
+            total = est.sum("parameter", skipna=True)
+            if float(total.max()) > 1.05:
+                notes.append(f"S1: the first-order indices of an output sum to up to "
+                             f"{float(total.max()):.2f} (at most 1 for independent inputs): "
+                             "sampling error is large; increase n_base")
+        undefined = est.isnull()
+        flag = xr.where(undefined, 3, xr.where(impossible, 2, xr.where(crosses, 1, 0)))
         ds[f"{k}_flag"] = flag.astype(np.int8)
         ds[f"{k}_flag"].attrs = {
-            "long_name": f"1 where {k} is negative or its {confidence:.0%} interval crosses 0 "
-                         "(not distinguishable from zero)", "units": "1"}
+            "long_name": f"quality of {k} at the {confidence:.0%} level (see flag_meanings)",
+            "units": "1", "flag_values": np.array(sorted(SOBOL_FLAGS), dtype=np.int8),
+            "flag_meanings": " ".join(v.split(" (")[0].replace(" ", "_")
+                                      for v in SOBOL_FLAGS.values())}
         neg = int((est < 0).sum())
-        cross = int(ds[f"{k}_flag"].sum())
-        if cross:
-            notes.append(f"{k}: {neg} negative estimate(s), {cross} flagged (negative or "
+        counts = {code: int((flag == code).sum()) for code in (1, 2, 3)}
+        if counts[1]:
+            notes.append(f"{k}: {neg} negative estimate(s), {counts[1]} flagged 1 (negative or "
                          "interval crossing 0): read them as zero within sampling error")
+        if counts[2]:
+            notes.append(f"{k}: {counts[2]} flagged 2: {SOBOL_FLAGS[2]}")
+        if counts[3]:
+            notes.append(f"{k}: {counts[3]} flagged 3: {SOBOL_FLAGS[3]}")
     ds.attrs["note"] = "; ".join(notes) if notes else "no negative estimate or interval at 0"
     return ds
 
@@ -507,7 +540,7 @@ def sobol_indices(
         raise ValueError(f"method: unknown {method!r}; valid: mc, pce")
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator: unknown {estimator!r}; valid: {', '.join(ESTIMATORS)}")
-    n_base = _check_base(n_base)
+    n_base = _check_base(n_base, power_of_two=method == "mc")  # chaos: any training size
     confidence = _check_confidence(confidence)
     wall0 = time.perf_counter()
     model, space = resolve_model_and_space(model, space)

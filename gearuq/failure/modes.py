@@ -232,6 +232,10 @@ class Band:
             raise ValueError(
                 f"Band on {output!r}: absolute band needs upper > 0 (|value| >= 0), got {up:g}"
             )
+        if absolute and up == math.inf and lo <= 0:
+            raise ValueError(
+                f"Band on {output!r}: absolute band with lower={lo:g} and no upper: |value| >= 0 "
+                "never falls below it, so no sample can fail; give a lower above 0 or an upper")
         if name is not None and (not isinstance(name, str) or not name):
             raise ValueError(f"Band on {output!r}: name must be a non-empty string")
         self.output = output

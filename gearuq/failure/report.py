@@ -176,6 +176,13 @@ def failure_report(
         pf = pf_lower = pf_upper = cov = math.nan
         pf_is_upper_bound = False
     all_reasons += _grid_reason(grid_gap, pf, pf_upper)
+    if (np.isfinite(pf_upper) and pf_upper > 1.0) or (np.isfinite(pf_lower) and pf_lower < 0.0):
+        # a normal approximation on too few samples: the ends are clipped to [0, 1], and the
+        # interval is not vouched for (status 1, said in words)
+        all_reasons.append((1, f"the interval [{pf_lower:.3g}, {pf_upper:.3g}] reached beyond "
+                               "[0, 1] (a normal approximation on too few samples) and is "
+                               "clipped; it is not vouched for: give the method more samples"))
+        pf_lower, pf_upper = max(float(pf_lower), 0.0), min(float(pf_upper), 1.0)
     note = message if not status else ""  # information that is no reason (status 0)
     status = all_reasons[0][0] if all_reasons else 0
     message = "; ".join([m for m in (note,) if m] + [m for _, m in all_reasons])

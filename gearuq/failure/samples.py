@@ -45,6 +45,7 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
+from gearuq._checks import check_bool
 from gearuq.failure.intervals import (
     binomial_interval,
     interval_method,
@@ -438,6 +439,8 @@ def reliability(
     method = interval_method(interval)
     if not 0.0 < float(confidence) < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    system = check_bool("system", system)
+    first_passage = check_bool("first_passage", first_passage)
     modes = as_modes(bands)
     if "sample" not in ds.dims:
         raise ValueError("reliability: the Dataset has no 'sample' dimension")

@@ -190,14 +190,22 @@ class HelicalPair(Model):
             out |= {"stage": self.stage.to_dict(), "stiffness_factor": self.stiffness_factor}
         return out
 
-    @staticmethod
-    def default_space():
-        """Li, Hu and Han Table 2: six independent normal parameters (B1, B2, b5, rho, s, n)."""
+    def default_space(self):
+        """Li, Hu and Han Table 2: six independent normal parameters (B1, B2, b5, rho, s, n).
+
+        Built from a stage, the same six normals are centred on the stage's nominals, each
+        with Table 2's coefficient of variation (an example scatter, not a measured one): the
+        paper's 70 mm face widths and 4000 rpm are not the stage's.
+        """
         import chaospy as cp
 
         from gearuq.space import ParameterSpace
 
-        return ParameterSpace({k: cp.Normal(mu, sd) for k, (mu, sd) in SEED_TABLE2.items()})
+        if self.stage is None:
+            return ParameterSpace({k: cp.Normal(mu, sd) for k, (mu, sd) in SEED_TABLE2.items()})
+        nominal = {p.name: p.nominal for p in self.parameters}
+        return ParameterSpace({k: cp.Normal(nominal[k], sd / mu * abs(nominal[k]))
+                               for k, (mu, sd) in SEED_TABLE2.items()})
 
     # ------------------------------------------------------------------ physics set-up
     def system(self, params: dict[str, np.ndarray], *, mesh_damping: str = "always"):
