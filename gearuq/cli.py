@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import sys
@@ -31,6 +32,18 @@ def _int_at_least(lowest: int, note: str = "") -> Any:
     return parse
 
 
+def _finite_float(text: str) -> float:
+    """An argparse type: a finite number (argparse adds the option's name)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+_finite_float.__name__ = "float"
 _positive_int = _int_at_least(1)
 #: A seed: numpy's generators take the integers 0 .. 2**63 - 1.
 _seed = _int_at_least(0)
@@ -43,7 +56,7 @@ def _folder(text: str) -> str:
 
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty folder name; give a folder to write into, "
-                                         "e.g. --out results")
+                                         "e.g. results")
     path = pathlib.Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} is an existing file, not a folder; give a "
@@ -81,10 +94,8 @@ def _cmd_models(args: argparse.Namespace) -> int:
             else:
                 print(f"{r.name:<{width}}  {r.version:<7}  {r.description}")
         return 0
-    if getattr(args, "stage", None):
-        from gearuq.gears.stage import GearStage
-
-        model = registry.get_model(args.name, stage=GearStage.from_toml(args.stage))
+    if getattr(args, "stage", None) is not None:
+        model = registry.get_model(args.name, stage=_read_stage(args.stage))
         print(f"built from the stage {args.stage}")
     else:
         model = registry.get_model(args.name)
@@ -225,6 +236,9 @@ def study_parser(name: str, study: object) -> argparse.ArgumentParser:
         elif kind is _names_list:
             parser.add_argument(flag, type=kind, metavar="NAME[,NAME...]",
                                 help=(text or pname) + f" (default: {','.join(default)})")
+        elif kind is float:  # NaN and inf refused here, by the option's name
+            parser.add_argument(flag, type=_finite_float, metavar="FLOAT",
+                                help=(text or pname) + shown)
         elif kind is int and pname == "seed":
             parser.add_argument(flag, type=_seed, metavar="INT", help=(text or pname) + shown)
         elif kind is not None:
@@ -390,7 +404,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
         return int(run_reliability(quick=args.quick, out=args.out, with_coverage=args.coverage,
                                    seeds=args.seeds, workers=args.workers,
-                                   problems=args.problems.split(",") if args.problems
+                                   problems=list(args.problems) if args.problems
                                    else None) or 0)
     if args.what == "memory":
         from gearuq.bench.memory import run as run_memory
@@ -416,18 +430,26 @@ def _rotor_speeds(text: str) -> int:
     return value
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
+def _read_stage(text: str) -> Any:
+    """A stage file (TOML), or the name of a shipped stage (GearStage.examples())."""
     from pathlib import Path
 
     from gearuq.gears.stage import GearStage
+
+    if not text.strip():
+        raise ValueError(f"stage: empty; give a stage file (TOML) or the name of a shipped "
+                         f"stage: {', '.join(GearStage.examples())}")
+    if Path(text).is_dir():
+        raise ValueError(f"stage: {text!r} is a folder; give a stage file (TOML) or the "
+                         "name of a shipped stage (GearStage.examples())")
+    is_file = any(c in text for c in "./\\")
+    return GearStage.from_toml(text) if is_file else GearStage.example(text)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
     from gearuq.stage_analysis import analyse_stage, write_stage_results
 
-    if Path(args.stage).is_dir():
-        raise ValueError(f"stage: {args.stage!r} is a folder; give a stage file (TOML) or the "
-                         "name of a shipped stage (GearStage.examples())")
-    # a file, or the name of a shipped stage (GearStage.examples())
-    is_file = any(c in args.stage for c in "./\\")
-    stage = GearStage.from_toml(args.stage) if is_file else GearStage.example(args.stage)
+    stage = _read_stage(args.stage)
     problem = None
     if stage.reliability and not args.no_reliability:
         from gearuq.stage_analysis import reliability, reliability_problem
@@ -551,7 +573,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "the helical pair included")
     p.add_argument("--seeds", type=_positive_int, default=None,
                    help="seeds per row (--coverage)")
-    p.add_argument("--problems", default=None,
+    p.add_argument("--problems", default=None, type=_names_list, metavar="NAME[,NAME...]",
                    help="comma-separated problems (--coverage): run only their rows and "
                         "replace only those rows of the docs tables")
     p.add_argument("--workers", type=_positive_int, default=1,
@@ -577,6 +599,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _remove_if_made_empty(folder: str | None, made: bool) -> None:
+    """Remove an output folder this command made and left empty (a refused option)."""
+    if made and folder and os.path.isdir(folder):
+        try:
+            os.rmdir(folder)  # only if empty
+        except OSError:
+            pass
+
+
 #: Commands whose kernels compile from the first call (see :func:`main`).
 _MANY_CALLS = (_cmd_demo, _cmd_study, _cmd_bench, _cmd_run)
 
@@ -594,8 +625,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     forced = args.func in _MANY_CALLS and "GEARUQ_KERNELS" not in os.environ
     if forced:
         os.environ["GEARUQ_KERNELS"] = "compiled"
+    out = getattr(args, "out", None)
+    made_out = bool(out) and not os.path.exists(out)
     try:
         return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        if os.environ.get("GEARUQ_TRACEBACK"):
+            raise
+        print("\ngearuq: interrupted. What was computed is kept: a run that stores its chunks "
+              "(gearuq demo, --store, a study's store) takes them up again when the same "
+              "command is run again.", file=sys.stderr)
+        return 130
     except BrokenPipeError:
         # the reader of the output went away (`gearuq models | head`): nothing left to say;
         # stdout pointed at devnull so that the interpreter's final flush does not fail too
@@ -607,6 +647,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if os.environ.get("GEARUQ_TRACEBACK"):
             raise
         print(f"gearuq: error: {exc}", file=sys.stderr)
+        _remove_if_made_empty(out, made_out)
         return 2
     finally:
         if forced:

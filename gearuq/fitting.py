@@ -275,7 +275,13 @@ def _threshold_band(threshold: Any, tail: str) -> Band | None:
     if isinstance(threshold, Sequence):
         raise ValueError(
             f"threshold {threshold!r} is a pair: use tail='two-sided' for a band")
-    thr = float(threshold)
+    try:
+        thr = float(threshold)
+    except (TypeError, ValueError):
+        raise ValueError(f"threshold: {threshold!r} is not a number") from None
+    if not math.isfinite(thr):
+        raise ValueError(f"threshold: {threshold!r} is not a finite number; give the level "
+                         "whose exceedance probability is wanted")
     if tail_key == "upper":
         return Band("samples", None, thr, name="upper_tail")
     return Band("samples", thr, None, name="lower_tail")

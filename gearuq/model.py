@@ -559,7 +559,8 @@ class Model:
         return f"valid: real numbers in {self.parameter(name).range_text()}"
 
     def validate_time(self, t: Any) -> np.ndarray:
-        """Return ``t`` as a non-empty, finite, non-decreasing 1-D float array."""
+        """Return ``t`` as a non-empty, finite, non-decreasing 1-D float array (a repeated
+        instant is answered by an exact copy of its value)."""
         if t is None:
             if any(o.time_dependent for o in self.outputs):
                 raise ValueError("t: this model has time-dependent outputs; give output instants")
@@ -626,8 +627,25 @@ class Model:
                 f"model {self.name!r}: unknown option(s) {', '.join(map(repr, unknown))}; "
                 f"valid: {valid or 'none (this model takes no options)'}"
             )
-        return {o.name: o.validate(options.get(o.name, o.default), f"model {self.name!r}")
-                for o in self.options}
+        checked = {o.name: o.validate(options.get(o.name, o.default), f"model {self.name!r}")
+                   for o in self.options}
+        self.check_option_combination(checked)
+        return checked
+
+    def check_option_combination(self, options: Mapping[str, Any]) -> None:
+        """Refuse options that are valid one by one but not together (a range whose ends
+        cross, say), before any design is drawn. The default accepts every combination.
+
+        Parameters
+        ----------
+        options : mapping
+            Every declared option, defaults filled, each value already valid.
+
+        Raises
+        ------
+        ValueError
+            Naming the options and values that do not go together.
+        """
 
     # ----------------------------------------------------------------- the contract
     def prepare(

@@ -743,7 +743,8 @@ def quick_run(quick: bool, runs: int | str, left_out: str) -> Iterator[str]:
         _QUICK_MARK = previous
 
 
-def quick_mode(runs: int | str | Callable[[Mapping[str, Any]], int | str], left_out: str
+def quick_mode(runs: int | str | Callable[[Mapping[str, Any]], int | str],
+               left_out: str | Callable[[Mapping[str, Any]], str]
                ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """Decorate a study's ``run(out, quick=False, ...)`` so a quick call runs in :func:`quick_run`.
 
@@ -753,8 +754,9 @@ def quick_mode(runs: int | str | Callable[[Mapping[str, Any]], int | str], left_
         What the quick run computes (see :func:`quick_run`); a callable receives the call's
         arguments (defaults applied) by name and returns it, so a setting that overrides the
         quick size is reported as run.
-    left_out : str
-        What the quick run leaves out, in words.
+    left_out : str or callable
+        What the quick run leaves out, in words; a callable receives the call's arguments
+        like ``runs`` (so that what it says follows the settings given).
 
     Returns
     -------
@@ -773,10 +775,14 @@ def quick_mode(runs: int | str | Callable[[Mapping[str, Any]], int | str], left_
             bound.apply_defaults()
             quick = bool(bound.arguments["quick"])
             what = runs(bound.arguments) if callable(runs) and quick else runs
-            with quick_run(quick, what, left_out):
+            left = left_out(bound.arguments) if callable(left_out) and quick else left_out
+            with quick_run(quick, what, left):
                 return run(*args, **kwargs)
 
-        wrapper.quick_left_out = left_out  # type: ignore[attr-defined]
+        defaults = {k: p.default for k, p in signature.parameters.items()
+                    if p.default is not p.empty}
+        wrapper.quick_left_out = (  # type: ignore[attr-defined]
+            left_out(defaults) if callable(left_out) else left_out)
         return wrapper
 
     return decorate

@@ -128,6 +128,8 @@ class LimitStateEvaluator:
         self.companions: list[LimitStateEvaluator] = []
         self.n_points = 0  # points evaluated (each once, however often the model was called)
         self.n_invalid = 0
+        #: runs the model reported valid whose limit state was NaN or inf (among n_invalid)
+        self.n_limit_state_nonfinite = 0
         #: censored runs (their ``g`` an upper bound of the true one; among ``n_invalid``), and
         #: their points' bytes, by which a method recognises one again among its samples
         self.n_censored = 0
@@ -283,6 +285,7 @@ class LimitStateEvaluator:
             self.errors.append(f"{tag}: limit state non-finite (NaN or inf output) at "
                                f"{int(nonfinite.sum())} sample(s) the model reported valid")
             status[nonfinite] = STATUS_LIMIT_STATE_NONFINITE
+            self.n_limit_state_nonfinite += int(nonfinite.sum())
         invalid = status != 0
         # a censored run: its g (finite) is an upper bound of the true one; kept beside
         codes = getattr(self.limit_state, "censored_statuses", ())  # a system has none

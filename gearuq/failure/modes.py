@@ -178,6 +178,18 @@ def check_band_reach(output: str, lower: float, upper: float, absolute: bool,
             f"fail; give a lower above {low:g} or an upper")
 
 
+def _limit(output: str, side: str, value: Any, default: float) -> float:
+    """A band limit as a float (``None``: open), or an error naming the side and value."""
+    if value is None:
+        return default
+    if isinstance(value, (str, bytes, bool)):
+        raise ValueError(f"Band on {output!r}: {side}={value!r} is not a number")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"Band on {output!r}: {side}={value!r} is not a number") from None
+
+
 class Band:
     """Allowed interval on one model output: the limit state of a failure mode.
 
@@ -217,8 +229,8 @@ class Band:
     ) -> None:
         if not isinstance(output, str) or not output:
             raise ValueError(f"Band: output must be a non-empty string, got {output!r}")
-        lo = -math.inf if lower is None else float(lower)
-        up = math.inf if upper is None else float(upper)
+        lo, up = (_limit(output, side, value, default) for side, value, default in
+                  (("lower", lower, -math.inf), ("upper", upper, math.inf)))
         if math.isnan(lo) or math.isnan(up):
             raise ValueError(f"Band on {output!r}: limits must not be NaN (lower={lower}, "
                              f"upper={upper})")
@@ -341,6 +353,11 @@ def as_bands(bands: Any) -> list[Band]:
             if isinstance(spec, Band):
                 out.append(spec)
             elif isinstance(spec, Mapping):
+                valid = ("lower", "upper", "name", "absolute", "select")
+                unknown = sorted(str(k) for k in spec if k not in valid)
+                if unknown:
+                    raise ValueError(f"bands[{key!r}]: unknown key(s) {unknown}; valid: "
+                                     f"{', '.join(valid)}")
                 out.append(Band(key, **spec))
             elif isinstance(spec, Sequence) and not isinstance(spec, str) and len(spec) == 2:
                 out.append(Band(key, spec[0], spec[1]))
@@ -620,10 +637,26 @@ class LimitState(_GFunction):
                     raise ValueError(f"limit state {self.name!r}: window {self.window} holds "
                                      f"no output instant of {var!r}")
             args[var] = da
+        if self.window is not None and not any("time" in a.dims for a in args.values()):
+            raise ValueError(f"limit state {self.name!r}: window={self.window} applies to "
+                             f"nothing: {', '.join(map(repr, args))} has no time dimension; "
+                             "leave the window out")
         g = self.function(**args)
+        ref = max(args.values(), key=lambda a: a.ndim)
         if not isinstance(g, xr.DataArray):
-            ref = next(iter(args.values()))
-            g = xr.DataArray(np.asarray(g, dtype=float), dims=ref.dims, coords=ref.coords)
+            values = np.asarray(g, dtype=float)
+            if values.shape != ref.shape:
+                # numpy would broadcast a scalar (or fail on a wrong length) far from here
+                raise ValueError(
+                    f"limit state {self.name!r}: its function returned shape {values.shape}; "
+                    f"it must return one value per sample{' and instant' if ref.ndim > 1 else ''}"
+                    f" (shape {ref.shape}, as its argument {ref.name!r}), e.g. by numpy "
+                    "operations on its arguments")
+            g = xr.DataArray(values, dims=ref.dims, coords=ref.coords)
+        elif g.sizes.get("sample") != ref.sizes["sample"]:
+            raise ValueError(f"limit state {self.name!r}: its function returned dims "
+                             f"{dict(g.sizes)}; it must keep the {ref.sizes['sample']} samples "
+                             "of its arguments (dim 'sample')")
         return g.astype(float).rename(self.name)
 
 

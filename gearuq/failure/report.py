@@ -70,7 +70,8 @@ STATUS_TEXT = {
     0: "the interval holds the failure probability at the stated confidence",
     1: "the method stopped before its accuracy target (iterations, samples or CoV target); "
        "the estimate and interval are those reached so far",
-    2: "the model failed where the method needed it; no estimate",
+    2: "the model (or the limit state on its outputs) failed where the method needed it; no "
+       "estimate",
     3: "the importance weights are degenerate (a few samples carry the estimate): the "
        "interval is not trustworthy",
     4: "no failure was observed: pf is an upper bound, not an estimate",
@@ -91,8 +92,19 @@ Reason = tuple[int, str]
 def _invalid_reason(ev: LimitStateEvaluator, reasons: Sequence[Reason]) -> list[Reason]:
     if ev.n_invalid == 0 or any(code in (2, 6) for code, _ in reasons):
         return []
-    return [(6, f"{ev.n_invalid} of {ev.n_points} model runs were invalid; this method's "
-             "interval does not account for them")]
+    return [(6, f"{ev.n_invalid} of {ev.n_points} model runs were invalid{_whose(ev)}; this "
+             "method's interval does not account for them")]
+
+
+def _whose(ev: LimitStateEvaluator) -> str:
+    """Which invalid runs the limit state made so (the model ran; g was NaN or inf)."""
+    n = getattr(ev, "n_limit_state_nonfinite", 0)
+    if not n:
+        return ""
+    if n == ev.n_invalid:
+        return (" - not by the model, which ran: the limit state returned NaN or inf at every "
+                "one of them")
+    return f" ({n} of them valid model runs where the limit state returned NaN or inf)"
 
 
 def _grid_reason(grid_gap: float, pf: float, pf_upper: float) -> list[Reason]:
@@ -171,8 +183,8 @@ def failure_report(
     all_reasons += _invalid_reason(ev, all_reasons)
     all_reasons += _surrogate_reason(ev)
     if ev.n_points and ev.n_invalid == ev.n_points and not any(c == 2 for c, _ in all_reasons):
-        all_reasons.insert(0, (2, f"all {ev.n_points} model runs failed: no estimate is "
-                               "possible (see attrs errors)"))
+        all_reasons.insert(0, (2, f"all {ev.n_points} model runs failed{_whose(ev)}: no "
+                               "estimate is possible (see attrs errors)"))
         pf = pf_lower = pf_upper = cov = math.nan
         pf_is_upper_bound = False
     all_reasons += _grid_reason(grid_gap, pf, pf_upper)

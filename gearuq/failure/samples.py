@@ -455,6 +455,9 @@ def reliability(
             f"output(s) {', '.join(map(repr, missing))} not in the Dataset; available "
             f"outputs: {', '.join(outs or list(map(str, ds.data_vars)))}")
     has_time = any("time" in ds[o].dims for o in used)
+    if time is not None and not has_time:
+        raise ValueError(f"time={time!r} applies to nothing: no mode depends on time "
+                         f"({', '.join(map(repr, used))} has no time dimension); leave it out")
     if has_time:
         tvals = np.asarray(ds["time"].values)
         if tvals.size > 1 and np.any(np.diff(tvals.astype(float)) < 0):

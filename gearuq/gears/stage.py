@@ -72,6 +72,10 @@ def _number(where: str, value: Any, lo: float = -math.inf, hi: float = math.inf,
         v <= hi if closed_hi else v < hi)
     if not ok:
         rng = text or f"{'[' if closed_lo else '('}{lo:g}, {hi:g}{']' if closed_hi else ')'}"
+        if not math.isfinite(v):  # NaN is not outside [-inf, inf]: it is not a number
+            bounded = math.isfinite(lo) or math.isfinite(hi) or text
+            raise ValueError(f"{where}={value!r} is not a finite number"
+                             + (f"; valid: {rng}" if bounded else ""))
         raise ValueError(f"{where}={value!r} is outside its valid range {rng}")
     return v
 
@@ -672,7 +676,12 @@ class GearStage:
             if key in settings:
                 _number(f"[reliability] {key}", settings[key])
         if "n_base" in settings:
-            _integer("[reliability] n_base", settings["n_base"], 8, 1 << 20)
+            n_base = _integer("[reliability] n_base", settings["n_base"], 8, 1 << 20)
+            if n_base & (n_base - 1):  # the Saltelli design is balanced at powers of 2
+                raise ValueError(f"[reliability] n_base={n_base} is not a power of 2; valid: "
+                                 "8, 16, 32, ..., 1048576")
+        if "seed" in settings:
+            _integer("[reliability] seed", settings["seed"], 0, 2**63 - 1)
         if not self.random:
             raise ValueError("[reliability] needs random inputs ([random.NAME] tables)")
 
@@ -883,9 +892,15 @@ class GearStage:
     def from_toml(cls, path: str | Path) -> GearStage:
         """Read a stage file (TOML, read by the standard library's ``tomllib``)."""
         path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"stage file {str(path)!r}: " + (
+                "a folder, not a file" if path.is_dir() else "no such file"))
         try:
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
+            # utf-8-sig: a byte-order mark some editors write is not TOML's, and is dropped
+            data = tomllib.loads(path.read_bytes().decode("utf-8-sig"))
+        except UnicodeDecodeError:
+            raise ValueError(f"{path}: not a text file; a stage file is TOML text "
+                             "(docs/stage.md)") from None
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
         try:

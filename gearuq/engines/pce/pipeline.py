@@ -53,6 +53,11 @@ def chaos_design(space: ParameterSpace, settings: ChaosSettings, *, n_samples: i
     """
     germ = Germ(space, settings.germ)
     d = space.dim
+    if settings.method == "quadrature" and n_samples is not None:
+        # the quadrature's nodes follow from the order alone: a count would be ignored
+        raise ValueError(f"n_samples={n_samples!r} does not apply to method='quadrature' (its "
+                         "nodes follow from the order); leave it out, or use method="
+                         "'regression' or 'sparse'")
     if settings.method == "quadrature":
         nodes, weights = cp.generate_quadrature(int(settings.order), germ.joint(),
                                                 rule="gaussian", sparse=bool(sparse_grid))

@@ -372,6 +372,13 @@ class MeshOscillator(Model):
             out["stage"] = self.stage.to_dict()
         return out
 
+    def check_option_combination(self, options):
+        """The frequency grid's ends must not cross (checked before any run, not per sample)."""
+        lo, hi, k = options["frequency_min"], options["frequency_max"], options["n_frequencies"]
+        if options["frequencies"] is None and k > 1 and not hi > lo:
+            raise ValueError(f"model {self.name!r}: frequency_max={hi!r} must exceed "
+                             f"frequency_min={lo!r} (n_frequencies={k})")
+
     def default_space(self):
         """Random damping, mean load (torque) and, for families, the modification: uniform
         +-30 % damping, normal mean load with 10 % CoV, uniform modification over its range
