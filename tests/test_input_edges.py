@@ -4,6 +4,7 @@ the valid range, or handled as documented, never a traceback or a silent answer.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -354,3 +355,253 @@ def test_function_model_refuses_declarations_that_cannot_work():
     # a function taking **kwargs is called with every parameter
     any_kw = gearuq.FunctionModel(lambda **kw: kw["a"] + kw["b"], ["a", "b"], ["y"])
     np.testing.assert_array_equal(any_kw.response({"a": [1.0], "b": [2.0]})["y"], [3.0])
+
+
+# ============================================ fourteenth round: estimates that cannot hold
+def _oscillator_problem():
+    model = gearuq.get_model("linear_oscillator")
+    space = gearuq.ParameterSpace({
+        "m": {"dist": "normal", "mean": 1.0, "std": 0.05},
+        "k": {"dist": "uniform", "lower": 9000.0, "upper": 11000.0}})
+    return model, space
+
+
+def test_an_interval_beyond_zero_and_one_is_clipped_and_not_vouched_for():
+    model, space = _oscillator_problem()
+    limit = gearuq.LimitState.upper("steady_amplitude", 3e-3)
+    rep = gearuq.failure_probability(model, space, limit, method="subset", rng=1,
+                                     n_per_level=2)
+    assert 0.0 <= float(rep["pf_lower"]) <= float(rep["pf_upper"]) <= 1.0
+    assert int(rep["status"]) == 1
+    assert "reached beyond [0, 1]" in gearuq.describe_status(rep)
+    # an adequate run is untouched: its interval holds a 20 000-run reference (0.177)
+    rep = gearuq.failure_probability(model, space, limit, method="subset", rng=1,
+                                     n_per_level=100)
+    assert int(rep["status"]) == 0
+    assert float(rep["pf_lower"]) <= 0.177 <= float(rep["pf_upper"])
+
+
+def test_sobol_indices_flag_impossible_and_undefined_values():
+    from gearuq.engines.sensitivity import SOBOL_FLAGS
+
+    model, space = _oscillator_problem()
+    with pytest.raises(ValueError, match=r"n_base: 3 is not a power of 2 .* 2 or 4"):
+        gearuq.sobol_indices(model, space, n_base=3, outputs="steady_amplitude", rng=1)
+    tiny = gearuq.sobol_indices(model, space, n_base=4, outputs="steady_amplitude", rng=1)
+    s1 = tiny["S1"].values.ravel()
+    assert s1.max() > 1.0  # sampling error at N = 4 ...
+    assert 2 in tiny["S1_flag"].values  # ... flagged, and said
+    assert "sum to up to" in tiny.attrs["note"] and "flagged 2" in tiny.attrs["note"]
+    assert tiny["S1_flag"].attrs["flag_meanings"].split()[2].startswith("impossible")
+    flat = gearuq.sobol_indices(model, {"x0": {"dist": "normal", "mean": 0.0, "std": 0.1}},
+                                n_base=8, outputs="steady_amplitude", rng=1)
+    assert np.isnan(flat["S1"].values).all() and (flat["S1_flag"].values == 3).all()
+    assert SOBOL_FLAGS[3] in flat.attrs["note"]
+    good = gearuq.sobol_indices(model, space, n_base=256, outputs="steady_amplitude", rng=1)
+    assert not good["S1_flag"].values.any() and not good["ST_flag"].values.any()
+    # the chaos route takes any training size
+    gearuq.sobol_indices(model, space, n_base=30, method="pce", outputs="steady_amplitude",
+                         rng=1)
+
+
+def test_a_multifidelity_budget_below_two_samples_is_refused():
+    model, space = _oscillator_problem()
+    with pytest.raises(ValueError, match=r"budget=0.5 buys fewer than the 2 samples of "
+                                         r"models\[0\]"):
+        gearuq.multifidelity_estimate([model, model], space, "steady_amplitude", budget=0.5,
+                                      costs=[1.0, 0.1], rng=1)
+
+
+def test_booleans_are_checked_by_name(tmp_path):
+    from gearuq.failure import Band
+
+    model, space = _oscillator_problem()
+    ds = gearuq.monte_carlo(model, space, np.linspace(0.0, 1.0, 5), n_samples=6, rng=1)
+    band = {"displacement": (-0.01, 0.01)}
+    for key in ("system", "first_passage"):
+        with pytest.raises(TypeError, match=f"{key}: expected True or False, got 'no'"):
+            gearuq.reliability(ds, band, **{key: "no"})
+    with pytest.raises(TypeError, match="ok_only: expected True or False"):
+        gearuq.estimate_mean(ds, "steady_amplitude", ok_only="yes")
+    gearuq.save(ds, tmp_path / "r.nc")
+    with pytest.raises(TypeError, match="lazy: expected True or False, got 'yes'"):
+        gearuq.load(tmp_path / "r.nc", lazy="yes")
+    with pytest.raises(ValueError, match=r"absolute band with lower=-1 and no upper"):
+        Band("displacement", lower=-1.0, absolute=True)
+    assert gearuq.reliability(ds, band, system=np.bool_(False)).sizes["mode"] == 1
+
+
+# ==================================================== fourteenth round: files and folders
+def test_save_refuses_what_netcdf_would_not_give_back(tmp_path):
+    ds = xr.Dataset({"y": ("sample", np.arange(3.0))})
+    for extra, words in [
+        (np.full(3, np.datetime64("2020-01-01", "ns")), "variable 'v' holds dates"),
+        (np.ones(3) + 1j, "variable 'v' is complex"),
+        (np.array([None] * 3, dtype=object), "variable 'v' holds Python objects (NoneType"),
+    ]:
+        with pytest.raises(TypeError, match=re.escape(words)):
+            gearuq.save(ds.assign(v=("sample", extra)), tmp_path / "x.nc")
+    with pytest.raises(ValueError, match=r"x.csv' would hold netCDF under a .csv name"):
+        gearuq.save(ds, tmp_path / "x.csv")
+    with pytest.raises(ValueError, match="path: empty"):
+        gearuq.save(ds, "")
+    with pytest.raises(ValueError, match="path: empty"):
+        gearuq.load("")
+    assert not list(tmp_path.iterdir())
+    # text held as Python objects is text: it round-trips, its checksum holds
+    labelled = ds.assign(lab=("sample", np.array(["a", "bb", "c"], dtype=object)))
+    gearuq.save(labelled, tmp_path / "t.nc")
+    np.testing.assert_array_equal(gearuq.load(tmp_path / "t.nc")["lab"].values, ["a", "bb", "c"])
+
+
+def test_an_export_into_an_earlier_export_leaves_no_stale_file(tmp_path):
+    model, space = _oscillator_problem()
+    ds = gearuq.monte_carlo(model, space, np.linspace(0.0, 1.0, 5), n_samples=6, rng=1)
+    gearuq.export_csv(ds, tmp_path / "e")
+    assert (tmp_path / "e" / "sample-time.csv").exists()
+    user_file = tmp_path / "e" / "notes.csv"
+    user_file.write_text("mine\n")
+    with pytest.warns(UserWarning, match=r"held an earlier export; its sample-time.csv removed"):
+        gearuq.export_csv(ds.isel(time=0, drop=True)[["m"]], tmp_path / "e")
+    assert sorted(p.name for p in (tmp_path / "e").iterdir()) == [
+        "notes.csv", "provenance.json", "sample.csv"]  # a file no export wrote is kept
+
+
+# ======================================================= fourteenth round: stages, studies
+def test_a_helical_pair_built_from_a_stage_samples_the_stage():
+    stage = gearuq.GearStage.example("e_axle_27_79")
+    model = gearuq.get_model("helical_pair", stage=stage)
+    space = model.default_space()
+    paper = gearuq.get_model("helical_pair").default_space()
+    for name in space.names:
+        nominal = model.parameter(name).nominal
+        assert space.marginal(name).mean() == pytest.approx(nominal, rel=1e-12)
+        # Table 2's coefficient of variation, kept
+        cov = space.marginal(name).std() / abs(nominal)
+        ref = paper.marginal(name).std() / abs(paper.marginal(name).mean())
+        assert cov == pytest.approx(ref, rel=1e-12)
+    assert model.parameter("n").nominal != paper.marginal("n").mean()
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (["run", ""], "stage: empty; give a stage file (TOML) or the name of a shipped stage"),
+    (["run", "missing.toml"], "stage file 'missing.toml': no such file"),
+    (["models", "helical_pair", "--stage", ""], "stage: empty"),
+])
+def test_stage_arguments_are_named(argv, words, capsys):
+    assert cli.main(argv) == 2
+    assert words in capsys.readouterr().err
+
+
+def test_a_stage_file_is_read_as_text_with_or_without_a_byte_order_mark(tmp_path, capsys):
+    text = (STAGES / "e_axle_27_79.toml").read_bytes()
+    (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + text)
+    assert cli.main(["models", "helical_pair", "--stage", str(tmp_path / "bom.toml")]) == 0
+    assert cli.main(["models", "helical_pair", "--stage", "e_axle_27_79"]) == 0  # a name
+    capsys.readouterr()
+    (tmp_path / "r.nc").write_bytes(b"\x89HDF\r\n\x1a\n\xff\xfe")
+    assert cli.main(["run", str(tmp_path / "r.nc")]) == 2
+    assert "not a text file; a stage file is TOML text" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("old", "new", "words"), [
+    ("upper = 1.5e-05", "upper = nan", "[reliability] upper=nan is not a finite number"),
+    ("seed = 2026", "seed = -1", "[reliability] seed=-1 is outside its valid range"),
+    ("n_base = 128", "n_base = 100", "[reliability] n_base=100 is not a power of 2"),
+    ("frequency_min = 0.6", "frequency_min = 1.5",
+     "frequency_max=1.4 must exceed frequency_min=1.5"),
+])
+def test_a_stage_file_s_numbers_are_named_before_any_run(old, new, words, tmp_path, capsys,
+                                                         monkeypatch):
+    text = (STAGES / "e_axle_27_79.toml").read_text()
+    assert old in text
+    (tmp_path / "s.toml").write_text(text.replace(old, new, 1))
+
+    def analysis_not_reached(*args, **kwargs):
+        raise AssertionError("the analysis started before the file was checked")
+
+    monkeypatch.setattr("gearuq.stage_analysis.analyse_stage", analysis_not_reached)
+    assert cli.main(["run", str(tmp_path / "s.toml"), "--quiet",
+                     "--out", str(tmp_path / "o")]) == 2
+    assert words in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_refused_command_leaves_no_folder_and_an_interrupt_says_what_resumes(
+        tmp_path, capsys, monkeypatch):
+    out = tmp_path / "demo_out"
+    assert cli.main(["demo", "--out", str(out), "--executor", "bogus"]) == 2
+    assert "executor: unknown 'bogus'" in capsys.readouterr().err
+    assert not out.exists()
+
+    def interrupted(**kwargs):
+        Path(kwargs["out"]).mkdir()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("gearuq.registry.get_study", lambda name: interrupted)
+    assert cli.main(["demo", "--out", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert "gearuq: interrupted" in err and "Traceback" not in err
+    assert out.exists()  # what an interrupted run made is kept
+
+
+def test_study_and_bench_options_refuse_what_they_cannot_use(capsys):
+    err = _usage_error(["study", "helical_pair_dynamics", "--quick", "--n-rpm", "nan"], capsys)
+    assert "argument --n-rpm: 'nan' is not a finite number" in err
+    err = _usage_error(["bench", "reliability", "--coverage", "--problems", ""], capsys)
+    assert "argument --problems: expected comma-separated names, got ''" in err
+
+
+def test_the_quick_note_of_the_default_study_follows_its_sample_count():
+    from gearuq_studies import helical_pair_reliability as study
+
+    assert "about 3.2 times wider" in study._quick_left_out({"n_samples": 10_000})
+    assert "about 10.0 times wider" in study._quick_left_out({"n_samples": 100_000})
+    assert study._quick_left_out({"n_samples": 3}).startswith("nothing")
+
+
+# ================================================== fourteenth round: arguments that apply
+def test_settings_that_would_apply_to_nothing_are_refused():
+    from gearuq.failure import Band, LimitState
+
+    model, space = _oscillator_problem()
+    t = np.linspace(0.0, 1.0, 5)
+    ds = gearuq.monte_carlo(model, space, t, n_samples=6, rng=1)
+    with pytest.raises(ValueError, match=r"time=\(0.0, 0.5\) applies to nothing"):
+        gearuq.reliability(ds, {"steady_amplitude": (None, 1e-3)}, time=(0.0, 0.5))
+    with pytest.raises(ValueError, match=r"window=\(0.0, 0.5\) applies to nothing"):
+        gearuq.failure_probability(model, space, LimitState.upper(
+            "steady_amplitude", 1e-3, window=(0.0, 0.5)), t, method="mc", rng=1, n_samples=10)
+    with pytest.raises(ValueError, match="n_samples=50 does not apply to method='quadrature'"):
+        gearuq.polynomial_chaos(model, space, order=2, method="quadrature",
+                                outputs="steady_amplitude", rng=1, n_samples=50)
+    with pytest.raises(ValueError, match=r"Band on 'displacement': lower='a' is not a number"):
+        gearuq.reliability(ds, {"displacement": ("a", "b")})
+    with pytest.raises(ValueError, match=r"unknown key\(s\) \['uper'\]"):
+        gearuq.reliability(ds, {"displacement": {"upper": 1.0, "uper": 2.0}})
+    with pytest.raises(ValueError, match="threshold: nan is not a finite number"):
+        gearuq.fit_distributions(np.linspace(1.0, 2.0, 20), threshold=float("nan"))
+    with pytest.raises(ValueError, match=r"frequency_max=1.1 must exceed frequency_min=1.5"):
+        gearuq.get_model("mesh_oscillator").prepare(None, frequency_min=1.5, frequency_max=1.1)
+    assert Band("displacement", upper=1.0)  # the time range still applies to time outputs
+    assert "time" in gearuq.reliability(ds, {"displacement": (-1.0, 1.0)}, time=(0.0, 0.5)).dims
+
+
+def test_a_limit_state_of_the_wrong_shape_or_nan_is_named():
+    from gearuq.failure import LimitState
+
+    model, space = _oscillator_problem()
+    ds = gearuq.monte_carlo(model, space, np.linspace(0.0, 1.0, 5), n_samples=8, rng=1)
+    with pytest.raises(ValueError, match=r"returned shape \(\); it must return one value per "
+                                         r"sample \(shape \(6,\)"):
+        gearuq.failure_probability(model, space, LimitState(
+            lambda steady_amplitude: 1.0, "steady_amplitude"), method="mc", rng=1, n_samples=6)
+    with pytest.raises(ValueError, match="it must keep the 8 samples"):
+        gearuq.reliability(ds, LimitState(lambda steady_amplitude: steady_amplitude[:3],
+                                          "steady_amplitude"))
+    rep = gearuq.failure_probability(model, space, LimitState(
+        lambda steady_amplitude: np.full_like(steady_amplitude, np.nan), "steady_amplitude"),
+        method="mc", rng=1, n_samples=6)
+    assert int(rep["status"]) == 2
+    assert "not by the model, which ran: the limit state returned NaN" in gearuq.describe_status(
+        rep)
