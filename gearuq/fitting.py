@@ -271,7 +271,11 @@ def _threshold_band(threshold: Any, tail: str) -> Band | None:
         if not (isinstance(threshold, Sequence) and len(threshold) == 2):
             raise ValueError(
                 "tail='two-sided' needs threshold=(lower, upper) (either may be None)")
-        return Band("samples", threshold[0], threshold[1], name="band")
+        try:
+            return Band("samples", threshold[0], threshold[1], name="band")
+        except ValueError as exc:  # said of the argument given, not of an inner band
+            raise ValueError(f"threshold={tuple(threshold)!r}: "
+                             f"{str(exc).split(': ', 1)[-1]}") from None
     if isinstance(threshold, Sequence):
         raise ValueError(
             f"threshold {threshold!r} is a pair: use tail='two-sided' for a band")

@@ -130,6 +130,17 @@ def _umask() -> int:
     return mask
 
 
+def _as_path(path: Any, verb: str) -> Path:
+    """``path`` as a Path, or an error saying what a path is (one file at a time)."""
+    if not isinstance(path, (str, os.PathLike)):
+        hint = "; give one file at a time" if isinstance(path, (list, tuple)) else ""
+        raise TypeError(f"path: expected a file path (str or pathlib.Path), got "
+                        f"{type(path).__name__} {path!r}{hint}")
+    if not str(path).strip():
+        raise ValueError(f"path: empty; give the file to {verb}, e.g. 'result.nc'")
+    return Path(path)
+
+
 #: Suffixes of other formats: a netCDF file under one of these names misleads its reader.
 _NOT_NETCDF = {".csv", ".tsv", ".txt", ".json", ".xlsx", ".xls", ".parquet", ".zarr", ".png",
                ".pdf", ".h5", ".hdf5", ".npy", ".npz", ".pkl", ".pickle"}
@@ -204,9 +215,14 @@ def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,
     if not isinstance(ds, xr.Dataset):
         raise TypeError(f"ds: expected an xarray.Dataset (a gearuq result), got "
                         f"{type(ds).__name__}")
-    if not str(path).strip():
-        raise ValueError("path: empty; give the file to write, e.g. 'result.nc'")
-    path = Path(path)
+    path = _as_path(path, "write")
+    if path.is_dir():
+        raise ValueError(f"path: {str(path)!r} is a folder; give a file name in it, e.g. "
+                         f"{str(path / 'result.nc')!r}")
+    blocker = next((p for p in path.parents if p.exists()), None)
+    if blocker is not None and not blocker.is_dir():
+        raise ValueError(f"path: {str(path)!r} cannot be written: {str(blocker)!r} is a file, "
+                         "not a folder")
     if path.suffix.lower() in _NOT_NETCDF:
         raise ValueError(f"path: {str(path)!r} would hold netCDF under a {path.suffix} name; "
                          "give a .nc path (gearuq.export_csv, or `gearuq export --csv`, "
@@ -491,9 +507,7 @@ def load(path: str | os.PathLike, *, lazy: bool = False, verify_checksums: bool 
     """
     lazy = check_bool("lazy", lazy)
     verify_checksums = check_bool("verify_checksums", verify_checksums)
-    if not str(path).strip():
-        raise ValueError("path: empty; give the result file to read, e.g. 'result.nc'")
-    path = Path(path)
+    path = _as_path(path, "read")
     if not path.exists():
         raise FileNotFoundError(f"no such result file: {path}")
     if path.is_dir():

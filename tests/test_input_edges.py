@@ -605,3 +605,30 @@ def test_a_limit_state_of_the_wrong_shape_or_nan_is_named():
     assert int(rep["status"]) == 2
     assert "not by the model, which ran: the limit state returned NaN" in gearuq.describe_status(
         rep)
+
+
+def test_paths_and_degenerate_models_are_named(tmp_path):
+    ds = xr.Dataset({"y": ("sample", np.arange(3.0))})
+    (tmp_path / "afile").write_text("")
+    with pytest.raises(ValueError, match=r"afile' is a file, not a folder"):
+        gearuq.save(ds, tmp_path / "afile" / "x.nc")
+    with pytest.raises(ValueError, match=r"is a folder; give a file name in it"):
+        gearuq.save(ds, tmp_path)
+    with pytest.raises(TypeError, match=r"expected a file path .* got int 12345"):
+        gearuq.load(12345)
+    with pytest.raises(TypeError, match="give one file at a time"):
+        gearuq.load(["a.nc"])
+    with pytest.raises(ValueError, match=r"threshold=\(1.0, -1.0\): lower=1 must be < upper=-1"):
+        gearuq.fit_distributions(np.linspace(-2.0, 2.0, 30), candidates=["normal"],
+                                 threshold=(1.0, -1.0), tail="two-sided")
+    model, space = _oscillator_problem()
+    with pytest.raises(ValueError, match=r"perfectly correlated with models\[0\]"):
+        gearuq.multifidelity_estimate([model, model], space, "steady_amplitude", budget=100.0,
+                                      costs=[1.0, 1.0], rng=1)
+    flat = gearuq.FunctionModel(lambda m, k: np.zeros_like(m), ["m", "k"], ["steady_amplitude"])
+    with pytest.raises(ValueError, match=r"models\[1\] \('function'\) gives the same mean"):
+        gearuq.multifidelity_estimate([model, flat], space, "steady_amplitude", budget=50.0,
+                                      costs=[1.0, 0.1], rng=1)
+    with pytest.raises(ValueError, match=r"FORM: g = -1.003 <= 0 already at the start"):
+        gearuq.failure_probability(model, space, gearuq.LimitState.upper(
+            "steady_amplitude", -1.0), method="form", rng=1)

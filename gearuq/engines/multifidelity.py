@@ -250,14 +250,16 @@ def multifidelity_estimate(
     xarray.Dataset
         ``estimate``, ``estimate_lower``/``upper``, ``std_error``, ``variance_reduction``
         (against plain Monte Carlo of model 0 at the same cost), per ``fidelity``: ``cost``,
-        ``correlation``, ``alpha``, ``n_samples`` (0 for a model left out), ``kept``; the
-        pilot's runs and cost; provenance.
+        ``correlation``, ``alpha``, ``n_samples`` (0 for a model left out by the selection);
+        the pilot's runs and cost; provenance.
 
     Raises
     ------
     ValueError
         Fewer than two models, a model missing a parameter of the space, a budget or a cost
-        <= 0, a pilot below 10, an unknown statistic.
+        <= 0, a budget below two samples of model 0, a pilot below 10, an unknown statistic,
+        a model whose statistic is constant over the pilot, or a cheaper model perfectly
+        correlated with model 0 (then the cheaper model alone answers).
     """
     if statistic not in STATISTICS:
         raise ValueError(f"statistic: unknown {statistic!r}; valid: {', '.join(STATISTICS)}")
@@ -317,7 +319,21 @@ def multifidelity_estimate(
             f"every estimator needs, at {w[0]:.3g}{unit} per sample; valid: a budget of at "
             f"least {2.0 * w[0]:.3g}")
     stat = _statistic_samples(np.array(pilot_q), statistic)
+    spread = np.array([np.ptp(s) for s in stat])
+    if not spread.all():
+        k = int(np.flatnonzero(spread == 0)[0])
+        raise ValueError(f"models[{k}] ({models[k].name!r}) gives the same {statistic} at all "
+                         f"{pilot} pilot samples: " + (
+                             "model 0 does not vary, so plain Monte Carlo is exact"
+                             if k == 0 else "it carries nothing to correlate; leave it out"))
     rho = np.array([np.corrcoef(stat[0], s)[0, 1] for s in stat])
+    perfect = [k for k in range(1, len(models)) if abs(rho[k]) > 1.0 - 1e-12]
+    if perfect:
+        k = perfect[0]
+        raise ValueError(f"models[{k}] ({models[k].name!r}) is perfectly correlated with "
+                         f"models[0] in the pilot (rho = {rho[k]:.12g}): it is the same "
+                         "quantity up to a linear map; use it alone (a fidelity link), not as "
+                         "a control variate")
     if estimator == "acvmf":
         n_hf, ratios = acvmf_allocation(w, np.cov(stat), budget)
         kept = list(range(len(models)))

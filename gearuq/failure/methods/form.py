@@ -134,7 +134,27 @@ def _x_text(ev: LimitStateEvaluator, u: np.ndarray) -> str:
 # =========================================================================== iHLRF
 def design_point_search(ev: LimitStateEvaluator, u0: np.ndarray, s: Mapping[str, Any],
                         tag: str, g0: float | None = None) -> dict[str, Any]:
-    """iHLRF search from ``u0``.
+    """iHLRF search from ``u0`` (see :func:`_ihlrf`); a search that fails from a start where
+    the limit state already fails, by leaving the model's valid range, says so first: the
+    surface ``g = 0`` may not exist (a failure probability near 1, or a mis-signed g).
+    """
+    start: dict[str, float] = {}
+    try:
+        return _ihlrf(ev, u0, s, tag, g0, start)
+    except ValueError as exc:
+        g0 = start.get("g", g0)
+        if g0 is not None and g0 <= 0 and "valid range" in str(exc):
+            raise ValueError(
+                f"FORM: g = {g0:.4g} <= 0 already at the start u = {np.asarray(u0)} (the mean "
+                "point): the search for the surface g = 0 left the model's valid range, so "
+                "the failure probability may be near 1 or the limit state mis-signed (failing "
+                f"where it should be safe); Monte Carlo answers the former. {exc}") from None
+        raise
+
+
+def _ihlrf(ev: LimitStateEvaluator, u0: np.ndarray, s: Mapping[str, Any], tag: str,
+           g0: float | None = None, start: dict[str, float] | None = None) -> dict[str, Any]:
+    """iHLRF search from ``u0`` (its first ``g`` kept in ``start["g"]``).
 
     Returns
     -------
@@ -143,6 +163,8 @@ def design_point_search(ev: LimitStateEvaluator, u0: np.ndarray, s: Mapping[str,
     """
     u = np.asarray(u0, dtype=float).copy()
     g, grad, err = _gradient(ev, u, g0, s, f"{tag}/it0")
+    if start is not None:
+        start["g"] = g
     out = {"u": u, "g": g, "grad": grad, "converged": False, "iterations": 0, "error": err,
            "g_start": g}
     if err:
