@@ -7,6 +7,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -628,6 +629,16 @@ def test_paths_and_degenerate_models_are_named(tmp_path):
     flat = gearuq.FunctionModel(lambda m, k: np.zeros_like(m), ["m", "k"], ["steady_amplitude"])
     with pytest.raises(ValueError, match=r"models\[1\] \('function'\) gives the same mean"):
         gearuq.multifidelity_estimate([model, flat], space, "steady_amplitude", budget=50.0,
+                                      costs=[1.0, 0.1], rng=1, estimator="acvmf")
+    # the default estimator leaves a constant cheaper model out (n_samples 0), without
+    # NumPy's divide-by-zero warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        rep = gearuq.multifidelity_estimate([model, flat], space, "steady_amplitude",
+                                            budget=50.0, costs=[1.0, 0.1], rng=1)
+    assert int(rep["n_samples"].values[1]) == 0 and int(rep["n_samples"].values[0]) > 0
+    with pytest.raises(ValueError, match=r"models\[0\] \('function'\) .* enlarge the pilot"):
+        gearuq.multifidelity_estimate([flat, model], space, "steady_amplitude", budget=50.0,
                                       costs=[1.0, 0.1], rng=1)
     with pytest.raises(ValueError, match=r"FORM: g = -1.003 <= 0 already at the start"):
         gearuq.failure_probability(model, space, gearuq.LimitState.upper(

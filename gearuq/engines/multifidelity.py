@@ -320,13 +320,19 @@ def multifidelity_estimate(
             f"least {2.0 * w[0]:.3g}")
     stat = _statistic_samples(np.array(pilot_q), statistic)
     spread = np.array([np.ptp(s) for s in stat])
-    if not spread.all():
-        k = int(np.flatnonzero(spread == 0)[0])
+    flat = [k for k in range(len(models)) if spread[k] == 0]
+    if 0 in flat or (flat and estimator == "acvmf"):
+        k = flat[0]
         raise ValueError(f"models[{k}] ({models[k].name!r}) gives the same {statistic} at all "
                          f"{pilot} pilot samples: " + (
-                             "model 0 does not vary, so plain Monte Carlo is exact"
-                             if k == 0 else "it carries nothing to correlate; leave it out"))
-    rho = np.array([np.corrcoef(stat[0], s)[0, 1] for s in stat])
+                             "the pilot cannot size the estimator (for a probability: no "
+                             "failure, or only failures, among them); enlarge the pilot"
+                             if k == 0 else "it carries nothing to correlate; leave it out "
+                             "(the default estimator, 'mfmc', leaves it out itself)"))
+    # a cheaper model constant over the pilot (a failure indicator that never fired there)
+    # correlates with nothing: rho = 0, which the selection below leaves out
+    rho = np.array([0.0 if spread[k] == 0 else np.corrcoef(stat[0], s)[0, 1]
+                    for k, s in enumerate(stat)])
     perfect = [k for k in range(1, len(models)) if abs(rho[k]) > 1.0 - 1e-12]
     if perfect:
         k = perfect[0]
