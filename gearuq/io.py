@@ -150,7 +150,7 @@ def _storable(ds: xr.Dataset) -> xr.Dataset:
     """``ds`` with text held as Python objects made fixed-width text; refuses what netCDF
     would not give back as it was (dates, complex numbers, other Python objects), naming
     the variable."""
-    fixed = {}
+    text: dict[Any, xr.Variable] = {}
     for name, var in ds.variables.items():
         kind = var.dtype.kind
         if kind in "Mm":
@@ -161,16 +161,17 @@ def _storable(ds: xr.Dataset) -> xr.Dataset:
             raise TypeError(f"save: variable {name!r} is complex ({var.dtype}); store its real "
                             "and imaginary parts (or magnitude and phase) as two variables")
         if kind == "O":
-            others = [v for v in np.asarray(var.values).ravel() if not isinstance(v, str)]
-            if others:
-                other = others[0]
+            values = np.asarray(var.values).ravel()
+            other = next((i for i, v in enumerate(values) if not isinstance(v, str)), None)
+            if other is not None:
                 raise TypeError(f"save: variable {name!r} holds Python objects "
-                                f"({type(other).__name__}: {other!r}); a result stores "
-                                "numbers or text: convert it, or drop the variable")
-            fixed[name] = var.copy(data=np.asarray(var.values, dtype=str))
-    return ds.assign(**{k: v for k, v in fixed.items() if k in ds.data_vars}) \
-        .assign_coords(**{k: v for k, v in fixed.items() if k not in ds.data_vars}) \
-        if fixed else ds
+                                f"({type(values[other]).__name__}: {values[other]!r}); a result "
+                                "stores numbers or text: convert it, or drop the variable")
+            text[name] = var.copy(data=np.asarray(var.values, dtype=str))
+    if not text:
+        return ds
+    data = {k: v for k, v in text.items() if k in ds.data_vars}
+    return ds.assign(data).assign_coords({k: v for k, v in text.items() if k not in data})
 
 
 def save(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = False,

@@ -179,10 +179,8 @@ def _flag(ds: xr.Dataset, keys: Iterable[str], confidence: float) -> xr.Dataset:
         if counts[1]:
             notes.append(f"{k}: {neg} negative estimate(s), {counts[1]} flagged 1 (negative or "
                          "interval crossing 0): read them as zero within sampling error")
-        if counts[2]:
-            notes.append(f"{k}: {counts[2]} flagged 2: {SOBOL_FLAGS[2]}")
-        if counts[3]:
-            notes.append(f"{k}: {counts[3]} flagged 3: {SOBOL_FLAGS[3]}")
+        notes += [f"{k}: {counts[code]} flagged {code}: {SOBOL_FLAGS[code]}"
+                  for code in (2, 3) if counts[code]]
     ds.attrs["note"] = "; ".join(notes) if notes else "no negative estimate or interval at 0"
     return ds
 
